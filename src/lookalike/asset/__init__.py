@@ -1,0 +1,8 @@
+"""Assets: Mesh, Material, Skin, Asset, and differentiable mesh operations (``ops``)."""
+
+from .asset import Asset
+from .material import ALPHA_MODES, Material, Texture
+from .mesh import Mesh
+from .skin import Animation, Channel, Node, Skin
+
+__all__ = ["ALPHA_MODES", "Animation", "Asset", "Channel", "Material", "Mesh", "Node", "Skin", "Texture"]

@@ -1,0 +1,89 @@
+"""Materials in the paper's parameterisation.
+
+Channels (all textures linear, ``[H, W, C]`` float32, row 0 at the top of the image,
+sampled with glTF's UV convention: ``uv = (0, 0)`` is the top-left corner of the image):
+
+- ``kd``     ``[H, W, 4]`` base colour RGB (linear) and alpha, factors already multiplied in.
+- ``ks``     ``[H, W, 3]`` (gamma, roughness, metalness). ``gamma`` scales the specular lobe
+             by ``(1 - gamma)`` (paper, Sec. 5.2); 0 means an ordinary glTF material.
+- ``normal`` ``[H, W, 3]`` tangent-space unit normal (x right along the tangent, y along the
+             bitangent, z out of the surface) in *our* tangent frame
+             (``lookalike.asset.ops.vertex_tangents``), or ``None`` for a flat map.
+             File formats convert from and to MikkTSpace at the boundary.
+
+A constant channel is a 1x1 texture. Colour is linear inside; sRGB only at file boundaries.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import torch
+
+ALPHA_MODES = ("OPAQUE", "MASK", "BLEND")
+
+
+@dataclass
+class Texture:
+    """One texture channel of a material.
+
+    Attributes:
+        data: ``[H, W, C]`` float32 texels (linear).
+        uv_set: which UV set of the mesh it is sampled with (glTF ``texCoord``).
+        transform: ``[3, 3]`` float32 affine map applied to ``(u, v, 1)`` before sampling
+            (glTF KHR_texture_transform), or ``None`` for identity.
+        wrap: boundary mode, ``"wrap"`` or ``"clamp"`` (nvdiffrast names).
+        mips: optional ``[H/2^i, W/2^i, C]`` levels 1.. that are latent variables of their own
+            (prefiltering); ``None`` builds mips from ``data``.
+    """
+
+    data: torch.Tensor
+    uv_set: int = 0
+    transform: torch.Tensor | None = None
+    wrap: str = "wrap"
+    mips: list[torch.Tensor] | None = None
+
+    @property
+    def channels(self) -> int:
+        return int(self.data.shape[-1])
+
+    @staticmethod
+    def constant(values) -> "Texture":
+        """A 1x1 texture holding ``values`` (length C)."""
+        return Texture(torch.as_tensor(values, dtype=torch.float32).reshape(1, 1, -1).clone())
+
+
+@dataclass
+class Material:
+    """A PBR material (paper, Sec. 5.2; glTF metallic-roughness).
+
+    Attributes:
+        name: material name from the file.
+        kd: base colour + alpha texture, 4 channels.
+        ks: (gamma, roughness, metalness) texture, 3 channels.
+        normal: tangent-space normal map, 3 channels, or ``None`` (flat).
+        normal_scale: glTF ``normalTexture.scale`` (already applied to ``normal`` on load;
+            kept so a writer can report it).
+        alpha_mode: ``"OPAQUE"``, ``"MASK"`` or ``"BLEND"``.
+        alpha_cutoff: threshold for ``"MASK"``.
+        double_sided: render back faces (with flipped normals).
+        emissive: optional emission texture, 3 channels (linear), rendered additively.
+    """
+
+    name: str = "material"
+    kd: Texture = field(default_factory=lambda: Texture.constant([0.75, 0.72, 0.68, 1.0]))
+    ks: Texture = field(default_factory=lambda: Texture.constant([0.0, 0.45, 0.0]))
+    normal: Texture | None = None
+    normal_scale: float = 1.0
+    alpha_mode: str = "OPAQUE"
+    alpha_cutoff: float = 0.5
+    double_sided: bool = False
+    emissive: Texture | None = None
+
+    def __post_init__(self):
+        if self.alpha_mode not in ALPHA_MODES:
+            raise ValueError(f"alpha_mode must be one of {ALPHA_MODES}, not {self.alpha_mode!r}")
+
+    @property
+    def uses_alpha(self) -> bool:
+        return self.alpha_mode != "OPAQUE"

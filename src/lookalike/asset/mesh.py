@@ -1,0 +1,89 @@
+"""Triangle meshes with one index buffer per attribute (as in OBJ).
+
+Position topology stays welded: a UV seam duplicates texture coordinates, never positions,
+so the Laplacian and the antialiaser see shared vertices. Unweld only when exporting
+(``Mesh.unwelded``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import torch
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh.
+
+    Attributes (T triangles):
+        v_pos: ``[V, 3]`` float32 positions, in the asset's own frame and units.
+        t_pos_idx: ``[T, 3]`` int64 indices into ``v_pos``, counter-clockwise front faces.
+        uv: list of UV sets; set ``k`` is a pair ``(v_tex [VT_k, 2] float32,
+            t_tex_idx [T, 3] int64)``, glTF convention (``(0, 0)`` = top-left of the image).
+        v_nrm, t_nrm_idx: optional authored normals ``[VN, 3]`` / ``[T, 3]`` (kept for
+            round trips; the renderer computes smooth normals from positions).
+        v_color: optional ``[V, 4]`` linear RGBA vertex colours (scans), indexed by ``t_pos_idx``.
+        t_mat_idx: ``[T]`` int64 material index of each triangle.
+        v_joints, v_weights: optional skinning influences ``[V, K]`` int64 / float32 (K = 4
+            per glTF set; several sets are concatenated), indexed like ``v_pos``.
+    """
+
+    v_pos: torch.Tensor
+    t_pos_idx: torch.Tensor
+    uv: list[tuple[torch.Tensor, torch.Tensor]] = field(default_factory=list)
+    v_nrm: torch.Tensor | None = None
+    t_nrm_idx: torch.Tensor | None = None
+    v_color: torch.Tensor | None = None
+    t_mat_idx: torch.Tensor | None = None
+    v_joints: torch.Tensor | None = None
+    v_weights: torch.Tensor | None = None
+
+    def __post_init__(self):
+        if self.t_mat_idx is None:
+            self.t_mat_idx = torch.zeros(self.t_pos_idx.shape[0], dtype=torch.int64)
+
+    @property
+    def num_vertices(self) -> int:
+        return int(self.v_pos.shape[0])
+
+    @property
+    def num_triangles(self) -> int:
+        return int(self.t_pos_idx.shape[0])
+
+    @property
+    def v_tex(self) -> torch.Tensor | None:
+        """``[VT, 2]`` texture coordinates of UV set 0, or ``None``."""
+        return self.uv[0][0] if self.uv else None
+
+    @property
+    def t_tex_idx(self) -> torch.Tensor | None:
+        """``[T, 3]`` texture-coordinate indices of UV set 0, or ``None``."""
+        return self.uv[0][1] if self.uv else None
+
+    def bounds(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Axis-aligned bounds ``([3] min, [3] max)`` of the referenced vertices."""
+        used = self.v_pos[self.t_pos_idx.reshape(-1)]
+        return used.min(dim=0).values, used.max(dim=0).values
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        """Centre ``[3]`` (of the bounding box) and radius enclosing every referenced vertex."""
+        lo, hi = self.bounds()
+        centre = 0.5 * (lo + hi)
+        radius = float((self.v_pos[self.t_pos_idx.reshape(-1)] - centre).norm(dim=-1).max())
+        return centre, radius
+
+    def with_positions(self, v_pos: torch.Tensor) -> "Mesh":
+        """The same topology and attributes with new positions ``[V, 3]`` (e.g. skinned)."""
+        return replace(self, v_pos=v_pos)
+
+    def detach(self) -> "Mesh":
+        """A copy whose tensors carry no autograd history."""
+        def d(x):
+            return None if x is None else x.detach()
+        return Mesh(
+            v_pos=d(self.v_pos), t_pos_idx=self.t_pos_idx,
+            uv=[(d(v), i) for v, i in self.uv],
+            v_nrm=d(self.v_nrm), t_nrm_idx=self.t_nrm_idx, v_color=d(self.v_color),
+            t_mat_idx=self.t_mat_idx, v_joints=self.v_joints, v_weights=d(self.v_weights),
+        )

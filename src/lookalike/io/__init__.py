@@ -1,0 +1,6 @@
+"""Reading and writing assets. ``load(path)`` and ``save(asset, path)`` pick the format by
+file extension; each format lives in its own module and registers itself on import."""
+
+from .registry import load, readable_extensions, save, writable_extensions
+
+__all__ = ["load", "readable_extensions", "save", "writable_extensions"]
