@@ -1,10 +1,16 @@
-"""Subcommands of ``lookalike``. Each is a module with ``HELP`` (one line),
-``add_arguments(parser)`` and ``run(args) -> int``, a thin layer over the Python API.
+"""Subcommands of ``lookalike``, discovered from the modules of this package.
 
-Modules are imported only when their command runs, so ``lookalike --help`` starts fast.
+Each module ``lookalike.commands.NAME`` is the command ``NAME`` (underscores become
+dashes) and defines ``HELP`` (one line), ``add_arguments(parser)`` and
+``run(args) -> int``: a thin layer over the Python API. Modules import heavy dependencies
+(torch, numba) inside ``run`` so that ``lookalike --help`` starts fast.
 """
 
-COMMANDS: dict[str, str] = {
-    # name: module under lookalike.commands
-    "bench": "bench",
-}
+from __future__ import annotations
+
+import pkgutil
+
+
+def command_modules() -> dict[str, str]:
+    """``{command name: module name}`` for every module in this package."""
+    return {m.name.replace("_", "-"): m.name for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")}

@@ -7,19 +7,19 @@ import argparse
 import importlib
 import json
 
-from ..bench import BENCHMARKS
+from ..bench import benchmark_modules
 
-HELP = "run a benchmark (" + ", ".join(BENCHMARKS) + ")"
+HELP = "run a benchmark and print its figures"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")
+    parser.add_argument("name", choices=sorted(benchmark_modules()), help="which benchmark")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     parser.add_argument("--repeats", type=int, default=None, help="timed repetitions (default: the benchmark's own)")
 
 
 def run(args: argparse.Namespace) -> int:
-    module = importlib.import_module(f"lookalike.bench.{BENCHMARKS[args.name]}")
+    module = importlib.import_module(f"lookalike.bench.{benchmark_modules()[args.name]}")
     kwargs = {} if args.repeats is None else {"repeats": args.repeats}
     result = module.run(**kwargs)
     if args.json:
