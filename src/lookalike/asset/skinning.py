@@ -1,0 +1,127 @@
+"""Dense linear-blend skinning and glTF animation evaluation (paper, Sec. 5.1).
+
+Skinned positions: ``v_i^s = sum_b w_ib M_b v_i`` (dense weights, so that any vertex-joint
+association can be optimised). Joint matrices follow glTF 2.0 (Sec. 3.7.3): for joint ``j``,
+``M_j = world(joint_j, t) @ inverse_bind_j @ inverse(mesh_to_world)``; the last factor undoes
+the skinned mesh node's transform that the loader applied to the bind-pose positions.
+``world`` composes local ``T @ R @ S`` matrices from the root down; animated channels override
+a node's translation, rotation or scale (LINEAR: lerp, slerp for rotations; STEP: the key at or
+before ``t``; times outside the keys clamp to the first or last key).
+"""
+
+from __future__ import annotations
+
+import torch
+
+from .skin import Animation, Channel, Skin
+
+
+def skin_vertices(v_pos: torch.Tensor, weights: torch.Tensor, joint_matrices: torch.Tensor) -> torch.Tensor:
+    """Linear-blend skinning of bind-pose positions for F frames.
+
+    Args:
+        v_pos: ``[V, 3]`` float bind-pose positions.
+        weights: ``[V, J]`` float dense skinning weights (rows normally sum to 1).
+        joint_matrices: ``[F, J, 4, 4]`` float skinning matrices ``M_j`` per frame.
+    Returns:
+        ``[F, V, 3]``: ``sum_j weights[v, j] * (M_j @ (v, 1))[:3]``. Differentiable in all inputs.
+    """
+    blended = torch.einsum("vj,fjrc->fvrc", weights, joint_matrices[:, :, :3, :])  # [F, V, 3, 4]
+    return (blended[..., :3] @ v_pos.unsqueeze(-1)).squeeze(-1) + blended[..., 3]
+
+
+def dense_weights(v_joints: torch.Tensor, v_weights: torch.Tensor, num_joints: int) -> torch.Tensor:
+    """Dense ``[V, J]`` weights from sparse glTF influences ``v_joints [V, K]`` int64 and
+    ``v_weights [V, K]`` float (repeated joints add up)."""
+    dense = torch.zeros(v_joints.shape[0], num_joints, dtype=v_weights.dtype, device=v_weights.device)
+    return dense.scatter_add(1, v_joints, v_weights)
+
+
+def quaternion_to_matrix(q: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices ``[..., 3, 3]`` of quaternions ``q [..., 4]`` (x, y, z, w; normalised here)."""
+    x, y, z, w = (q / q.norm(dim=-1, keepdim=True)).unbind(dim=-1)
+    return torch.stack([
+        1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
+    ], dim=-1).reshape(*q.shape[:-1], 3, 3)
+
+
+def trs_matrix(translation: torch.Tensor, rotation: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
+    """``[..., 4, 4]`` matrices ``T @ R @ S`` from ``translation [..., 3]``, quaternion
+    ``rotation [..., 4]`` (xyzw) and ``scale [..., 3]``."""
+    shape = torch.broadcast_shapes(translation.shape[:-1], rotation.shape[:-1], scale.shape[:-1])
+    m = torch.zeros(*shape, 4, 4, dtype=translation.dtype, device=translation.device)
+    m[..., :3, :3] = quaternion_to_matrix(rotation) * scale.unsqueeze(-2)
+    m[..., :3, 3] = translation
+    m[..., 3, 3] = 1.0
+    return m
+
+
+def slerp(q0: torch.Tensor, q1: torch.Tensor, s: torch.Tensor) -> torch.Tensor:
+    """Shortest-path spherical interpolation of unit quaternions ``q0, q1 [..., 4]`` at
+    ``s [...]`` in [0, 1]; falls back to normalised lerp for nearly equal quaternions."""
+    dot = (q0 * q1).sum(dim=-1, keepdim=True)
+    q1 = torch.where(dot < 0, -q1, q1)
+    dot = dot.abs().clamp(max=1.0)
+    s = s.unsqueeze(-1)
+    theta = torch.acos(dot)
+    sin_theta = torch.sin(theta)
+    close = sin_theta < 1e-6
+    safe_sin = torch.where(close, torch.ones_like(sin_theta), sin_theta)
+    w0 = torch.where(close, 1 - s, torch.sin((1 - s) * theta) / safe_sin)
+    w1 = torch.where(close, s, torch.sin(s * theta) / safe_sin)
+    q = w0 * q0 + w1 * q1
+    return q / q.norm(dim=-1, keepdim=True)
+
+
+def sample_channel(channel: Channel, times: torch.Tensor) -> torch.Tensor:
+    """Values ``[F, C]`` of ``channel`` at ``times [F]`` (glTF LINEAR or STEP sampling)."""
+    keys = channel.times.to(times)
+    values = channel.values.to(times)
+    if keys.numel() == 1:
+        return values[:1].expand(times.shape[0], -1)
+    t = times.clamp(keys[0], keys[-1])
+    k = (torch.searchsorted(keys, t, right=True) - 1).clamp(0, keys.numel() - 2)
+    s = ((t - keys[k]) / (keys[k + 1] - keys[k]).clamp(min=1e-12)).clamp(0, 1)
+    if channel.interpolation == "STEP":
+        return torch.where((s >= 1).unsqueeze(-1), values[k + 1], values[k])
+    if channel.interpolation != "LINEAR":
+        raise ValueError(f"unsupported animation interpolation {channel.interpolation!r}")
+    if channel.path == "rotation":
+        return slerp(values[k], values[k + 1], s)
+    return torch.lerp(values[k], values[k + 1], s.unsqueeze(-1))
+
+
+def node_world_matrices(skin: Skin, animation: Animation | None, times: torch.Tensor) -> torch.Tensor:
+    """World matrices ``[F, N, 4, 4]`` of every node of ``skin`` at ``times [F]`` (rest pose
+    where ``animation`` is ``None`` or does not animate a property)."""
+    frames = times.shape[0]
+    trs = {
+        "translation": torch.stack([n.translation for n in skin.nodes]).to(times).expand(frames, -1, -1).clone(),
+        "rotation": torch.stack([n.rotation for n in skin.nodes]).to(times).expand(frames, -1, -1).clone(),
+        "scale": torch.stack([n.scale for n in skin.nodes]).to(times).expand(frames, -1, -1).clone(),
+    }
+    for channel in (animation.channels if animation is not None else []):
+        trs[channel.path][:, channel.node] = sample_channel(channel, times)
+    local = trs_matrix(trs["translation"], trs["rotation"], trs["scale"])  # [F, N, 4, 4]
+    world: list[torch.Tensor | None] = [None] * len(skin.nodes)
+
+    def resolve(i: int) -> torch.Tensor:
+        if world[i] is None:
+            parent = skin.nodes[i].parent
+            world[i] = local[:, i] if parent < 0 else resolve(parent) @ local[:, i]
+        return world[i]
+
+    return torch.stack([resolve(i) for i in range(len(skin.nodes))], dim=1)
+
+
+def joint_matrices(skin: Skin, animation: Animation | None = None,
+                   times: torch.Tensor | float = 0.0) -> torch.Tensor:
+    """Skinning matrices ``[F, J, 4, 4]`` (float32) of ``skin`` at ``times`` (``[F]`` seconds or
+    one number), for ``skin_vertices`` applied to the loaded bind-pose positions:
+    ``world(joint_j) @ inverse_bind_j @ inverse(mesh_to_world)``."""
+    times = torch.as_tensor(times, dtype=torch.float32).reshape(-1)
+    world = node_world_matrices(skin, animation, times)[:, skin.joints]
+    undo_mesh = torch.linalg.inv(skin.mesh_to_world.to(torch.float64)).to(torch.float32)
+    return world @ skin.inverse_bind.to(torch.float32) @ undo_mesh

@@ -1,0 +1,146 @@
+"""``lookalike bench quality``: ``simplify`` with default settings on the four benchmark assets
+of ``../shared/assets``, scored on held-out views.
+
+Bar (issue 4): every run within 10 minutes on a 2-core machine, and ours at least 3 dB PSNR
+above plain decimation on every asset.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+HELP = "simplify the four benchmark assets and compare held-out PSNR/FLIP with plain decimation"
+
+SHARED_ASSETS = Path(__file__).resolve().parents[3].parent / "shared" / "assets"
+OUT_ENVIRONMENT = "LOOKALIKE_BENCH_OUT"      # keep the outputs here when no ``out`` is given
+TIME_BUDGET_S = 600.0
+BAR_MINUTES = 10.0
+BAR_GAIN_DB = 3.0
+SCAN_COLOUR = (0.75, 0.72, 0.68)            # base colour, metallic 0, roughness 0.45 for untextured scans
+SCAN_ROUGHNESS = 0.45
+
+
+@dataclass(frozen=True)
+class BenchAsset:
+    """One benchmark case: ``path`` under the assets folder, the triangle budget, and whether
+    it is an untextured scan that gets the scan material."""
+
+    name: str
+    path: str
+    triangles: int
+    scan: bool
+
+
+ASSETS = (
+    BenchAsset("stanford-bunny", "stanford-bunny/stanford-bunny.obj", 1500, True),
+    BenchAsset("nefertiti", "nefertiti/nefertiti.obj", 2000, True),
+    BenchAsset("flight-helmet", "flight-helmet/FlightHelmet.gltf", 5000, False),
+    BenchAsset("spot", "spot/spot.obj", 1000, False),
+)
+
+
+def scan_material():
+    """The material the issue prescribes for untextured scans."""
+    from ..asset import Material, Texture
+
+    return Material(name="scan", kd=Texture.constant([*SCAN_COLOUR, 1.0]),
+                    ks=Texture.constant([0.0, SCAN_ROUGHNESS, 0.0]))
+
+
+def _row(case: BenchAsset, metrics: dict) -> dict:
+    """One table row from a run's ``metrics.json`` content."""
+    heldout = metrics["heldout"]
+    methods = [k for k in ("decimated", "baked", "ours") if k in heldout]
+    row = {
+        "asset": case.name,
+        "input_triangles": metrics["triangles"]["input"],
+        "triangles": metrics["triangles"]["output"],
+        "minutes": metrics["seconds"]["total"] / 60,
+        "seconds_per_iteration": metrics["seconds"]["per_iteration"],
+        "iterations": metrics["iterations"],
+        **{f"psnr_{k}": heldout[k]["psnr"] for k in methods},
+        **{f"flip_{k}": heldout[k]["flip"] for k in methods},
+    }
+    row["gain_db"] = row["psnr_ours"] - row["psnr_decimated"]
+    if "psnr_baked" in row:
+        row["gain_over_baked_db"] = row["psnr_ours"] - row["psnr_baked"]
+    row["meets_bar"] = row["minutes"] <= BAR_MINUTES and row["gain_db"] >= BAR_GAIN_DB
+    return row
+
+
+def run(repeats: int | None = None, out: str | Path | None = None, time_budget: float = TIME_BUDGET_S,
+        assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS) -> dict:
+    """Simplify every benchmark asset once and collect its held-out scores.
+
+    Args:
+        repeats: ignored (each asset runs once; a run takes minutes).
+        out: keep each run's outputs in ``out/<asset>`` (default: ``$LOOKALIKE_BENCH_OUT`` or a
+            temporary folder removed afterwards).
+        time_budget: seconds per run (the issue's default, 600).
+        assets: which cases to run; assets_dir: where their files are.
+
+    Returns:
+        ``{"time_budget_s", "bar": {...}, "runs": [row, ...], "all_meet_bar"}``; a row holds the
+        asset, triangle counts, minutes, seconds per iteration, iterations, PSNR and FLIP of each
+        method, the gain of ours in dB, and whether it meets the bar.
+    """
+    from ..errors import ConfigError
+    from ..fit.simplify import simplify
+
+    assets_dir = Path(assets_dir)
+    if not assets_dir.is_dir():
+        raise ConfigError(f"the benchmark assets are missing: no folder {assets_dir}")
+    out = out if out is not None else os.environ.get(OUT_ENVIRONMENT)
+    with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
+        root = Path(out) if out else Path(scratch)
+        rows = []
+        for case in assets:
+            result = simplify(assets_dir / case.path, root / case.name, triangles=case.triangles,
+                              time_budget=time_budget, force=True, progress=False,
+                              material_override=scan_material() if case.scan else None)
+            rows.append(_row(case, result.metrics))
+    return {
+        "time_budget_s": time_budget,
+        "bar": {"minutes": BAR_MINUTES, "gain_db": BAR_GAIN_DB},
+        "runs": rows,
+        "all_meet_bar": all(r["meets_bar"] for r in rows),
+        "outputs": str(Path(out).resolve()) if out else None,
+    }
+
+
+def _columns(baked: bool) -> list[tuple[str, str, str]]:
+    """``(header, row key, format)`` of each table column; the baked ones only where a bake ran."""
+    columns = [
+        ("asset", "asset", "{}"), ("triangles", "triangles", "{:,}"), ("minutes", "minutes", "{:.1f}"),
+        ("s/iter", "seconds_per_iteration", "{:.2f}"), ("iters", "iterations", "{:,}"),
+        ("PSNR dec", "psnr_decimated", "{:.2f}"), ("PSNR baked", "psnr_baked", "{:.2f}"),
+        ("PSNR ours", "psnr_ours", "{:.2f}"), ("gain dB", "gain_db", "{:+.2f}"),
+        ("vs baked dB", "gain_over_baked_db", "{:+.2f}"),
+        ("FLIP dec", "flip_decimated", "{:.4f}"), ("FLIP baked", "flip_baked", "{:.4f}"),
+        ("FLIP ours", "flip_ours", "{:.4f}"),
+    ]
+    return [c for c in columns if baked or "baked" not in c[1]]
+
+
+def format_table(result: dict) -> str:
+    """The runs as an aligned text table, with the bar underneath."""
+    rows = result["runs"]
+    columns = _columns(any("psnr_baked" in r for r in rows))
+    header = [name for name, _, _ in columns] + ["bar"]
+    cells = [[fmt.format(r[key]) if key in r else "-" for _, key, fmt in columns] + ["ok" if r["meets_bar"] else "MISSED"]
+             for r in rows]
+    widths = [max(len(header[c]), *(len(row[c]) for row in cells)) for c in range(len(header))]
+
+    def line(values: list[str]) -> str:
+        return "  ".join(v.ljust(w) if c == 0 else v.rjust(w) for c, (v, w) in enumerate(zip(values, widths)))
+
+    lines = [line(header), line(["-" * w for w in widths])] + [line(row) for row in cells]
+    lines.append(f"bar: each run <= {result['bar']['minutes']:g} min and ours >= {result['bar']['gain_db']:g} dB "
+                 f"above plain decimation: {'met' if result['all_meet_bar'] else 'NOT met'} "
+                 f"(time budget {result['time_budget_s']:g} s per run)")
+    if result.get("outputs"):
+        lines.append(f"outputs: {result['outputs']}")
+    return "\n".join(lines)

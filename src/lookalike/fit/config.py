@@ -1,0 +1,308 @@
+"""Every setting of a ``simplify`` run, with all defaults in one place.
+
+A run is described by :class:`Config`, a tree of small dataclasses that maps one to one onto
+a TOML file (one table per section)::
+
+    [latent]
+    triangles = 1500
+    texture_size = 1024
+
+    [optim]
+    time_budget = 600.0
+
+``None`` means "not set" and is simply left out of the TOML file (TOML has no null).
+Every run writes its complete configuration to ``OUTDIR/config.toml``; passing that file back
+with ``--config`` repeats the run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from ..errors import ConfigError
+
+LOSSES = ("l1-tonemapped", "l2", "smape", "relative-l2")
+INITS = ("average", "random")
+
+
+@dataclass
+class IOConfig:
+    """Files.
+
+    Attributes:
+        input: the asset to simplify (any format ``lookalike.io.load`` reads).
+        outdir: where ``model.glb``, ``report.html``, ``metrics.json``, ``config.toml`` go.
+        export_obj: also write ``model.obj`` (with ``.mtl`` and PNG textures).
+    """
+
+    input: str = ""
+    outdir: str = ""
+    export_obj: bool = False
+
+
+@dataclass
+class LatentConfig:
+    """The low-poly model being optimised.
+
+    Attributes:
+        triangles: target triangle count of the decimated initial mesh.
+        ratio: target count as a fraction of the input's (used when ``triangles`` is unset);
+            when both are unset, ``DEFAULT_RATIO``.
+        texture_size: side S of the square base colour, specular and normal textures.
+        init: how textures start: ``"average"`` (the reference's mean material plus a little
+            noise) or ``"random"`` (uniform noise, as in the paper). The normal map always
+            starts flat.
+    """
+
+    DEFAULT_RATIO = 0.02
+
+    triangles: int | None = None
+    ratio: float | None = None
+    texture_size: int = 1024
+    init: str = "average"
+
+
+@dataclass
+class RenderConfig:
+    """Rendering of training images.
+
+    Attributes:
+        resolution: side, in pixels, of the square training images (and of report images).
+        target_spp: supersampling of reference images, in samples *per axis*: the reference
+            is rendered at ``resolution * target_spp`` pixels per side and box-filtered down,
+            i.e. ``target_spp**2`` samples per pixel.
+        latent_msaa: visibility samples per axis for the latent model (MSAA, paper Sec. 6.2):
+            coverage is sampled ``latent_msaa**2`` times per pixel, shading once. 1 disables.
+    """
+
+    resolution: int = 512
+    target_spp: int = 2
+    latent_msaa: int = 2
+
+
+@dataclass
+class ViewsConfig:
+    """Cameras and lights.
+
+    Attributes:
+        batch_size: views per optimisation step (the paper uses 1 to 8).
+        pool_size: reference images rendered once before optimising, from which mini-batches
+            are drawn; 0 renders fresh random views at every step instead.
+        heldout: views of the report, drawn from ``heldout_seed`` and never trained on.
+        heldout_seed: seed of the held-out views (fixed so that runs stay comparable).
+    """
+
+    batch_size: int = 2
+    pool_size: int = 96
+    heldout: int = 16
+    heldout_seed: int = 20_210_809
+
+
+@dataclass
+class OptimConfig:
+    """The optimisation (paper Sec. 6.3).
+
+    Attributes:
+        time_budget: wall-clock seconds for the whole run (loading to report); the number of
+            iterations is derived from it after timing the first steps unless ``iterations``
+            is given.
+        iterations: fixed number of optimisation steps, or ``None`` to follow the budget.
+        seed: seeds torch and numpy; same seed, same result.
+        loss: image loss, one of ``LOSSES`` (see ``lookalike.fit.losses``).
+        lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
+            radius (the paper's [0.001, 0.003] for a decimated start).
+        lr_textures: Adam's lr_0 for texels (values in [0, 1]).
+        lr_decay: k in lr_t = lr_0 * 10^(-k t).
+        laplacian_weight: lambda_0; ``None`` takes 0.25 * L_image / L_laplacian at the start.
+        laplacian_min_fraction: lambda_min = this * lambda_0 (the paper's 2 %).
+        laplacian_decay_fraction: fraction of the run after which lambda_t - lambda_min has
+            fallen to 1 % of lambda_0 - lambda_min (see ``lookalike.fit.schedule``; 0.2
+            reproduces the paper's k = 1e-6 on its 10k-step runs).
+        checkpoint_seconds: write ``OUTDIR/checkpoint.pt`` at most this often.
+        rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
+        max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
+    """
+
+    time_budget: float = 600.0
+    iterations: int | None = None
+    seed: int = 0
+    loss: str = "l1-tonemapped"
+    lr_positions: float = 0.002
+    lr_textures: float = 0.03
+    lr_decay: float = 0.0002
+    laplacian_weight: float | None = None
+    laplacian_min_fraction: float = 0.02
+    laplacian_decay_fraction: float = 0.2
+    checkpoint_seconds: float = 60.0
+    rollback_lr_factor: float = 0.5
+    max_rollbacks: int = 8
+
+
+@dataclass
+class ClampConfig:
+    """Valid ranges, enforced after every step.
+
+    Attributes:
+        kd: range of base colour and alpha.
+        gamma, roughness, metalness: ranges of the three specular channels.
+        normal_z_min: smallest z of a tangent-space normal (keeps it facing outwards).
+    """
+
+    kd: tuple[float, float] = (0.0, 1.0)
+    gamma: tuple[float, float] = (0.0, 1.0)
+    roughness: tuple[float, float] = (0.08, 1.0)
+    metalness: tuple[float, float] = (0.0, 1.0)
+    normal_z_min: float = 0.1
+
+
+@dataclass
+class Config:
+    """One ``simplify`` run."""
+
+    io: IOConfig = field(default_factory=IOConfig)
+    latent: LatentConfig = field(default_factory=LatentConfig)
+    render: RenderConfig = field(default_factory=RenderConfig)
+    views: ViewsConfig = field(default_factory=ViewsConfig)
+    optim: OptimConfig = field(default_factory=OptimConfig)
+    clamp: ClampConfig = field(default_factory=ClampConfig)
+
+    def validate(self) -> "Config":
+        """Raise ``ConfigError`` naming the first invalid setting; return ``self``."""
+        lat, ren, vw, opt = self.latent, self.render, self.views, self.optim
+        checks = [
+            (lat.triangles is None or lat.triangles > 0,
+             f"latent.triangles must be a positive triangle count, not {lat.triangles}"),
+            (lat.ratio is None or 0.0 < lat.ratio < 1.0, f"latent.ratio must lie in (0, 1), not {lat.ratio}"),
+            (lat.triangles is None or lat.ratio is None, "give latent.triangles or latent.ratio, not both"),
+            (lat.texture_size >= 4, f"latent.texture_size must be at least 4, not {lat.texture_size}"),
+            (lat.init in INITS, f"latent.init must be one of {', '.join(INITS)}, not {lat.init!r}"),
+            (ren.resolution >= 16, f"render.resolution must be at least 16, not {ren.resolution}"),
+            (ren.target_spp >= 1, f"render.target_spp must be at least 1, not {ren.target_spp}"),
+            (ren.latent_msaa >= 1, f"render.latent_msaa must be at least 1, not {ren.latent_msaa}"),
+            (vw.batch_size >= 1, f"views.batch_size must be at least 1, not {vw.batch_size}"),
+            (vw.pool_size == 0 or vw.pool_size >= vw.batch_size,
+             f"views.pool_size must be 0 or at least views.batch_size, not {vw.pool_size}"),
+            (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
+            (opt.time_budget > 0, f"optim.time_budget must be positive, not {opt.time_budget}"),
+            (opt.iterations is None or opt.iterations >= 0,
+             f"optim.iterations must not be negative, not {opt.iterations}"),
+            (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
+            (opt.lr_positions >= 0 and opt.lr_textures >= 0, "learning rates must not be negative"),
+            (opt.laplacian_weight is None or opt.laplacian_weight >= 0,
+             "optim.laplacian_weight must not be negative"),
+            (0 <= opt.laplacian_min_fraction <= 1, "optim.laplacian_min_fraction must lie in [0, 1]"),
+            (opt.laplacian_decay_fraction > 0, "optim.laplacian_decay_fraction must be positive"),
+            (0 < opt.rollback_lr_factor < 1, "optim.rollback_lr_factor must lie in (0, 1)"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ConfigError(message)
+        return self
+
+
+def parse_duration(text: str | float | int) -> float:
+    """Seconds in ``"90"``, ``"90s"``, ``"10m"``, ``"1h"``, ``"1h30m"`` or a number.
+
+    Raises ``ConfigError`` for anything else or for a duration that is not positive.
+    """
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        seconds = float(text)
+    else:
+        s = str(text).strip().lower()
+        parts = re.fullmatch(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?", s)
+        if not s or parts is None:
+            raise ConfigError(f"cannot read the duration {text!r}: use e.g. 90, 90s, 10m or 1h")
+        h, m, sec = (float(p) if p else 0.0 for p in parts.groups())
+        seconds = 3600 * h + 60 * m + sec
+    if not math.isfinite(seconds) or seconds <= 0:
+        raise ConfigError(f"the duration {text!r} must be positive")
+    return seconds
+
+
+def config_to_dict(config: Config) -> dict[str, dict[str, Any]]:
+    """Nested plain dict of ``config`` without ``None`` values (tuples become lists)."""
+    out = {}
+    for section in dataclasses.fields(config):
+        values = dataclasses.asdict(getattr(config, section.name))
+        out[section.name] = {k: list(v) if isinstance(v, tuple) else v for k, v in values.items() if v is not None}
+    return out
+
+
+def to_toml(config: Config) -> str:
+    """The TOML text of ``config`` (every setting, defaults included)."""
+    return tomli_w.dumps(config_to_dict(config))
+
+
+def config_from_dict(data: dict[str, Any], base: Config | None = None, origin: str = "configuration") -> Config:
+    """``base`` (default: all defaults) with the values of ``{section: {key: value}}`` applied.
+
+    Raises ``ConfigError`` naming ``origin`` for an unknown section or key or a value of
+    the wrong type; the result is validated.
+    """
+    config = dataclasses.replace(base) if base is not None else Config()
+    sections = {f.name: f for f in dataclasses.fields(Config)}
+    for name, values in data.items():
+        if name not in sections:
+            raise ConfigError(f"{origin}: unknown section [{name}]; known: {', '.join(sections)}")
+        if not isinstance(values, dict):
+            raise ConfigError(f"{origin}: [{name}] must be a table")
+        current = getattr(config, name)
+        setattr(config, name, _apply(current, values, f"{origin}: [{name}]"))
+    return config.validate()
+
+
+def _apply(section, values: dict[str, Any], where: str):
+    """A copy of the dataclass ``section`` with ``values`` set, each checked against its field's type."""
+    hints = typing.get_type_hints(type(section))
+    known = [f.name for f in dataclasses.fields(section)]
+    changes = {}
+    for key, value in values.items():
+        if key not in known:
+            raise ConfigError(f"{where}: unknown key {key!r}; known: {', '.join(known)}")
+        changes[key] = _coerce(key, value, hints[key], where)
+    return dataclasses.replace(section, **changes)
+
+
+def _coerce(key: str, value: Any, hint: Any, where: str) -> Any:
+    """``value`` checked against the annotation ``hint`` (ints are accepted for floats)."""
+    if key == "time_budget":
+        return parse_duration(value)
+    options = typing.get_args(hint) if typing.get_origin(hint) in (types.UnionType, typing.Union) else (hint,)
+    if value is None and type(None) in options:
+        return None
+    for option in options:
+        if typing.get_origin(option) is tuple:
+            n = len(typing.get_args(option))
+            if isinstance(value, (list, tuple)) and len(value) == n and all(_is_number(v) for v in value):
+                return tuple(float(v) for v in value)
+        elif option is float and _is_number(value):
+            return float(value)
+        elif option in (int, str, bool) and type(value) is option:
+            return value
+    raise ConfigError(f"{where}: {key} = {value!r} has the wrong type (expected {hint})")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def load_config(path: str | Path) -> Config:
+    """Read a run's TOML file (missing settings keep their defaults)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such configuration file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path}: not a valid TOML file: {e}") from None
+    return config_from_dict(data, origin=str(path))

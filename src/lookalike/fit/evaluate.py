@@ -1,0 +1,50 @@
+"""Held-out views: a fixed set of cameras and lights, never trained on, on which plain
+decimation and our result are scored against the reference (PSNR and FLIP)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..asset import Asset
+from ..report.data import MethodResult, score_method
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from .losses import composite
+from .optimize import RenderFn
+from .targets import RENDER_CHUNK, Target, ViewSampler, render_in_chunks
+
+BACKGROUND = (0.2, 0.2, 0.2)
+"""Linear grey that every held-out image is composited over (silhouette errors show against it)."""
+
+
+class HeldoutViews:
+    """``count`` views drawn from ``np.random.default_rng(seed)`` and the reference's images.
+
+    Attributes:
+        camera, light: the views (batch ``count``).
+        reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND``.
+    """
+
+    def __init__(self, target: Target, sampler: ViewSampler, count: int, seed: int):
+        self.camera, self.light = sampler(np.random.default_rng(seed), count)
+        self.reference = self._composite(render_in_chunks(target, self.camera, self.light))
+
+    @staticmethod
+    def _composite(rgba: torch.Tensor) -> torch.Tensor:
+        background = torch.tensor(BACKGROUND, dtype=torch.float32).expand(rgba.shape[0], 3)
+        return composite(rgba.float(), background)
+
+    @torch.no_grad()
+    def images(self, asset: Asset, render: RenderFn) -> torch.Tensor:
+        """``[count, H, W, 3]`` linear images of ``asset`` drawn by ``render``, over ``BACKGROUND``."""
+        n = self.camera.batch_size
+        rgba = torch.cat([render(asset, self.camera[i:i + RENDER_CHUNK], self.light[i:i + RENDER_CHUNK])
+                          for i in range(0, n, RENDER_CHUNK)])
+        return self._composite(rgba)
+
+    def score(self, key: str, label: str, asset: Asset, render: RenderFn, texture_size: int | None) -> MethodResult:
+        """Render ``asset`` on the held-out views and score it against the reference
+        (``lookalike.report.data.score_method``: PSNR, FLIP and FLIP maps per view)."""
+        return score_method(key, label, self.reference, self.images(asset, render),
+                            asset.mesh.num_triangles, texture_size)

@@ -1,0 +1,337 @@
+"""The optimisation loop (paper Sec. 6.3): Adam on positions and textures of a :class:`Latent`.
+
+Each step draws a mini-batch of views (camera, light, reference image), renders the latent
+model under them, composites both renders over the same random background colour per view
+(so that coverage and alpha are compared along with colour) and minimises
+
+    L = L_image(latent, reference) + lambda_t * L_laplacian(v_pos),
+
+with lr_t = lr_0 * 10^(-k t) for each parameter group and lambda_t from
+``lookalike.fit.schedule``. Textures are clamped to their valid ranges after each step.
+
+Robustness:
+- a non-finite loss or gradient rolls the model and Adam back to the last good snapshot
+  (taken every ``SNAPSHOT_EVERY`` steps), halves the learning rate, and carries on;
+- the best model so far (lowest moving average of the loss) is kept;
+- ``KeyboardInterrupt`` stops the loop cleanly after writing a checkpoint;
+- a checkpoint is written atomically every ``checkpoint_seconds`` and on interruption, and
+  ``Fitter.load_checkpoint`` continues from one exactly where it stopped.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Protocol
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from ..asset import Asset
+from ..asset.laplacian import UniformLaplacian
+from ..errors import ConfigError
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from .config import Config, config_from_dict, config_to_dict
+from .latent import Latent
+from .losses import composite, image_loss
+from .outdir import atomic_path
+from .schedule import laplacian_decay_rate, laplacian_weight, learning_rate
+
+SNAPSHOT_EVERY = 10
+"""Steps between snapshots of the last good state (the rollback target)."""
+
+CALIBRATION_STEPS = 4
+"""Steps timed (after the first, which pays one-off compilation) to fix the iteration count."""
+
+LOSS_EMA = 0.9
+"""Smoothing factor of the loss average that decides which state is the best."""
+
+LAMBDA_HEURISTIC = 0.25
+"""lambda_0 = LAMBDA_HEURISTIC * L_image / L_laplacian when not configured (paper Sec. 6.3)."""
+
+CHECKPOINT_VERSION = 1
+
+
+@dataclass
+class Batch:
+    """Views of one step: ``camera`` and ``light`` (batch B) and the reference ``target``
+    ``[B, H, W, 4]`` float32 (linear RGB weighted by coverage, and coverage)."""
+
+    camera: Camera
+    light: PointLight
+    target: torch.Tensor
+
+
+class BatchSource(Protocol):
+    """Where training views come from (``lookalike.fit.targets``)."""
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        ...
+
+
+RenderFn = Callable[[Asset, Camera, PointLight], torch.Tensor]
+"""Renders an asset under B views: ``[B, H, W, 4]`` (differentiable)."""
+
+
+@dataclass
+class FitResult:
+    """What the loop produced.
+
+    Attributes:
+        best: the best latent model (a detached copy).
+        iterations: steps taken in total (over all resumed sessions).
+        losses: ``[iterations]`` training loss per step (NaN for rolled-back steps).
+        seconds: wall time spent stepping (over all sessions).
+        rollbacks: number of rollbacks after non-finite steps.
+        interrupted: stopped by Ctrl-C.
+    """
+
+    best: Latent
+    iterations: int
+    losses: list[float]
+    seconds: float
+    rollbacks: int
+    interrupted: bool = False
+
+
+@dataclass
+class _Progress:
+    """Counters that a checkpoint carries."""
+
+    iteration: int = 0
+    total: int | None = None
+    lr_scale: float = 1.0
+    lambda_0: float | None = None
+    losses: list[float] = field(default_factory=list)
+    loss_ema: float | None = None
+    best_ema: float = math.inf
+    seconds: float = 0.0
+    rollbacks: int = 0
+    rollbacks_in_a_row: int = 0
+
+
+class Fitter:
+    """Runs the optimisation of one latent model.
+
+    Args:
+        latent: the model to optimise (modified in place).
+        source: training views and reference images.
+        render: renders the latent's asset under a batch of views.
+        config: the run's settings (``optim``, ``views``, ``clamp`` sections are used).
+        checkpoint: where to write checkpoints (``None``: never).
+    """
+
+    def __init__(self, latent: Latent, source: BatchSource, render: RenderFn, config: Config,
+                 checkpoint: Path | None = None):
+        self.latent = latent
+        self.source = source
+        self.render = render
+        self.config = config
+        self.checkpoint = checkpoint
+        opt = config.optim
+        torch.manual_seed(opt.seed)
+        self.rng = np.random.default_rng(opt.seed)
+        self.loss_fn = image_loss(opt.loss)
+        self.laplacian = UniformLaplacian(latent.t_pos_idx, latent.v_pos.shape[0])
+        self.rest_delta = self.laplacian.differentials(latent.v_pos.detach())
+        self.optimizer = torch.optim.Adam([
+            {"params": latent.position_parameters(), "lr": opt.lr_positions, "lr_0": opt.lr_positions},
+            {"params": latent.texture_parameters(), "lr": opt.lr_textures, "lr_0": opt.lr_textures},
+        ])
+        self.progress = _Progress(total=opt.iterations)
+        self.best_state = copy.deepcopy(latent.state_dict())
+        self._snapshot()
+        self._mark_random_state()
+
+    def _mark_random_state(self) -> None:
+        """Remember the random state between steps, so that a checkpoint written while a step
+        is interrupted resumes by repeating that step with the same views."""
+        self._random_state = (torch.get_rng_state(), copy.deepcopy(self.rng.bit_generator.state))
+
+    # -- one step -------------------------------------------------------------------------
+
+    def _set_learning_rates(self) -> None:
+        t = self.progress.iteration
+        for group in self.optimizer.param_groups:
+            group["lr"] = learning_rate(group["lr_0"], t, self.config.optim.lr_decay) * self.progress.lr_scale
+
+    def _lambda(self, image_loss_value: float) -> float:
+        """lambda_t; on the first call without a configured lambda_0 the heuristic sets it from
+        the image loss and the absolute Laplacian energy of the initial mesh, mean |delta'|^2
+        (the relative term itself is zero at the start)."""
+        opt, p = self.config.optim, self.progress
+        if p.lambda_0 is None:
+            if opt.laplacian_weight is not None:
+                p.lambda_0 = opt.laplacian_weight
+            else:
+                rest_energy = float((self.rest_delta ** 2).sum(dim=-1).mean())
+                p.lambda_0 = LAMBDA_HEURISTIC * image_loss_value / max(rest_energy, 1e-12)
+        if p.total is None:
+            return p.lambda_0
+        k = laplacian_decay_rate(p.total, opt.laplacian_decay_fraction)
+        return laplacian_weight(p.lambda_0, p.iteration, k, opt.laplacian_min_fraction)
+
+    def _background(self, batch_size: int) -> torch.Tensor:
+        """``[B, 3]`` random background colours, uniform in [0, 1]."""
+        return torch.from_numpy(self.rng.uniform(0.0, 1.0, size=(batch_size, 3)).astype(np.float32))
+
+    def loss(self, batch: Batch, background: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(image loss, Laplacian loss)`` of the current model on ``batch`` (differentiable)."""
+        pred = self.render(self.latent.as_asset(), batch.camera, batch.light)
+        image = self.loss_fn(composite(pred, background), composite(batch.target, background))
+        return image, self.laplacian.loss(self.latent.v_pos, self.rest_delta)
+
+    def step(self) -> float:
+        """One optimisation step; returns the total loss (NaN if the step was rolled back)."""
+        p = self.progress
+        batch = self.source.sample(self.rng, self.config.views.batch_size)
+        background = self._background(batch.target.shape[0])
+        self._set_learning_rates()
+        self.optimizer.zero_grad(set_to_none=True)
+        image, lap = self.loss(batch, background)
+        total = image + self._lambda(float(image.detach())) * lap
+        total.backward()
+        value = float(total.detach())
+        if not (math.isfinite(value) and self._gradients_finite()):
+            self._roll_back()
+            value = math.nan
+        else:
+            self.optimizer.step()
+            self.latent.clamp_(self.config.clamp)
+            p.rollbacks_in_a_row = 0
+            p.loss_ema = value if p.loss_ema is None else LOSS_EMA * p.loss_ema + (1 - LOSS_EMA) * value
+        p.iteration += 1
+        p.losses.append(value)
+        if p.iteration % SNAPSHOT_EVERY == 0 and p.rollbacks_in_a_row == 0:
+            self._snapshot()
+        self._mark_random_state()
+        return value
+
+    def _gradients_finite(self) -> bool:
+        return all(bool(torch.isfinite(q.grad).all()) for q in self.latent.parameters() if q.grad is not None)
+
+    def _snapshot(self) -> None:
+        """Remember the current state as the last good one, and as the best if it is."""
+        self._good = (copy.deepcopy(self.latent.state_dict()), copy.deepcopy(self.optimizer.state_dict()))
+        p = self.progress
+        if p.loss_ema is not None and p.loss_ema < p.best_ema:
+            p.best_ema = p.loss_ema
+            self.best_state = self._good[0]
+
+    def _roll_back(self) -> None:
+        """Restore the last good snapshot and lower the learning rate."""
+        p = self.progress
+        self.latent.load_state_dict(self._good[0])
+        self.optimizer.load_state_dict(self._good[1])
+        self.optimizer.zero_grad(set_to_none=True)
+        p.lr_scale *= self.config.optim.rollback_lr_factor
+        p.rollbacks += 1
+        p.rollbacks_in_a_row += 1
+
+    # -- the loop -------------------------------------------------------------------------
+
+    def run(self, seconds_available: float | None = None, progress: bool = True) -> FitResult:
+        """Step until ``progress.total`` steps are done.
+
+        When the total is not fixed (``optim.iterations`` unset and no checkpoint), the first
+        ``1 + CALIBRATION_STEPS`` steps are timed and the total set so that the loop ends
+        within ``seconds_available``.
+        """
+        p = self.progress
+        interrupted = False
+        bar = tqdm(total=p.total, initial=p.iteration, disable=not progress, unit="it", dynamic_ncols=True,
+                   desc="optimising")
+        last_checkpoint = time.monotonic()
+        calibration_start = None
+        try:
+            while p.total is None or p.iteration < p.total:
+                started = time.monotonic()
+                value = self.step()
+                p.seconds += time.monotonic() - started
+                bar.update(1)
+                bar.set_postfix(loss=f"{value:.4f}", refresh=False)
+                if p.total is None:
+                    if calibration_start is None:
+                        calibration_start = time.monotonic()
+                    elif p.iteration > CALIBRATION_STEPS:
+                        p.total = self._plan(seconds_available, calibration_start)
+                        bar.total = p.total
+                        bar.refresh()
+                if p.rollbacks_in_a_row >= self.config.optim.max_rollbacks:
+                    bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
+                    break
+                if self.checkpoint is not None and time.monotonic() - last_checkpoint > self.config.optim.checkpoint_seconds:
+                    self.save_checkpoint(self.checkpoint)
+                    last_checkpoint = time.monotonic()
+        except KeyboardInterrupt:
+            interrupted = True
+            if self.checkpoint is not None:
+                self.save_checkpoint(self.checkpoint)
+        finally:
+            bar.close()
+        self._snapshot()
+        return FitResult(best=self.best_model(), iterations=p.iteration, losses=list(p.losses),
+                         seconds=p.seconds, rollbacks=p.rollbacks, interrupted=interrupted)
+
+    def _plan(self, seconds_available: float | None, calibration_start: float) -> int:
+        """Total steps that fit in ``seconds_available`` (counted from the loop's start) at
+        the pace of the calibration steps."""
+        p = self.progress
+        if seconds_available is None:
+            raise ValueError("either optim.iterations or seconds_available is needed")
+        per_step = (time.monotonic() - calibration_start) / (p.iteration - 1)
+        remaining = seconds_available - p.seconds
+        return p.iteration + max(0, int(remaining / per_step))
+
+    def best_model(self) -> Latent:
+        """A detached copy of the best model so far."""
+        return Latent.from_state_dict(self.best_state)
+
+    # -- checkpoints ----------------------------------------------------------------------
+
+    def state_dict(self) -> dict:
+        """Everything needed to continue exactly where the loop stands."""
+        return {
+            "version": CHECKPOINT_VERSION,
+            "config": config_to_dict(self.config),
+            "latent": self.latent.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "best": self.best_state,
+            "snapshot": self._good,
+            "progress": self.progress.__dict__.copy(),
+            "torch_rng": self._random_state[0],
+            "numpy_rng": self._random_state[1],
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.latent.load_state_dict(state["latent"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.best_state = state["best"]
+        self._good = state["snapshot"]
+        self.progress = _Progress(**state["progress"])
+        torch.set_rng_state(state["torch_rng"])
+        self.rng.bit_generator.state = state["numpy_rng"]
+        self._mark_random_state()
+
+    def save_checkpoint(self, path: Path) -> None:
+        """Write ``state_dict()`` to ``path`` atomically."""
+        with atomic_path(path) as temp:
+            torch.save(self.state_dict(), temp)
+
+
+def read_checkpoint(path: Path) -> tuple[dict, Config, Latent]:
+    """``(state, config, latent)`` of a checkpoint written by ``Fitter.save_checkpoint``; the
+    latent holds the checkpoint's current (not best) state. Build the ``Fitter`` from these and
+    call ``load_state_dict(state)`` to continue."""
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as e:  # torch raises many kinds for a truncated or foreign file
+        raise ConfigError(f"{path}: cannot read the checkpoint ({e})") from None
+    if not isinstance(state, dict) or state.get("version") != CHECKPOINT_VERSION:
+        raise ConfigError(f"{path}: not a lookalike checkpoint of version {CHECKPOINT_VERSION}")
+    return state, config_from_dict(state["config"], origin=str(path)), Latent.from_state_dict(state["latent"])

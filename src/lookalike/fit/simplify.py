@@ -1,0 +1,261 @@
+"""``simplify``: the whole job, from an input file to ``OUTDIR/model.glb`` and its report.
+
+Steps (paper Sec. 4 and 6): load -> decimate to the target count -> fresh UV atlas and initial
+textures -> render the reference (supersampled) on a pool of random training views and on the
+held-out views -> optimise -> write ``model.glb`` (+ ``model.obj``), ``metrics.json``,
+``config.toml`` and ``report.html`` into OUTDIR, each atomically.
+
+The time budget covers the whole run: the optimisation gets what is left after the set-up,
+minus an estimate of the time the outputs take (measured on the decimation baseline).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .. import io
+from ..asset import Asset, Material
+from ..errors import ConfigError
+from ..init import decimate
+from ..report.data import MethodResult, ReportData
+from ..report.html import write_report
+from .config import Config, config_from_dict, config_to_dict, load_config, to_toml
+from .evaluate import HeldoutViews
+from .initial import decimation_baseline, initial_latent, target_triangle_count
+from .latent import Latent
+from .optimize import Fitter, FitResult, read_checkpoint
+from .outdir import CHECKPOINT_NAME, atomic_path, prepare_outdir, write_text_atomic
+from .targets import FreshViews, MeshTarget, ViewPool, latent_renderer
+from .views import view_sampler
+
+OUTDIR_SUFFIX = "-lookalike"
+OUTPUT_TIME_FACTOR = 2.0
+"""The outputs are estimated to take this many times the baseline's held-out scoring."""
+
+OUTPUT_TIME_MARGIN = 5.0
+"""Plus these seconds (writing the glTF and the report's pictures)."""
+
+POOL_STREAM, TEXTURE_STREAM = 1, 2
+"""Independent random streams derived from the seed: ``default_rng((seed, stream))``."""
+
+
+@dataclass
+class SimplifyResult:
+    """What ``simplify`` wrote.
+
+    Attributes:
+        outdir: the output folder.
+        model: path of ``model.glb``.
+        report: path of ``report.html``.
+        metrics: the content of ``metrics.json``.
+        interrupted: the run was stopped by Ctrl-C (the files hold the best result so far and
+            ``checkpoint.pt`` lets ``resume=True`` continue).
+    """
+
+    outdir: Path
+    model: Path
+    report: Path
+    metrics: dict
+    interrupted: bool = False
+
+    def summary(self) -> str:
+        """A few lines for the terminal: where to look, and how much we gained."""
+        m = self.metrics
+        base, ours = m["heldout"]["decimated"], m["heldout"]["ours"]
+        lines = [
+            f"{'interrupted; best result so far' if self.interrupted else 'done'}: "
+            f"{m['triangles']['output']:,} triangles (input {m['triangles']['input']:,}), "
+            f"{m['iterations']} iterations in {m['seconds']['total']:.0f} s",
+            f"held-out PSNR: plain decimation {base['psnr']:.2f} dB, ours {ours['psnr']:.2f} dB "
+            f"({ours['psnr'] - base['psnr']:+.2f} dB); FLIP {base['flip']:.4f} -> {ours['flip']:.4f}",
+            f"model:  {self.model}",
+            f"report: {self.report}",
+        ]
+        if self.interrupted:
+            lines.append(f"continue with: lookalike simplify {m['input']} -o {self.outdir} --resume")
+        return "\n".join(lines)
+
+
+def build_config(base: Config | str | Path | None, **overrides) -> Config:
+    """``base`` (a ``Config``, a TOML path, or defaults) with the non-``None`` ``overrides``
+    applied; each override names a field of one section (``triangles`` -> ``latent.triangles``).
+    Setting ``triangles`` clears a configured ``ratio`` and vice versa, ``iterations`` likewise
+    takes precedence over the time budget by being set."""
+    config = load_config(base) if isinstance(base, (str, Path)) else (base or Config())
+    config = dataclasses.replace(config)
+    sections = {f.name: {g.name for g in dataclasses.fields(getattr(config, f.name))} for f in dataclasses.fields(config)}
+    changes: dict[str, dict] = {}
+    for key, value in overrides.items():
+        if value is None:
+            continue
+        section = next(name for name, keys in sections.items() if key in keys)
+        changes.setdefault(section, {})[key] = value
+    latent = changes.get("latent", {})
+    if "triangles" in latent:
+        config.latent = dataclasses.replace(config.latent, ratio=None)
+    if "ratio" in latent:
+        config.latent = dataclasses.replace(config.latent, triangles=None)
+    return config_from_dict(changes, base=config)
+
+
+def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: int | None = None,
+             ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
+             time_budget: float | None = None, iterations: int | None = None, seed: int | None = None,
+             config: Config | str | Path | None = None, resume: bool = False, force: bool = False,
+             material_override: Material | None = None, export_obj: bool | None = None,
+             progress: bool = True) -> SimplifyResult:
+    """Simplify the asset in ``input`` into ``outdir``.
+
+    Args:
+        input: any file ``lookalike.io.load`` reads.
+        outdir: output folder (default: ``<input name>-lookalike`` in the current folder). An
+            existing non-empty folder is refused unless ``force`` (or ``resume``).
+        triangles, ratio: target triangle count, or fraction of the input's (default 0.02).
+        texture_size: side of the square textures (default 1024).
+        resolution: side of the training and report images (default 512).
+        time_budget: wall seconds for the whole run (default 600); ignored when
+            ``iterations`` is given.
+        iterations: fixed number of optimisation steps.
+        seed: random seed (default 0); same seed, same result.
+        config: a ``Config`` or a TOML file with further settings; the arguments above override it.
+        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (its settings are used).
+        force: overwrite an existing ``outdir``.
+        material_override: render the input with this material on every triangle (e.g. a
+            colour for untextured scans).
+        export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures.
+        progress: show a progress bar.
+
+    Raises:
+        ConfigError, AssetError: with a message naming the problem.
+    """
+    started = time.monotonic()
+    timings: dict[str, float] = {}
+    input = Path(input)
+    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{input.stem}{OUTDIR_SUFFIX}"
+    prepare_outdir(outdir, force=force, resume=resume)
+    checkpoint = outdir / CHECKPOINT_NAME
+    state = None
+    if resume:
+        state, cfg, resumed_latent = read_checkpoint(checkpoint)
+    else:
+        cfg = build_config(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
+                           resolution=resolution, time_budget=time_budget, iterations=iterations, seed=seed,
+                           export_obj=export_obj)
+        cfg.io = dataclasses.replace(cfg.io, input=str(input), outdir=str(outdir))
+    write_text_atomic(outdir / "config.toml", to_toml(cfg))
+
+    clock = time.monotonic()
+    asset = io.load(cfg.io.input)
+    notes = _prepare_input(asset, material_override)
+    count = target_triangle_count(cfg.latent, asset.mesh.num_triangles)
+    decimated = decimate(asset.mesh, count)
+    latent = resumed_latent if state is not None else initial_latent(
+        asset, decimated, cfg.latent, cfg.clamp, np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+    timings["load and initial guess"] = time.monotonic() - clock
+
+    clock = time.monotonic()
+    sampler = view_sampler(asset.mesh)
+    target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
+    draw = latent_renderer(cfg.render.resolution, cfg.render.latent_msaa)
+    heldout = HeldoutViews(target, sampler, cfg.views.heldout, cfg.views.heldout_seed)
+    pool_rng = np.random.default_rng((cfg.optim.seed, POOL_STREAM))
+    source = ViewPool(target, sampler, cfg.views.pool_size, pool_rng) if cfg.views.pool_size else FreshViews(target, sampler)
+    timings["reference views"] = time.monotonic() - clock
+
+    clock = time.monotonic()
+    baseline = heldout.score("decimated", "Plain decimation", decimation_baseline(asset, decimated), draw, None)
+    timings["scoring plain decimation"] = time.monotonic() - clock
+
+    fitter = Fitter(latent, source, draw, cfg, checkpoint=checkpoint)
+    if state is not None:
+        fitter.load_state_dict(state)
+    output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
+    available = cfg.optim.time_budget - (time.monotonic() - started) - output_time
+    clock = time.monotonic()
+    fit = fitter.run(seconds_available=max(available, 0.0), progress=progress)
+    timings["optimisation"] = time.monotonic() - clock
+
+    clock = time.monotonic()
+    ours = heldout.score("ours", "Ours", fit.best.as_asset(), draw, cfg.latent.texture_size)
+    timings["scoring ours"] = time.monotonic() - clock
+    result = _write_outputs(outdir, cfg, asset, fit, heldout, baseline, ours, timings, started, notes)
+    if not fit.interrupted:
+        checkpoint.unlink(missing_ok=True)
+    return result
+
+
+def _prepare_input(asset: Asset, material_override: Material | None) -> list[str]:
+    """Apply ``material_override``; return remarks about the input for the report."""
+    notes = []
+    if material_override is not None:
+        asset.materials = [material_override]
+        asset.mesh.t_mat_idx = torch.zeros_like(asset.mesh.t_mat_idx)
+        notes.append("every triangle of the input rendered with one given material")
+    if not asset.mesh.uv:
+        notes.append("the input has no UVs: plain decimation shows its constant materials")
+    if asset.skin is not None:
+        notes.append("the input is skinned: it was simplified in its bind pose, and the output is static")
+    return notes
+
+
+def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, heldout: HeldoutViews,
+                   baseline: MethodResult, ours: MethodResult, timings: dict, started: float,
+                   notes: list[str]) -> SimplifyResult:
+    """Write ``model.glb`` (+ OBJ), ``metrics.json`` and ``report.html`` atomically."""
+    clock = time.monotonic()
+    model = outdir / "model.glb"
+    with torch.no_grad():
+        export = fit.best.as_asset()
+    with atomic_path(model) as temp:
+        io.save(export, temp)
+    if cfg.io.export_obj:
+        _save_obj(export, outdir)
+    timings["export"] = time.monotonic() - clock
+    seconds_total = time.monotonic() - started
+    steps = max(fit.iterations, 1)
+    metrics = {
+        "input": cfg.io.input,
+        "triangles": {"input": asset.mesh.num_triangles, "output": export.mesh.num_triangles},
+        "texture_size": cfg.latent.texture_size,
+        "resolution": cfg.render.resolution,
+        "iterations": fit.iterations,
+        "rollbacks": fit.rollbacks,
+        "interrupted": fit.interrupted,
+        "seconds": {"total": seconds_total, "per_iteration": fit.seconds / steps, **timings},
+        "final_loss": _last_finite(fit.losses),
+        "heldout": {
+            "views": len(baseline.psnr_views),
+            **{m.key: {"psnr": m.psnr, "flip": m.flip, "psnr_views": m.psnr_views.tolist(),
+                       "flip_views": m.flip_views.tolist()} for m in (baseline, ours)},
+        },
+    }
+    write_text_atomic(outdir / "metrics.json", json.dumps(metrics, indent=2))
+    report = write_report(outdir, ReportData(
+        asset_name=asset.name, reference=heldout.reference, methods=[baseline, ours],
+        input_triangles=asset.mesh.num_triangles, loss_history=np.asarray(fit.losses, dtype=np.float64),
+        wall_time=seconds_total, iterations=fit.iterations, seconds_per_iteration=fit.seconds / steps,
+        config=config_to_dict(cfg), timings=timings, notes=notes,
+    ))
+    return SimplifyResult(outdir=outdir, model=model, report=Path(report), metrics=metrics, interrupted=fit.interrupted)
+
+
+def _save_obj(asset: Asset, outdir: Path) -> None:
+    """Write ``model.obj`` and its companions into a temporary folder, then move each in place."""
+    with tempfile.TemporaryDirectory(dir=outdir, prefix=".tmp-obj-") as staging:
+        io.save(asset, Path(staging) / "model.obj")
+        for written in sorted(Path(staging).iterdir()):
+            shutil.move(str(written), str(outdir / written.name))
+
+
+def _last_finite(values: list[float]) -> float | None:
+    return next((v for v in reversed(values) if math.isfinite(v)), None)

@@ -1,0 +1,62 @@
+"""An icosphere: a start for the latent geometry where no decimation is wanted."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..asset.mesh import Mesh
+from ..errors import ConfigError
+
+
+def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
+    """The 12 unit vertices ``[12, 3]`` and 20 outward-facing (counter-clockwise) faces ``[20, 3]``."""
+    g = (1 + 5 ** 0.5) / 2
+    v = np.array([
+        [-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0],
+        [0, -1, g], [0, 1, g], [0, -1, -g], [0, 1, -g],
+        [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1],
+    ], dtype=np.float64)
+    f = np.array([
+        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
+        [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
+        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
+        [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+    ], dtype=np.int64)
+    return v / np.linalg.norm(v, axis=1, keepdims=True), f
+
+
+def _subdivide(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Split each triangle into four at its edge midpoints (pushed onto the unit sphere)."""
+    edges = np.sort(np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], axis=1).reshape(-1, 2), axis=1)
+    unique_edges, edge_of = np.unique(edges, axis=0, return_inverse=True)
+    mid = v[unique_edges].mean(axis=1)
+    v = np.concatenate([v, mid / np.linalg.norm(mid, axis=1, keepdims=True)])
+    m = len(v) - len(mid) + edge_of.reshape(-1, 3)          # midpoints of edges 01, 12, 20
+    a, b, c = f.T
+    f = np.concatenate([
+        np.stack([a, m[:, 0], m[:, 2]], 1), np.stack([b, m[:, 1], m[:, 0]], 1),
+        np.stack([c, m[:, 2], m[:, 1]], 1), m,
+    ])
+    return v, f
+
+
+def icosphere(subdivisions: int = 3, center=(0.0, 0.0, 0.0), radius: float = 1.0) -> Mesh:
+    """A sphere of ``20 * 4**subdivisions`` triangles, welded, counter-clockwise outward.
+
+    Args:
+        subdivisions: number of 1-to-4 splits of the icosahedron, 0..8.
+        center: ``[3]`` centre; radius: its radius.
+
+    Returns:
+        ``Mesh`` with ``v_pos [10 * 4**s + 2, 3]`` float32 and ``t_pos_idx [20 * 4**s, 3]`` int64, no UVs.
+    """
+    if isinstance(subdivisions, bool) or not isinstance(subdivisions, (int, np.integer)) or not 0 <= subdivisions <= 8:
+        raise ConfigError(f"icosphere subdivisions must be a whole number in 0..8, got {subdivisions!r}")
+    if not radius > 0:
+        raise ConfigError(f"icosphere radius must be positive, got {radius!r}")
+    v, f = _icosahedron()
+    for _ in range(subdivisions):
+        v, f = _subdivide(v, f)
+    v = v * radius + np.asarray(center, dtype=np.float64)
+    return Mesh(v_pos=torch.as_tensor(v, dtype=torch.float32), t_pos_idx=torch.as_tensor(f, dtype=torch.int64))

@@ -1,0 +1,140 @@
+"""Carrying a mesh's surface attributes (UVs, materials, vertex colours, skin weights) over to
+a new mesh that lies near its surface, such as a decimation of it.
+
+Each new triangle first chooses one *patch* of the source surface: a UV chart of one material
+(triangles joined across an edge whose two endpoints have the same UVs on both sides and that
+share a material), or just a material where the source has no UVs. The choice is a vote of
+four points of the new triangle (its centroid and its corners moved halfway to the centroid),
+each voting for the patch of its closest source point; ties go to the centroid. Each corner then
+takes the attributes of its closest source point *within that patch*. So a new triangle never
+straddles a UV seam or a material border, and corners shared by triangles of the same patch
+share one UV vertex.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..asset.mesh import Mesh
+from .closest_point import SurfaceQuery
+from .weld import weld_tolerance, weld_vertices
+
+UV_SEAM_TOLERANCE = 1e-5           # UVs closer than this (in UV units) count as continuous
+_VOTE_SHRINK = 0.5                 # corners move this fraction of the way to the centroid to vote
+
+
+def surface_patches(w_idx: np.ndarray, t_mat_idx: np.ndarray, corner_uv: np.ndarray | None) -> np.ndarray:
+    """Patch label of each triangle: connected components of triangles that share a material
+    and an edge across which UVs are continuous.
+
+    Args:
+        w_idx: ``[T, 3]`` int64 welded position indices.
+        t_mat_idx: ``[T]`` int64 material of each triangle.
+        corner_uv: ``[T, 3, 2]`` float64 UV at each corner, or ``None`` (then a patch is a material).
+
+    Returns:
+        ``[T]`` int64 labels, ``0 .. P-1``.
+    """
+    if corner_uv is None:
+        return np.unique(t_mat_idx, return_inverse=True)[1].astype(np.int64)
+    n = len(w_idx)
+    nxt = [1, 2, 0]
+    ends = np.stack([w_idx, w_idx[:, nxt]], axis=-1).reshape(-1, 2)                  # [3T, 2]
+    uvs = np.stack([corner_uv, corner_uv[:, nxt]], axis=2).reshape(-1, 2, 2)          # [3T, 2 ends, 2]
+    swap = ends[:, 0] > ends[:, 1]
+    ends[swap] = ends[swap][:, ::-1]
+    uvs[swap] = uvs[swap][:, ::-1]
+    owner = np.repeat(np.arange(n), 3)
+    key = ends[:, 0] * (int(w_idx.max()) + 1) + ends[:, 1]
+    order = np.argsort(key, kind="stable")
+    a, b = order[:-1], order[1:]
+    joined = (
+        (key[a] == key[b])
+        & (t_mat_idx[owner[a]] == t_mat_idx[owner[b]])
+        & (np.abs(uvs[a] - uvs[b]).max(axis=(1, 2)) <= UV_SEAM_TOLERANCE)
+    )
+    graph = coo_matrix((np.ones(int(joined.sum())), (owner[a][joined], owner[b][joined])), shape=(n, n))
+    return connected_components(graph, directed=False)[1].astype(np.int64)
+
+
+def _vote(labels: np.ndarray) -> np.ndarray:
+    """Majority of each row of ``labels [N, 4]``; ties go to the earliest column (the centroid)."""
+    agree = (labels[:, :, None] == labels[:, None, :]).sum(axis=-1)
+    return labels[np.arange(len(labels)), agree.argmax(axis=1)]
+
+
+def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) -> Mesh:
+    """A mesh with the given geometry and the attributes of ``source`` at its closest points.
+
+    Args:
+        source: the mesh whose UV sets, ``t_mat_idx``, ``v_color``, ``v_joints``/``v_weights``
+            are carried over (authored normals are not: the renderer recomputes them).
+        v_pos: ``[V, 3]`` float positions of the new mesh, near the surface of ``source``.
+        t_pos_idx: ``[T, 3]`` int64 triangles of the new mesh.
+
+    Returns:
+        A ``Mesh`` on ``source``'s device: ``v_pos`` float32, ``t_pos_idx``, one UV set per UV
+        set of ``source`` (set 0 decides the patches; the others are read at the same closest
+        points), ``t_mat_idx``; ``v_color`` interpolated at each vertex's closest point;
+        ``v_joints``/``v_weights`` of the source vertex nearest to that point.
+    """
+    device = source.v_pos.device
+    src_pos = source.v_pos.detach().cpu().numpy().astype(np.float64)
+    src_idx = source.t_pos_idx.cpu().numpy()
+    src_mat = source.t_mat_idx.cpu().numpy()
+    v_pos = np.asarray(v_pos, dtype=np.float64)
+    t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
+
+    src_uv = [(v.detach().cpu().numpy().astype(np.float64), i.cpu().numpy()) for v, i in source.uv]
+    _, w_idx, _ = weld_vertices(src_pos, src_idx, weld_tolerance(src_pos))
+    patch = surface_patches(w_idx, src_mat, src_uv[0][0][src_uv[0][1]] if src_uv else None)
+    query = SurfaceQuery(src_pos, src_idx, patch)
+
+    corners = v_pos[t_pos_idx]                                                  # [T, 3, 3]
+    centroid = corners.mean(axis=1, keepdims=True)
+    voters = np.concatenate([centroid, corners + _VOTE_SHRINK * (centroid - corners)], axis=1)
+    voted = patch[query.closest(voters.reshape(-1, 3)).triangle].reshape(-1, 4)
+    t_patch = _vote(voted)
+    t_mat_idx = src_mat[np.unique(patch, return_index=True)[1]][t_patch]
+
+    pairs, t_corner = np.unique(np.stack([t_pos_idx, np.repeat(t_patch[:, None], 3, 1)], -1).reshape(-1, 2),
+                                axis=0, return_inverse=True)
+    t_corner = t_corner.reshape(-1, 3)
+    on_patch = query.closest(v_pos[pairs[:, 0]], labels=pairs[:, 1])
+    uv = [
+        (_interpolate(tex, idx[on_patch.triangle], on_patch.barycentric), t_corner)
+        for tex, idx in src_uv
+    ]
+
+    v_color = v_joints = v_weights = None
+    if source.v_color is not None or source.v_joints is not None:
+        nearest = query.closest(v_pos)
+        src_corner = src_idx[nearest.triangle]                                  # [V, 3]
+        if source.v_color is not None:
+            v_color = _interpolate(source.v_color.detach().cpu().numpy(), src_corner, nearest.barycentric)
+        if source.v_joints is not None:
+            vertex = src_corner[np.arange(len(v_pos)), nearest.barycentric.argmax(axis=1)]
+            v_joints = source.v_joints.cpu().numpy()[vertex]
+            v_weights = source.v_weights.detach().cpu().numpy()[vertex]
+
+    def tensor(x, dtype):
+        return None if x is None else torch.as_tensor(np.ascontiguousarray(x), dtype=dtype, device=device)
+
+    return Mesh(
+        v_pos=tensor(v_pos, torch.float32),
+        t_pos_idx=tensor(t_pos_idx, torch.int64),
+        uv=[(tensor(tex, torch.float32), tensor(idx, torch.int64)) for tex, idx in uv],
+        v_color=tensor(v_color, torch.float32),
+        t_mat_idx=tensor(t_mat_idx, torch.int64),
+        v_joints=tensor(v_joints, torch.int64),
+        v_weights=tensor(v_weights, torch.float32),
+    )
+
+
+def _interpolate(values: np.ndarray, corner_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """``sum_j bary[:, j] * values[corner_idx[:, j]]``: ``values [M, C]``, ``corner_idx [N, 3]``,
+    ``bary [N, 3]`` -> ``[N, C]`` float64."""
+    return (bary[:, :, None] * values[corner_idx].astype(np.float64)).sum(axis=1)

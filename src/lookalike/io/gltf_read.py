@@ -1,0 +1,419 @@
+"""glTF 2.0 reader (``.gltf`` with ``.bin``/images or ``data:`` URIs, and ``.glb``).
+
+Every triangle primitive of the default scene is transformed by its node's world matrix and
+merged into one ``Mesh`` (positions welded where position and skinning data are identical;
+``t_mat_idx`` selects the material). Strips and fans become triangle lists; points and lines are
+skipped with a warning. A primitive without a material gets the default ``Material``.
+
+Materials follow glTF's metallic-roughness model: ``kd = baseColorFactor * baseColorTexture``
+(sRGB decoded), ``ks = (gamma, roughness, metalness)`` with ``roughness = roughnessFactor * G``,
+``metalness = metallicFactor * B`` and ``gamma = 1 - specularFactor * specularTexture.A``
+(KHR_materials_specular). Normal maps are scaled by ``normalTexture.scale`` and re-expressed
+from the file's tangent frame (TANGENT, or MikkTSpace where absent) into ours
+(``lookalike.io.normal_frames``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..asset import Animation, Asset, Channel, Material, Mesh, Node, Skin, Texture
+from ..errors import AssetError
+from .gltf_data import GltfData, parse_gltf
+from .images import resize, srgb_to_linear
+from .normal_frames import import_normal_maps
+from .registry import reader
+from .transforms import matrix_to_trs, trs_to_matrix
+
+SUPPORTED_EXTENSIONS = frozenset({
+    "KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
+})
+_WRAP_MODES = {10497: "wrap", 33071: "clamp", 33648: "wrap"}
+_TRS_PATHS = ("translation", "rotation", "scale")
+
+
+@dataclass
+class _Primitive:
+    """One triangle primitive in the asset frame; ``n`` vertices, ``t`` triangles."""
+
+    positions: np.ndarray  # [n, 3] float64, world matrix applied
+    triangles: np.ndarray  # [t, 3] int64 local indices, counter-clockwise
+    normals: np.ndarray | None  # [n, 3] float32 unit
+    tangents: np.ndarray | None  # [n, 4] float32 (xyz, handedness w)
+    uvs: list[np.ndarray]  # per set: [n, 2] float32
+    colors: np.ndarray | None  # [n, 4] float32 linear RGBA
+    joints: np.ndarray | None  # [n, K] int64
+    weights: np.ndarray | None  # [n, K] float32
+    material: int  # index into the asset's materials
+    skin: int | None  # glTF skin index of its node
+
+
+def _node_world_matrices(gltf) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """Nodes of the default scene in depth-first order, all nodes' world matrices ``[N, 4, 4]``
+    float64 and parent indices ``[N]`` (-1 for roots)."""
+    n = len(gltf.nodes)
+    parents = np.full(n, -1, dtype=np.int64)
+    for i, node in enumerate(gltf.nodes):
+        for child in node.children or []:
+            parents[child] = i
+    locals_ = np.stack([_local_matrix(node) for node in gltf.nodes]) if n else np.zeros((0, 4, 4))
+    world = np.zeros_like(locals_)
+    if gltf.scenes:
+        roots = list(gltf.scenes[gltf.scene or 0].nodes or [])
+    else:
+        roots = [i for i in range(n) if parents[i] < 0]
+    order, stack = [], [(r, np.eye(4)) for r in reversed(roots)]
+    seen = np.zeros(n, dtype=bool)
+    while stack:
+        i, parent_world = stack.pop()
+        if seen[i]:
+            continue
+        seen[i] = True
+        world[i] = parent_world @ locals_[i]
+        order.append(i)
+        stack.extend((c, world[i]) for c in reversed(gltf.nodes[i].children or []))
+    unvisited = ~seen
+    world[unvisited] = locals_[unvisited]
+    return order, world, parents
+
+
+def _local_matrix(node) -> np.ndarray:
+    if node.matrix is not None:
+        return np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T  # glTF stores column-major
+    return trs_to_matrix(node.translation or [0, 0, 0], node.rotation or [0, 0, 0, 1], node.scale or [1, 1, 1])
+
+
+def _triangles(mode: int, indices: np.ndarray) -> np.ndarray | None:
+    """``[t, 3]`` triangle list from glTF primitive ``mode`` (4 list, 5 strip, 6 fan), or ``None``
+    for points and lines."""
+    if mode == 4:
+        return indices[: len(indices) // 3 * 3].reshape(-1, 3)
+    i = np.arange(max(len(indices) - 2, 0))
+    if mode == 5:  # strip: {v_i, v_(i+1+i%2), v_(i+2-i%2)}
+        return np.stack([indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]], axis=1)
+    if mode == 6:  # fan: {v_(i+1), v_(i+2), v_0}
+        return np.stack([indices[i + 1], indices[i + 2], np.full_like(i, indices[0])], axis=1)
+    return None
+
+
+def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin, where: str) -> _Primitive | None:
+    attrs = {k: v for k, v in vars(prim.attributes).items() if v is not None}
+    if "POSITION" not in attrs:
+        raise AssetError(data.path, f"{where} has no POSITION attribute")
+    local = data.accessor(attrs["POSITION"]).astype(np.float64)
+    n = len(local)
+    indices = data.accessor(prim.indices) if prim.indices is not None else np.arange(n, dtype=np.int64)
+    if indices.size and (indices.min() < 0 or indices.max() >= n):
+        raise AssetError(data.path, f"{where}: index {int(indices.max())} out of range for {n} vertices")
+    triangles = _triangles(prim.mode if prim.mode is not None else 4, indices)
+    if triangles is None:
+        warnings.warn(f"{data.path}: {where} has mode {prim.mode} (points or lines); skipped")
+        return None
+    linear = world[:3, :3]
+    positions = local @ linear.T + world[:3, 3]
+    if np.linalg.det(linear) < 0:  # a mirroring transform flips the winding (glTF 2.0, Sec. 3.7.4)
+        triangles = triangles[:, [0, 2, 1]]
+    normal_matrix = np.linalg.inv(linear).T if abs(np.linalg.det(linear)) > 0 else linear
+
+    def unit(x):
+        return (x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-30)).astype(np.float32)
+
+    normals = unit(data.accessor(attrs["NORMAL"]) @ normal_matrix.T) if "NORMAL" in attrs else None
+    tangents = None
+    if "TANGENT" in attrs:
+        t = data.accessor(attrs["TANGENT"])
+        tangents = np.concatenate([unit(t[:, :3] @ linear.T), np.where(t[:, 3:] < 0, -1.0, 1.0)], axis=1)
+        tangents = tangents.astype(np.float32)
+    uvs = []
+    while f"TEXCOORD_{len(uvs)}" in attrs:
+        uvs.append(data.accessor(attrs[f"TEXCOORD_{len(uvs)}"]).astype(np.float32))
+    colors = None
+    if "COLOR_0" in attrs:
+        c = data.accessor(attrs["COLOR_0"]).astype(np.float32)
+        colors = np.concatenate([c, np.ones((n, 1), np.float32)], axis=1) if c.shape[1] == 3 else c
+    joints = weights = None
+    if "JOINTS_0" in attrs and "WEIGHTS_0" in attrs:
+        sets = [k for k in range(2) if f"JOINTS_{k}" in attrs and f"WEIGHTS_{k}" in attrs]
+        joints = np.concatenate([data.accessor(attrs[f"JOINTS_{k}"]) for k in sets], axis=1).astype(np.int64)
+        weights = np.concatenate([data.accessor(attrs[f"WEIGHTS_{k}"]) for k in sets], axis=1).astype(np.float32)
+    return _Primitive(positions, triangles.astype(np.int64), normals, tangents, uvs, colors, joints, weights,
+                      material, skin)
+
+
+def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the first occurrence of each distinct row of ``rows [n, k]`` and the inverse
+    map ``[n]`` (row i equals row ``first[inverse[i]]``)."""
+    rows = np.ascontiguousarray(rows)
+    keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)
+
+
+def _stack(parts: list[_Primitive], name: str, width: int, dtype) -> np.ndarray | None:
+    """Concatenate one per-vertex attribute over primitives, zero-filled where a primitive lacks
+    it (or is narrower); ``None`` when no primitive has it."""
+    values = [getattr(p, name) for p in parts]
+    if all(v is None for v in values):
+        return None
+    width = max(width, *(v.shape[1] for v in values if v is not None))
+    out = []
+    for p, v in zip(parts, values):
+        block = np.zeros((len(p.positions), width), dtype=dtype)
+        if v is not None:
+            block[:, : v.shape[1]] = v
+        out.append(block)
+    return np.concatenate(out)
+
+
+def _stack_nan(parts: list[_Primitive], name: str, width: int) -> np.ndarray:
+    """``[n, width]`` float64 concatenation of a per-vertex attribute, NaN where a primitive lacks it."""
+    return np.concatenate([np.full((len(p.positions), width), np.nan) if getattr(p, name) is None
+                           else getattr(p, name).astype(np.float64) for p in parts])
+
+
+def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
+    """One welded ``Mesh`` from primitives, and the ``[T, 3]`` int64 global corner-vertex indices
+    (into the concatenated, unwelded per-vertex arrays) of every triangle."""
+    offsets = np.cumsum([0] + [len(p.positions) for p in parts])
+    corners = np.concatenate([p.triangles + o for p, o in zip(parts, offsets[:-1])])
+    if len(corners) == 0:
+        raise AssetError(path, "the mesh has no triangles")
+    positions = np.concatenate([p.positions for p in parts]).astype(np.float32)
+    if not np.isfinite(positions[corners.reshape(-1)]).all():
+        raise AssetError(path, "vertex positions contain NaN or infinite values")
+    colors = _stack(parts, "colors", 4, np.float32)
+    joints = _stack(parts, "joints", 4, np.int64)
+    weights = _stack(parts, "weights", 4, np.float32)
+    # Weld vertices whose position and per-position attributes are bitwise equal.
+    weld_key = [a.view(np.int32) if a.dtype == np.float32 else a.astype(np.int32)
+                for a in (positions, colors, joints, weights) if a is not None]
+    first, inverse = _unique_rows(np.concatenate(weld_key, axis=1))
+    t_pos_idx = torch.from_numpy(inverse[corners])
+    n_sets = max(len(p.uvs) for p in parts)
+    corner_idx = torch.from_numpy(corners)
+    uv = []
+    for k in range(n_sets):
+        v_tex = np.concatenate([p.uvs[k] if k < len(p.uvs) else np.zeros((len(p.positions), 2), np.float32)
+                                for p in parts])
+        uv.append((torch.from_numpy(v_tex), corner_idx.clone()))
+    normals = [p.normals for p in parts]
+    has_normals = all(nrm is not None for nrm in normals)
+    mesh = Mesh(
+        v_pos=torch.from_numpy(positions[first]),
+        t_pos_idx=t_pos_idx,
+        uv=uv,
+        v_nrm=torch.from_numpy(np.concatenate(normals)) if has_normals else None,
+        t_nrm_idx=corner_idx.clone() if has_normals else None,
+        v_color=None if colors is None else torch.from_numpy(colors[first]),
+        t_mat_idx=torch.from_numpy(np.concatenate([np.full(len(p.triangles), p.material) for p in parts])),
+        v_joints=None if joints is None else torch.from_numpy(joints[first]),
+        v_weights=None if weights is None else torch.from_numpy(weights[first]),
+    )
+    return mesh, corners
+
+
+def _texture_info(info) -> dict:
+    """A textureInfo as a dict (pygltflib gives objects for core fields, dicts inside extensions)."""
+    if isinstance(info, dict):
+        return info
+    return {k: v for k, v in vars(info).items() if v is not None}
+
+
+def _texture_transform(info: dict) -> tuple[int, torch.Tensor | None]:
+    """``(texCoord, [3, 3] KHR_texture_transform matrix or None)``; the matrix is
+    ``T(offset) @ R(rotation) @ S(scale)`` with ``R = [[cos, sin], [-sin, cos]]`` (glTF spec)."""
+    tex_coord = info.get("texCoord") or 0
+    ext = (info.get("extensions") or {}).get("KHR_texture_transform")
+    if not ext:
+        return tex_coord, None
+    ox, oy = ext.get("offset", [0.0, 0.0])
+    sx, sy = ext.get("scale", [1.0, 1.0])
+    r = ext.get("rotation", 0.0)
+    c, s = np.cos(r), np.sin(r)
+    m = np.array([[1, 0, ox], [0, 1, oy], [0, 0, 1]]) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]) \
+        @ np.diag([sx, sy, 1.0])
+    return ext.get("texCoord", tex_coord), torch.tensor(m, dtype=torch.float32)
+
+
+class _MaterialReader:
+    """Builds ``Material``s from glTF materials, decoding each image once."""
+
+    def __init__(self, data: GltfData):
+        self.data = data
+        self.images: dict[int, np.ndarray] = {}
+
+    def _pixels(self, info: dict) -> np.ndarray:
+        """``[H, W, 4]`` raw RGBA of the image behind a textureInfo."""
+        textures = self.data.gltf.textures
+        index = info.get("index")
+        if index is None or not 0 <= index < len(textures):
+            raise AssetError(self.data.path, f"texture {index} does not exist")
+        texture = textures[index]
+        source = texture.source
+        for ext in (texture.extensions or {}).values():
+            if source is None and isinstance(ext, dict):
+                source = ext.get("source")
+        if source is None:
+            raise AssetError(self.data.path, f"texture {index} has no image source")
+        if source not in self.images:
+            self.images[source] = self.data.image(source)
+        return self.images[source]
+
+    def _texture(self, info: dict, pixels: np.ndarray) -> Texture:
+        uv_set, transform = _texture_transform(info)
+        textures = self.data.gltf.textures
+        sampler_index = textures[info["index"]].sampler
+        wrap = "wrap"
+        if sampler_index is not None and 0 <= sampler_index < len(self.data.gltf.samplers):
+            wrap = _WRAP_MODES.get(self.data.gltf.samplers[sampler_index].wrapS or 10497, "wrap")
+        return Texture(torch.from_numpy(np.ascontiguousarray(pixels, dtype=np.float32)), uv_set=uv_set,
+                       transform=transform, wrap=wrap)
+
+    def material(self, m) -> Material:
+        pbr = m.pbrMetallicRoughness
+        base_factor = np.asarray(pbr.baseColorFactor if pbr and pbr.baseColorFactor else [1, 1, 1, 1], np.float32)
+        rough_factor = pbr.roughnessFactor if pbr and pbr.roughnessFactor is not None else 1.0
+        metal_factor = pbr.metallicFactor if pbr and pbr.metallicFactor is not None else 1.0
+        if pbr and pbr.baseColorTexture is not None:
+            info = _texture_info(pbr.baseColorTexture)
+            px = self._pixels(info)
+            kd = self._texture(info, np.concatenate([srgb_to_linear(px[..., :3]), px[..., 3:]], -1) * base_factor)
+        else:
+            kd = Texture.constant(base_factor)
+        specular = (m.extensions or {}).get("KHR_materials_specular", {})
+        spec_factor = float(specular.get("specularFactor", 1.0))
+        spec_info = specular.get("specularTexture")
+        mr_info = _texture_info(pbr.metallicRoughnessTexture) if pbr and pbr.metallicRoughnessTexture else None
+        if mr_info is None and spec_info is None:
+            ks = Texture.constant([1.0 - spec_factor, rough_factor, metal_factor])
+        else:
+            layout = mr_info or spec_info
+            h, w = self._pixels(layout).shape[:2]
+            mr = self._pixels(mr_info) if mr_info else np.ones((h, w, 4), np.float32)
+            spec = resize(self._pixels(spec_info), h, w)[..., 3] if spec_info else np.ones((h, w), np.float32)
+            ks = self._texture(layout, np.stack(
+                [1.0 - spec_factor * spec, rough_factor * mr[..., 1], metal_factor * mr[..., 2]], axis=-1))
+        normal, scale = None, 1.0
+        if m.normalTexture is not None:
+            info = _texture_info(m.normalTexture)
+            scale = float(info.get("scale", 1.0) if info.get("scale") is not None else 1.0)
+            n = self._pixels(info)[..., :3] * 2.0 - 1.0
+            n[..., :2] *= scale
+            n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+            normal = self._texture(info, n)
+        emissive_factor = np.asarray(m.emissiveFactor or [0, 0, 0], np.float32)
+        emissive_factor *= float((m.extensions or {}).get("KHR_materials_emissive_strength", {})
+                                 .get("emissiveStrength", 1.0))
+        emissive = None
+        if m.emissiveTexture is not None and emissive_factor.any():
+            info = _texture_info(m.emissiveTexture)
+            emissive = self._texture(info, srgb_to_linear(self._pixels(info)[..., :3]) * emissive_factor)
+        elif emissive_factor.any():
+            emissive = Texture.constant(emissive_factor)
+        alpha_mode = m.alphaMode or "OPAQUE"
+        if alpha_mode not in ("OPAQUE", "MASK", "BLEND"):
+            raise AssetError(self.data.path, f"material {m.name!r} has unknown alphaMode {alpha_mode!r}")
+        return Material(
+            name=m.name or "material", kd=kd, ks=ks, normal=normal, normal_scale=scale, alpha_mode=alpha_mode,
+            alpha_cutoff=0.5 if m.alphaCutoff is None else float(m.alphaCutoff),
+            double_sided=bool(m.doubleSided), emissive=emissive,
+        )
+
+
+def _read_skin(data: GltfData, skin_index: int, mesh_world: np.ndarray, parents: np.ndarray) -> Skin:
+    gltf = data.gltf
+    skin = gltf.skins[skin_index]
+    nodes = []
+    for i, node in enumerate(gltf.nodes):
+        if node.matrix is not None:
+            t, r, s = matrix_to_trs(np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T)
+        else:
+            t, r, s = node.translation or [0, 0, 0], node.rotation or [0, 0, 0, 1], node.scale or [1, 1, 1]
+        nodes.append(Node(name=node.name or f"node{i}", parent=int(parents[i]),
+                          translation=torch.tensor(t, dtype=torch.float32),
+                          rotation=torch.tensor(r, dtype=torch.float32),
+                          scale=torch.tensor(s, dtype=torch.float32)))
+    joints = torch.tensor(skin.joints, dtype=torch.int64)
+    if skin.inverseBindMatrices is not None:
+        ibm = data.accessor(skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major
+    else:
+        ibm = np.tile(np.eye(4, dtype=np.float32), (len(skin.joints), 1, 1))
+    return Skin(nodes=nodes, joints=joints, inverse_bind=torch.from_numpy(np.ascontiguousarray(ibm, np.float32)),
+                mesh_to_world=torch.from_numpy(mesh_world.astype(np.float32)))
+
+
+def _read_animations(data: GltfData) -> list[Animation]:
+    animations = []
+    for a_index, anim in enumerate(data.gltf.animations or []):
+        channels = []
+        for ch in anim.channels:
+            if ch.target.node is None or ch.target.path not in _TRS_PATHS:
+                warnings.warn(f"{data.path}: animation {a_index} channel on {ch.target.path!r} skipped")
+                continue
+            sampler = anim.samplers[ch.sampler]
+            times = data.accessor(sampler.input).astype(np.float32).reshape(-1)
+            values = data.accessor(sampler.output).astype(np.float32)
+            interpolation = sampler.interpolation or "LINEAR"
+            if interpolation == "CUBICSPLINE":
+                warnings.warn(f"{data.path}: animation {a_index} uses CUBICSPLINE; tangents dropped, keys kept")
+                values = values.reshape(len(times), 3, -1)[:, 1]
+                interpolation = "LINEAR"
+            channels.append(Channel(node=int(ch.target.node), path=ch.target.path, times=torch.from_numpy(times),
+                                    values=torch.from_numpy(np.ascontiguousarray(values)),
+                                    interpolation=interpolation))
+        animations.append(Animation(name=anim.name or f"animation{a_index}", channels=channels))
+    return animations
+
+
+@reader(".gltf", ".glb")
+def read_gltf(path: Path) -> Asset:
+    """Read a glTF 2.0 file into an ``Asset`` (see the module docstring)."""
+    path = Path(path)
+    gltf = parse_gltf(path)
+    unknown = sorted(set(gltf.extensionsRequired or []) - SUPPORTED_EXTENSIONS)
+    if unknown:
+        raise AssetError(path, f"requires unsupported glTF extension(s): {', '.join(unknown)}")
+    data = GltfData(gltf, path)
+    order, world, parents = _node_world_matrices(gltf)
+    n_materials = len(gltf.materials)
+    parts = []
+    for node_index in order:
+        node = gltf.nodes[node_index]
+        if node.mesh is None:
+            continue
+        if not 0 <= node.mesh < len(gltf.meshes):
+            raise AssetError(path, f"node {node_index} refers to missing mesh {node.mesh}")
+        for p_index, prim in enumerate(gltf.meshes[node.mesh].primitives):
+            material = n_materials if prim.material is None else prim.material
+            if not 0 <= material <= n_materials:
+                raise AssetError(path, f"mesh {node.mesh} primitive {p_index} refers to missing material {material}")
+            part = _read_primitive(data, prim, world[node_index], material, node.skin,
+                                   f"mesh {node.mesh} primitive {p_index}")
+            if part is not None and len(part.triangles):
+                parts.append(part)
+    if not parts:
+        raise AssetError(path, "the default scene contains no triangles")
+    mesh, corners = _merge(parts, path)
+    reader_ = _MaterialReader(data)
+    materials = [reader_.material(m) for m in gltf.materials]
+    if (mesh.t_mat_idx == n_materials).any() or not materials:
+        materials.append(Material(name="default"))
+    skins = sorted({p.skin for p in parts if p.skin is not None})
+    skin, animations = None, []
+    if skins:
+        if len(skins) > 1:
+            warnings.warn(f"{path}: {len(skins)} skins; only skin {skins[0]} is kept")
+        skinned_node = next(i for i in order if gltf.nodes[i].skin == skins[0])
+        skin = _read_skin(data, skins[0], world[skinned_node], parents)
+        animations = _read_animations(data)
+    elif gltf.animations:
+        warnings.warn(f"{path}: animations of an unskinned scene are not kept")
+    nan_normals = _stack_nan(parts, "normals", 3)
+    nan_tangents = _stack_nan(parts, "tangents", 4)
+    materials = import_normal_maps(mesh, materials, nan_normals[corners], nan_tangents[corners])
+    return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path)

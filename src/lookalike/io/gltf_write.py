@@ -1,0 +1,305 @@
+"""Binary glTF 2.0 (``.glb``) writer: one mesh with a primitive per material, PNG textures
+embedded in the binary chunk.
+
+Vertices are unwelded per distinct corner (position, UVs, MikkTSpace tangent), as glTF needs one
+index buffer. NORMAL holds the smooth area-weighted normals lookalike renders with; TANGENT holds
+MikkTSpace tangents of the written mesh, and normal maps are converted into that frame, so
+clients that read TANGENT and clients that compute MikkTSpace (Blender, the glTF specification's
+default) decode the same normals.
+
+Material channels: base colour (+ alpha) as ``baseColorFactor`` or an sRGB PNG; ``ks`` as
+``roughnessFactor``/``metallicFactor`` or one RGBA PNG used both as ``metallicRoughnessTexture``
+(R = 1, G = roughness, B = metalness) and as KHR_materials_specular ``specularTexture`` (A =
+``1 - gamma``); a constant ``gamma != 0`` becomes ``specularFactor = 1 - gamma``. Note that glTF's
+specular factor scales only the dielectric lobe, while the paper's ``gamma`` also scales metals.
+1x1 (constant) textures are written as factors. The node tree is flat (identity transforms:
+geometry is already in the asset's frame); skinned assets keep their joint nodes, skin and
+animations, with inverse bind matrices adjusted for the mesh transform baked in on load.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from ..asset import Asset, Material, Texture
+from ..asset.normals import vertex_normals
+from ..errors import AssetError
+from .images import encode_png, linear_to_srgb
+from .mikktspace import mikktspace_tangents
+from .normal_frames import export_normal_maps
+from .registry import writer
+
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+_FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
+_TYPES = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4", 16: "MAT4"}
+_WRAP = {"wrap": 10497, "clamp": 33071}
+
+
+class _GlbBuilder:
+    """Accumulates the JSON document and the binary chunk of a GLB file."""
+
+    def __init__(self):
+        self.doc: dict = {"asset": {"version": "2.0", "generator": "lookalike"}, "buffers": [],
+                          "bufferViews": [], "accessors": []}
+        self.chunks: list[bytes] = []
+        self.length = 0
+        self.extensions: set[str] = set()
+        self.texture_cache: dict[tuple, int] = {}
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        """Append ``data`` (4-byte aligned) as a bufferView; returns its index."""
+        pad = -self.length % 4
+        self.chunks.append(b"\0" * pad)
+        self.length += pad
+        view = {"buffer": 0, "byteOffset": self.length, "byteLength": len(data)}
+        if target is not None:
+            view["target"] = target
+        self.chunks.append(data)
+        self.length += len(data)
+        self.doc["bufferViews"].append(view)
+        return len(self.doc["bufferViews"]) - 1
+
+    def accessor(self, values: np.ndarray, component: int, target: int | None = None, bounds: bool = False,
+                 normalized: bool = False, matrix: bool = False) -> int:
+        """Append ``values [n, k]`` (or ``[n]``) as an accessor; ``bounds`` adds min/max."""
+        dtype = {_FLOAT: np.float32, _UNSIGNED_SHORT: np.uint16, _UNSIGNED_INT: np.uint32}[component]
+        values = np.ascontiguousarray(values, dtype=dtype)
+        rows = values.reshape(len(values), -1)
+        acc = {"bufferView": self.view(values.tobytes(), target), "componentType": component,
+               "count": len(values), "type": "MAT4" if matrix else _TYPES[rows.shape[1]]}
+        if normalized:
+            acc["normalized"] = True
+        if bounds:
+            acc["min"] = rows.min(axis=0).tolist()
+            acc["max"] = rows.max(axis=0).tolist()
+        self.doc["accessors"].append(acc)
+        return len(self.doc["accessors"]) - 1
+
+    def texture(self, pixels: np.ndarray, wrap: str, key: tuple) -> int:
+        """Index of a texture holding ``pixels [H, W, C]`` (values in [0, 1], already encoded),
+        written once per ``key``."""
+        if key not in self.texture_cache:
+            image = {"bufferView": self.view(encode_png(pixels)), "mimeType": "image/png"}
+            self.doc.setdefault("images", []).append(image)
+            samplers = self.doc.setdefault("samplers", [])
+            sampler = {"magFilter": 9729, "minFilter": 9987, "wrapS": _WRAP[wrap], "wrapT": _WRAP[wrap]}
+            if sampler not in samplers:
+                samplers.append(sampler)
+            self.doc.setdefault("textures", []).append(
+                {"source": len(self.doc["images"]) - 1, "sampler": samplers.index(sampler)})
+            self.texture_cache[key] = len(self.doc["textures"]) - 1
+        return self.texture_cache[key]
+
+    def glb(self) -> bytes:
+        """The GLB container: 12-byte header, JSON chunk (space padded), BIN chunk (zero padded)."""
+        binary = b"".join(self.chunks)
+        binary += b"\0" * (-len(binary) % 4)
+        self.doc["buffers"] = [{"byteLength": len(binary)}]
+        if self.extensions:
+            self.doc["extensionsUsed"] = sorted(self.extensions)
+        text = json.dumps(self.doc, separators=(",", ":")).encode()
+        text += b" " * (-len(text) % 4)
+        total = 12 + 8 + len(text) + 8 + len(binary)
+        return (struct.pack("<4sII", b"glTF", 2, total) + struct.pack("<I4s", len(text), b"JSON") + text
+                + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+
+
+def _constant(texture: Texture) -> np.ndarray | None:
+    """The ``[C]`` value of a texture whose texels are all equal, else ``None``."""
+    data = texture.data.detach().cpu().numpy()
+    first = data.reshape(-1, data.shape[-1])[0]
+    return first.astype(np.float64) if np.all(data == first) else None
+
+
+def _texture_info(builder: _GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
+    """A glTF textureInfo for ``texture`` encoded as ``pixels``, with KHR_texture_transform."""
+    info = {"index": builder.texture(pixels, texture.wrap, (id(texture.data), channel))}
+    if texture.uv_set:
+        info["texCoord"] = texture.uv_set
+    if texture.transform is not None:
+        m = texture.transform.detach().double().numpy()
+        # m[:2, :2] = R S with R = [[c, s], [-s, c]]: column 0 = sx (c, -s), column 1 = sy (s, c).
+        sx = float(np.hypot(m[0, 0], m[1, 0]))
+        rotation = float(np.arctan2(-m[1, 0], m[0, 0]))
+        sy = float(np.sign(np.linalg.det(m[:2, :2])) or 1.0) * float(np.hypot(m[0, 1], m[1, 1]))
+        info["extensions"] = {"KHR_texture_transform": {
+            "offset": [float(m[0, 2]), float(m[1, 2])], "rotation": rotation, "scale": [sx, sy]}}
+        builder.extensions.add("KHR_texture_transform")
+    return info
+
+
+def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
+    """glTF material JSON for ``material`` (textures written to ``builder``)."""
+    def constant_or_mean(texture: Texture) -> np.ndarray | None:
+        value = _constant(texture)
+        if value is None and not has_uv:  # a texture without UVs to map it: its mean colour
+            value = texture.data.detach().reshape(-1, texture.channels).mean(0).double().numpy()
+        return value
+
+    pbr: dict = {}
+    out: dict = {"name": material.name, "pbrMetallicRoughness": pbr}
+    kd = constant_or_mean(material.kd)
+    if kd is not None:
+        pbr["baseColorFactor"] = np.clip(kd, 0, 1).tolist()
+    else:
+        data = material.kd.data.detach().numpy()
+        rgb = linear_to_srgb(data[..., :3])
+        pixels = rgb if np.all(data[..., 3] == 1.0) else np.concatenate([rgb, data[..., 3:]], axis=-1)
+        pbr["baseColorTexture"] = _texture_info(builder, material.kd, pixels, "kd")
+    ks = constant_or_mean(material.ks)
+    if ks is not None:
+        pbr["roughnessFactor"] = float(np.clip(ks[1], 0, 1))
+        pbr["metallicFactor"] = float(np.clip(ks[2], 0, 1))
+        if ks[0] != 0:
+            out.setdefault("extensions", {})["KHR_materials_specular"] = {"specularFactor": float(np.clip(1 - ks[0], 0, 1))}
+    else:
+        data = material.ks.data.detach().numpy()
+        gamma = data[..., 0]
+        varies = not np.all(gamma == gamma.flat[0])
+        pixels = np.stack([np.ones_like(gamma), data[..., 1], data[..., 2]] + ([1.0 - gamma] if varies else []), -1)
+        info = _texture_info(builder, material.ks, pixels, "ks")
+        pbr["metallicRoughnessTexture"] = info
+        if varies:
+            out.setdefault("extensions", {})["KHR_materials_specular"] = {"specularTexture": dict(info)}
+        elif gamma.flat[0] != 0:
+            out.setdefault("extensions", {})["KHR_materials_specular"] = {
+                "specularFactor": float(np.clip(1 - gamma.flat[0], 0, 1))}
+    if "KHR_materials_specular" in out.get("extensions", {}):
+        builder.extensions.add("KHR_materials_specular")
+    if material.normal is not None and has_uv and _constant(material.normal) is None:
+        pixels = material.normal.data.detach().numpy() * 0.5 + 0.5
+        out["normalTexture"] = _texture_info(builder, material.normal, pixels, "normal")
+    if material.emissive is not None:
+        ke = constant_or_mean(material.emissive)
+        if ke is not None:
+            strength = max(float(ke.max()), 1.0)
+            out["emissiveFactor"] = (np.clip(ke, 0, None) / strength).tolist()
+            if strength > 1.0:
+                out.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
+                builder.extensions.add("KHR_materials_emissive_strength")
+        else:
+            out["emissiveFactor"] = [1.0, 1.0, 1.0]
+            pixels = linear_to_srgb(material.emissive.data.detach().numpy())
+            out["emissiveTexture"] = _texture_info(builder, material.emissive, pixels, "emissive")
+    if material.alpha_mode != "OPAQUE":
+        out["alphaMode"] = material.alpha_mode
+    if material.alpha_mode == "MASK":
+        out["alphaCutoff"] = float(material.alpha_cutoff)
+    if material.double_sided:
+        out["doubleSided"] = True
+    return out
+
+
+def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First index of each distinct row of ``rows [n, k]`` and the inverse map ``[n]``."""
+    rows = np.ascontiguousarray(rows)
+    keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)
+
+
+def _skin(builder: _GlbBuilder, asset: Asset) -> tuple[list[dict], int]:
+    """Joint nodes, the skin and animations written to ``builder``; returns the node list and
+    the skin index (the mesh node is appended by the caller)."""
+    skin = asset.skin
+    nodes = [{"name": n.name, "translation": n.translation.tolist(), "rotation": n.rotation.tolist(),
+              "scale": n.scale.tolist()} for n in skin.nodes]
+    for i, node in enumerate(skin.nodes):
+        if node.parent >= 0:
+            nodes[node.parent].setdefault("children", []).append(i)
+    # Positions were moved by mesh_to_world on load: IBM' = IBM @ inverse(mesh_to_world).
+    ibm = skin.inverse_bind.double().numpy() @ np.linalg.inv(skin.mesh_to_world.double().numpy())
+    ibm_acc = builder.accessor(np.ascontiguousarray(ibm.transpose(0, 2, 1)).reshape(-1, 16), _FLOAT, matrix=True)
+    builder.doc["skins"] = [{"joints": skin.joints.tolist(), "inverseBindMatrices": ibm_acc}]
+    animations = []
+    for anim in asset.animations:
+        samplers, channels = [], []
+        for ch in anim.channels:
+            times = ch.times.detach().numpy().astype(np.float32)
+            samplers.append({"input": builder.accessor(times, _FLOAT, bounds=True),
+                             "output": builder.accessor(ch.values.detach().numpy(), _FLOAT),
+                             "interpolation": ch.interpolation})
+            channels.append({"sampler": len(samplers) - 1, "target": {"node": ch.node, "path": ch.path}})
+        if channels:
+            animations.append({"name": anim.name, "samplers": samplers, "channels": channels})
+    if animations:
+        builder.doc["animations"] = animations
+    return nodes, 0
+
+
+@writer(".glb")
+def write_glb(asset: Asset, path: Path) -> None:
+    """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
+    path = Path(path)
+    mesh = asset.mesh.detach()
+    v_pos = mesh.v_pos.float()
+    v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
+    n_tris = mesh.num_triangles
+    corner_keys = [mesh.t_pos_idx.numpy().reshape(-1, 1)] + [t.numpy().reshape(-1, 1) for _, t in mesh.uv]
+    corner_pos = v_pos[mesh.t_pos_idx].numpy()
+    corner_nrm = v_nrm[mesh.t_pos_idx].numpy()
+    has_uv = bool(mesh.uv)
+    materials = list(asset.materials)
+    tangents = None
+    if has_uv and any(m.normal is not None for m in materials):
+        tangent_set = next(m.normal.uv_set for m in materials if m.normal is not None)
+        corner_uv = mesh.uv[tangent_set][0].float()[mesh.uv[tangent_set][1]].numpy()
+        tangents = mikktspace_tangents(corner_pos, corner_nrm, corner_uv).reshape(-1, 4)
+        zero = np.linalg.norm(tangents[:, :3], axis=-1) < 0.5  # groups MikkTSpace leaves without a tangent
+        if zero.any():
+            n = corner_nrm.reshape(-1, 3)[zero]
+            axis = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+            fallback = np.cross(axis, n)
+            tangents[zero, :3] = fallback / np.linalg.norm(fallback, axis=-1, keepdims=True)
+        corner_keys.append(tangents.view(np.int32).astype(np.int64))
+        materials = export_normal_maps(mesh, materials)
+    first, inverse = _unique_rows(np.concatenate(corner_keys, axis=1))
+    indices = inverse.reshape(n_tris, 3)
+
+    builder = _GlbBuilder()
+    attributes = {"POSITION": builder.accessor(corner_pos.reshape(-1, 3)[first], _FLOAT, _ARRAY_BUFFER, bounds=True),
+                  "NORMAL": builder.accessor(corner_nrm.reshape(-1, 3)[first], _FLOAT, _ARRAY_BUFFER)}
+    if tangents is not None:
+        attributes["TANGENT"] = builder.accessor(tangents[first], _FLOAT, _ARRAY_BUFFER)
+    for k, (v_tex, t_tex_idx) in enumerate(mesh.uv):
+        attributes[f"TEXCOORD_{k}"] = builder.accessor(v_tex.float()[t_tex_idx].numpy().reshape(-1, 2)[first],
+                                                       _FLOAT, _ARRAY_BUFFER)
+    corner_vertex = mesh.t_pos_idx.numpy().reshape(-1)[first]
+    if mesh.v_color is not None:
+        color = np.clip(mesh.v_color.float().numpy()[corner_vertex], 0, 1)
+        attributes["COLOR_0"] = builder.accessor(color, _FLOAT, _ARRAY_BUFFER)
+    if asset.skin is not None and mesh.v_joints is not None:
+        joints = mesh.v_joints.numpy()[corner_vertex]
+        weights = mesh.v_weights.float().numpy()[corner_vertex]
+        weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-12)
+        for s in range(joints.shape[1] // 4):
+            attributes[f"JOINTS_{s}"] = builder.accessor(joints[:, 4 * s:4 * s + 4], _UNSIGNED_SHORT, _ARRAY_BUFFER)
+            attributes[f"WEIGHTS_{s}"] = builder.accessor(weights[:, 4 * s:4 * s + 4], _FLOAT, _ARRAY_BUFFER)
+
+    t_mat_idx = mesh.t_mat_idx.numpy()
+    primitives, used_materials = [], []
+    for m_index in np.unique(t_mat_idx):
+        used_materials.append(int(m_index))
+        primitives.append({"attributes": attributes, "mode": 4, "material": len(used_materials) - 1,
+                           "indices": builder.accessor(indices[t_mat_idx == m_index].reshape(-1), _UNSIGNED_INT,
+                                                       _ELEMENT_ARRAY_BUFFER)})
+    builder.doc["materials"] = [_material(builder, materials[i], has_uv) for i in used_materials]
+    builder.doc["meshes"] = [{"name": asset.name, "primitives": primitives}]
+    if asset.skin is not None and mesh.v_joints is not None:
+        nodes, skin_index = _skin(builder, asset)
+        nodes.append({"name": asset.name, "mesh": 0, "skin": skin_index})
+        roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0] + [len(nodes) - 1]
+    else:
+        nodes, roots = [{"name": asset.name, "mesh": 0}], [0]
+    builder.doc["nodes"] = nodes
+    builder.doc["scenes"] = [{"nodes": roots}]
+    builder.doc["scene"] = 0
+    try:
+        path.write_bytes(builder.glb())
+    except OSError as e:
+        raise AssetError(path, f"cannot write file: {e.strerror or e}") from None
+

@@ -1,0 +1,90 @@
+"""Image files in and out (PNG, JPEG, anything Pillow reads), and the sRGB transfer function.
+
+Arrays are ``[H, W, C]`` float32 in ``[0, 1]``, row 0 at the top of the image. Colour inside
+lookalike is linear; files hold sRGB-encoded colour (glTF base colour and emissive, OBJ
+``map_Kd``), so readers call ``srgb_to_linear`` and writers ``linear_to_srgb`` on colour
+channels only (never on alpha, roughness, metalness or normals).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, UnidentifiedImageError
+
+from ..errors import AssetError
+
+_SIXTEEN_BIT_MODES = ("I;16", "I;16B", "I;16L", "I")
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """sRGB electro-optical transfer (IEC 61966-2-1), elementwise on any shape:
+    ``c / 12.92`` for ``c <= 0.04045``, else ``((c + 0.055) / 1.055) ** 2.4``."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    """Inverse of ``srgb_to_linear``: ``12.92 c`` for ``c <= 0.0031308``, else
+    ``1.055 c ** (1 / 2.4) - 0.055``; input clamped to ``[0, 1]``."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1.0 / 2.4) - 0.055).astype(np.float32)
+
+
+def decode_image(data: bytes, source: str | Path) -> np.ndarray:
+    """Decode encoded image bytes to ``[H, W, 4]`` float32 RGBA in ``[0, 1]`` (grey images are
+    replicated to RGB, missing alpha is 1). ``source`` names the file in errors."""
+    try:
+        image = Image.open(io.BytesIO(data))
+        image.load()
+    except (UnidentifiedImageError, OSError, ValueError) as e:
+        raise AssetError(source, f"cannot decode image: {e}") from None
+    if image.mode in _SIXTEEN_BIT_MODES:
+        grey = np.asarray(image, dtype=np.float32) / 65535.0
+        return np.concatenate([np.repeat(grey[..., None], 3, axis=-1), np.ones_like(grey)[..., None]], axis=-1)
+    return np.asarray(image.convert("RGBA"), dtype=np.float32) / 255.0
+
+
+def read_image(path: str | Path) -> np.ndarray:
+    """Read an image file as ``decode_image`` does; a missing file is an ``AssetError``."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise AssetError(path, f"cannot read image: {e.strerror or e}") from None
+    return decode_image(data, path)
+
+
+def encode_png(pixels: np.ndarray) -> bytes:
+    """Encode ``[H, W, C]`` float values in ``[0, 1]`` (C = 1, 3 or 4) as an 8-bit PNG;
+    values are clamped and rounded to the nearest level."""
+    pixels = np.asarray(pixels, dtype=np.float32)
+    if pixels.ndim != 3 or pixels.shape[-1] not in (1, 3, 4):
+        raise ValueError(f"encode_png needs [H, W, 1|3|4] pixels, got {tuple(pixels.shape)}")
+    levels = np.round(np.clip(pixels, 0.0, 1.0) * 255.0).astype(np.uint8)
+    mode = {1: "L", 3: "RGB", 4: "RGBA"}[pixels.shape[-1]]
+    buffer = io.BytesIO()
+    Image.fromarray(levels[..., 0] if mode == "L" else levels, mode).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def write_png(pixels: np.ndarray, path: str | Path) -> None:
+    """Write ``encode_png(pixels)`` to ``path``."""
+    path = Path(path)
+    try:
+        path.write_bytes(encode_png(pixels))
+    except OSError as e:
+        raise AssetError(path, f"cannot write image: {e.strerror or e}") from None
+
+
+def resize(pixels: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Bilinear resample of ``[H, W, C]`` float32 pixels to ``[height, width, C]``."""
+    if pixels.shape[:2] == (height, width):
+        return pixels
+    channels = [
+        np.asarray(Image.fromarray(np.ascontiguousarray(pixels[..., c]), "F").resize((width, height), Image.BILINEAR))
+        for c in range(pixels.shape[-1])
+    ]
+    return np.stack(channels, axis=-1).astype(np.float32)

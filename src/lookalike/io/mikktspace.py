@@ -1,0 +1,156 @@
+"""MikkTSpace per-corner tangents (Mikkelsen 2008; the reference ``mikktspace.c`` that Blender, the
+glTF specification and most bakers use), vectorised with NumPy and SciPy.
+
+The reference algorithm, as implemented here:
+
+1. Corners with bitwise-equal position, normal and UV are one vertex.
+2. Triangles with two equal corner positions are degenerate: they take no part, and each of
+   their corners later copies the tangent of another corner of the same vertex.
+3. Per triangle, with ``d1 = p1 - p0``, ``d2 = p2 - p0``, ``t21 = uv1 - uv0``, ``t31 = uv2 - uv0``:
+   signed UV area ``A = t21.x t31.y - t21.y t31.x``, orientation-preserving iff ``A > 0``,
+   ``vOs = t31.y d1 - t21.y d2`` (``A * dP/du``) and ``vOt = -t31.x d1 + t21.x d2``; the
+   triangle's direction is ``sign(A) vOs / |vOs|``. A triangle with ``A``, ``|vOs|/|A|`` or
+   ``|vOt|/|A|`` zero is "group with any": it contributes nothing and takes the orientation of
+   the neighbour that reaches it first (here: of its first edge neighbour with a good triangle).
+4. Around each vertex, corners of triangles connected through shared edges (edges matched by
+   vertex identity with opposite winding) and of equal orientation form a group.
+5. A group's tangent is ``normalize(sum_c angle_c * normalize(proj_n(dir_c)))`` where ``proj_n``
+   removes the component along the vertex normal and ``angle_c`` is the corner angle between the
+   two corner edges projected into the tangent plane; its sign is +1 for an
+   orientation-preserving group, -1 otherwise.
+
+Deviation from the reference, which matters only on unusual meshes: the reference splits a group
+further where two triangles' tangent directions are exactly opposite (its default 180 degree
+threshold), and resolves "group with any" orientation in triangle order.
+
+UV convention: ``mikktspace_tangents`` takes UVs in lookalike's (glTF) convention, v down the
+image, and returns glTF TANGENT values, i.e. with the reference's sign computed on ``(u, 1 - v)``
+(equivalently: the reference's sign on glTF UVs, negated). Then ``b = w * cross(n, t)`` points up
+the image, matching ``lookalike.asset.tangents``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
+
+_FLT_MIN = 1.17549435e-38  # the reference's "NotZero" threshold
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    """``x / |x|`` along the last axis; rows with ``|x| <= FLT_MIN`` stay unchanged (as the reference)."""
+    length = np.linalg.norm(x, axis=-1, keepdims=True)
+    return np.where(length > _FLT_MIN, x / np.where(length > _FLT_MIN, length, 1.0), x)
+
+
+def _welded_vertices(positions, normals, uvs) -> np.ndarray:
+    """``[T, 3]`` vertex id per corner: equal ids for bitwise-equal (position, normal, uv)."""
+    keys = np.concatenate([positions, normals, uvs], axis=-1).astype(np.float32).reshape(-1, 8)
+    keys = np.ascontiguousarray(keys + 0.0)  # +0.0 turns -0.0 into 0.0, as float == does
+    rows = keys.view(np.dtype((np.void, keys.dtype.itemsize * 8))).ravel()
+    _, inverse = np.unique(rows, return_inverse=True)
+    return inverse.reshape(-1, 3)
+
+
+def _edge_neighbours(vertex: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs of triangles sharing an edge with opposite winding: ``(t, e, t2, e2)`` arrays where
+    edge ``e`` of ``t`` (corner ``e`` to ``e + 1``) is edge ``e2`` of ``t2`` reversed."""
+    tri = np.flatnonzero(alive)
+    a = vertex[tri]
+    b = np.roll(a, -1, axis=1)
+    n_vertices = int(vertex.max()) + 1 if vertex.size else 1
+    forward = (a.astype(np.int64) * n_vertices + b).reshape(-1)
+    backward = (b.astype(np.int64) * n_vertices + a).reshape(-1)
+    order = np.argsort(forward, kind="stable")
+    position = np.searchsorted(forward[order], backward)
+    position = np.minimum(position, len(order) - 1)
+    match = forward[order][position] == backward
+    source = np.flatnonzero(match)
+    target = order[position[match]]
+    return tri[source // 3], source % 3, tri[target // 3], target % 3
+
+
+def mikktspace_tangents(positions: np.ndarray, normals: np.ndarray, uvs: np.ndarray) -> np.ndarray:
+    """MikkTSpace tangents of every triangle corner (see the module docstring).
+
+    Args:
+        positions: ``[T, 3, 3]`` corner positions.
+        normals: ``[T, 3, 3]`` corner normals (unit).
+        uvs: ``[T, 3, 2]`` corner UVs, glTF convention (v down the image).
+    Returns:
+        ``[T, 3, 4]`` float32: unit tangent xyz (zero where the reference leaves none) and the glTF
+        handedness ``w = +-1``.
+    """
+    positions = np.asarray(positions, np.float32)
+    normals = np.asarray(normals, np.float32)
+    uvs = np.asarray(uvs, np.float32)
+    n_tris = positions.shape[0]
+    vertex = _welded_vertices(positions, normals, uvs)
+    p = positions.astype(np.float64)
+    n = normals.astype(np.float64)
+    # The reference's orientation on glTF UVs; glTF's w is its negation (module docstring).
+    t = uvs.astype(np.float64)
+
+    degenerate = ((p[:, 0] == p[:, 1]).all(-1) | (p[:, 0] == p[:, 2]).all(-1) | (p[:, 1] == p[:, 2]).all(-1))
+    d1, d2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    t21, t31 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    area = t21[:, 0] * t31[:, 1] - t21[:, 1] * t31[:, 0]
+    v_os = t31[:, 1:2] * d1 - t21[:, 1:2] * d2
+    v_ot = -t31[:, 0:1] * d1 + t21[:, 0:1] * d2
+    orient = area > 0
+    len_os, len_ot = np.linalg.norm(v_os, axis=-1), np.linalg.norm(v_ot, axis=-1)
+    abs_area = np.where(np.abs(area) > _FLT_MIN, np.abs(area), 1.0)
+    good = (np.abs(area) > _FLT_MIN) & (len_os / abs_area > _FLT_MIN) & (len_ot / abs_area > _FLT_MIN)
+    direction = np.where((good & (len_os > _FLT_MIN))[:, None],
+                         np.where(orient, 1.0, -1.0)[:, None] * v_os / np.where(len_os > 0, len_os, 1.0)[:, None], 0.0)
+
+    alive = ~degenerate
+    tri_a, edge_a, tri_b, edge_b = _edge_neighbours(vertex, alive)
+    # "Group with any" triangles take the orientation of a good edge neighbour.
+    adopt = ~good[tri_a] & good[tri_b]
+    orient = orient.copy()
+    first = np.unique(tri_a[adopt], return_index=True)
+    orient[first[0]] = orient[tri_b[adopt][first[1]]]
+
+    # Corner graph: across a shared edge, the two corners at each end vertex are linked when the
+    # triangles' orientations agree. Corner (t, k) has id 3 t + k.
+    same = orient[tri_a] == orient[tri_b]
+    ta, ea, tb, eb = tri_a[same], edge_a[same], tri_b[same], edge_b[same]
+    links_from = np.concatenate([3 * ta + ea, 3 * ta + (ea + 1) % 3])
+    links_to = np.concatenate([3 * tb + (eb + 1) % 3, 3 * tb + eb])
+    n_corners = 3 * n_tris
+    graph = scipy.sparse.coo_matrix((np.ones(len(links_from)), (links_from, links_to)), shape=(n_corners, n_corners))
+    n_groups, group = scipy.sparse.csgraph.connected_components(graph, directed=False)
+
+    # Angle-weighted, projected triangle directions summed per group.
+    corner_n = n.reshape(-1, 3)
+    corner_p = p.reshape(-1, 3)
+    prev_p = p[:, [2, 0, 1]].reshape(-1, 3)
+    next_p = p[:, [1, 2, 0]].reshape(-1, 3)
+
+    def project(v):
+        return _unit(v - corner_n * (corner_n * v).sum(-1, keepdims=True))
+
+    v1, v2 = project(prev_p - corner_p), project(next_p - corner_p)
+    angle = np.arccos(np.clip((v1 * v2).sum(-1), -1.0, 1.0))
+    contributes = np.repeat(good & alive, 3)
+    weighted = np.where(contributes[:, None], angle[:, None] * project(np.repeat(direction, 3, axis=0)), 0.0)
+    summed = np.zeros((n_groups, 3))
+    np.add.at(summed, group, weighted)
+    tangent = _unit(summed)[group]
+    sign = np.where(np.repeat(orient, 3), -1.0, 1.0)  # glTF w = -(reference sign on glTF UVs)
+
+    # Degenerate triangles copy a tangent from a live corner of the same vertex.
+    corner_vertex = vertex.reshape(-1)
+    live = np.repeat(alive, 3)
+    if (~live).any():
+        donor = np.full(int(corner_vertex.max()) + 1, -1)
+        donor[corner_vertex[live]] = np.flatnonzero(live)
+        take = donor[corner_vertex[~live]]
+        dead = np.flatnonzero(~live)
+        has = take >= 0
+        tangent[dead[has]] = tangent[take[has]]
+        sign[dead[has]] = sign[take[has]]
+        tangent[dead[~has]] = 0.0
+    return np.concatenate([tangent, sign[:, None]], axis=-1).reshape(n_tris, 3, 4).astype(np.float32)

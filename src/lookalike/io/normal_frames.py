@@ -1,0 +1,138 @@
+"""Re-expressing tangent-space normal maps between tangent frames, texel by texel.
+
+Inside lookalike a normal map lives in our frame (``lookalike.asset.tangents.vertex_tangents``
+on the smooth normals of ``lookalike.asset.normals.vertex_normals``). Files use another frame:
+the TANGENT attribute where present, else MikkTSpace of the mesh as stored (what Blender always
+does and what the glTF specification prescribes). Readers convert file -> ours, writers ours ->
+MikkTSpace of the written mesh.
+
+A frame is given per triangle corner: normals ``[T, 3, 3]`` and tangents ``[T, 3, 4]`` (xyz, w).
+At a texel covered by triangle ``f`` with barycentrics ``l``, a renderer interpolates
+``n = normalize(sum l_k n_k)``, ``t = normalize(T - n (n . T))`` with ``T = sum l_k t_k``,
+``b = sign(w) cross(n, t)``; the texel value ``m`` means ``m.x t + m.y b + m.z n``. Conversion maps
+``m_src`` to ``m_dst = (s . t_dst, s . b_dst, s . n_dst)`` with ``s`` that surface normal in the
+source frame, then normalises. Texels no triangle covers keep their value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import torch
+
+from ..asset import Material, Mesh, Texture
+from ..asset.normals import vertex_normals
+from ..asset.tangents import vertex_tangents
+from ..asset.uv_raster import rasterize_uv
+from .mikktspace import mikktspace_tangents
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    return x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-30)
+
+
+def _texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bary: np.ndarray):
+    """Per-texel orthonormal ``(t, b, n)``, each ``[K, 3]``, interpolated as a renderer does (module
+    docstring); a tangent that vanishes after Gram-Schmidt falls back to ``cross(axis, n)``."""
+    n = _unit(np.einsum("kc,kcd->kd", bary, normals[tri]))
+    t4 = np.einsum("kc,kcd->kd", bary, tangents[tri])
+    t = t4[:, :3] - n * (n * t4[:, :3]).sum(-1, keepdims=True)
+    axis = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    weak = np.linalg.norm(t, axis=-1) < 1e-6
+    t = np.where(weak[:, None], np.cross(axis, n), t)
+    t = _unit(t)
+    b = np.where(t4[:, 3:] < 0, -1.0, 1.0) * np.cross(n, t)
+    return t, b, n
+
+
+def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
+                         dst: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Convert a tangent-space normal map from frame ``src`` to frame ``dst``.
+
+    Args:
+        pixels: ``[H, W, 3]`` unit tangent-space normals in the ``src`` frame.
+        uv: ``[T, 3, 2]`` corner UVs of the triangles that use the map.
+        src, dst: ``(normals [T, 3, 3], tangents [T, 3, 4])`` corner frames.
+    Returns:
+        ``[H, W, 3]`` float32 unit normals in the ``dst`` frame.
+    """
+    height, width = pixels.shape[:2]
+    rows, cols, tri, bary = rasterize_uv(uv, height, width)
+    m = pixels[rows, cols].astype(np.float64)
+    t1, b1, n1 = _texel_frames(*src, tri, bary)
+    surface = m[:, :1] * t1 + m[:, 1:2] * b1 + m[:, 2:] * n1
+    t2, b2, n2 = _texel_frames(*dst, tri, bary)
+    converted = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
+    out = pixels.astype(np.float32, copy=True)
+    out[rows, cols] = _unit(converted)
+    return out
+
+
+def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
+    """Our frame per corner: smooth normals ``[T, 3, 3]`` and ``vertex_tangents`` ``[T, 3, 4]``."""
+    v_pos = mesh.v_pos.detach().float()
+    v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
+    v_tex, t_tex_idx = mesh.uv[uv_set]
+    v_tng, t_tng_idx = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex.detach().float(), t_tex_idx, v_nrm)
+    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64), v_tng[t_tng_idx].numpy().astype(np.float64)
+
+
+def corner_uvs(mesh: Mesh, uv_set: int) -> np.ndarray:
+    """``[T, 3, 2]`` float32 corner UVs of a UV set."""
+    v_tex, t_tex_idx = mesh.uv[uv_set]
+    return v_tex.detach().float()[t_tex_idx].numpy()
+
+
+def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> list[Material]:
+    """Materials with every normal map converted; ``frames(uv_set) -> (file normals, file
+    tangents)`` gives the file's corner frame of a UV set."""
+    out = []
+    t_mat_idx = mesh.t_mat_idx.numpy()
+    cache = {}
+    for index, material in enumerate(materials):
+        normal = material.normal
+        if normal is None or normal.uv_set >= len(mesh.uv) or not (t_mat_idx == index).any():
+            out.append(material)
+            continue
+        used = t_mat_idx == index
+        if normal.uv_set not in cache:
+            cache[normal.uv_set] = (our_corner_frame(mesh, normal.uv_set), frames(normal.uv_set))
+        ours, theirs = cache[normal.uv_set]
+        src, dst = (theirs, ours) if to_ours else (ours, theirs)
+        pixels = reexpress_normal_map(normal.data.detach().numpy(), corner_uvs(mesh, normal.uv_set)[used],
+                                      tuple(a[used] for a in src), tuple(a[used] for a in dst))
+        out.append(replace(material, normal=replace(normal, data=torch.from_numpy(pixels), mips=None)))
+    return out
+
+
+def import_normal_maps(mesh: Mesh, materials: list[Material], file_normals: np.ndarray | None = None,
+                       file_tangents: np.ndarray | None = None) -> list[Material]:
+    """Materials with normal maps converted from the file's frame to ours.
+
+    Args:
+        file_normals: ``[T, 3, 3]`` the file's corner normals, or ``None`` for our smooth normals
+            (also used where rows are NaN).
+        file_tangents: ``[T, 3, 4]`` the file's corner tangents (glTF TANGENT), or ``None``; rows
+            that are NaN (or all of them, for ``None``) use MikkTSpace of the file's mesh.
+    """
+    def frames(uv_set: int):
+        ours_n, _ = our_corner_frame(mesh, uv_set)
+        normals = ours_n if file_normals is None else np.where(np.isnan(file_normals), ours_n, file_normals)
+        positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
+        mikk = mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
+        tangents = mikk if file_tangents is None else np.where(np.isnan(file_tangents), mikk, file_tangents)
+        return normals, tangents
+
+    return _convert(mesh, materials, frames, to_ours=True)
+
+
+def export_normal_maps(mesh: Mesh, materials: list[Material]) -> list[Material]:
+    """Materials with normal maps converted from our frame to MikkTSpace of the mesh as written
+    (our smooth normals, float32 positions and UVs)."""
+    def frames(uv_set: int):
+        normals, _ = our_corner_frame(mesh, uv_set)
+        positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
+        return normals, mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
+
+    return _convert(mesh, materials, frames, to_ours=False)

@@ -1,0 +1,35 @@
+"""Differentiable rasterization primitives with nvdiffrast's contracts, on the CPU.
+
+Use as ``import lookalike.render as dr``; code written for nvdiffrast runs unchanged.
+Conventions (all nvdiffrast's):
+
+- Input positions are clip space ``(x, y, z, w)``; pixel ``(ix, iy)`` of an ``H x W`` image
+  samples NDC ``((2 ix + 1)/W - 1, (2 iy + 1)/H - 1)``.
+- Image row 0 is ``y = -1`` (OpenGL memory order), so images come out upside down and are
+  flipped vertically for display.
+- ``rast[..., 3]`` is triangle index + 1 (0 = background), ``rast[..., 0:2]`` the
+  perspective-correct barycentric weights of vertices 0 and 1, ``rast[..., 2]`` is z/w.
+- Texture coordinate ``(0, 0)`` is texel row 0, column 0 corner; texel ``(r, c)`` has its
+  centre at ``uv = ((c + 0.5) / W, (r + 0.5) / H)``.
+
+Visibility is a compiled Numba kernel (:mod:`.visibility`); every differentiable step is torch.
+"""
+
+from .antialias import antialias, antialias_construct_topology_hash
+from .context import RasterizeContext
+from .interpolate import interpolate
+from .mipmap import texture_construct_mip
+from .peel import DepthPeeler
+from .rasterize import rasterize
+from .texture import texture
+
+__all__ = [
+    "RasterizeContext",
+    "rasterize",
+    "interpolate",
+    "texture",
+    "texture_construct_mip",
+    "antialias",
+    "antialias_construct_topology_hash",
+    "DepthPeeler",
+]

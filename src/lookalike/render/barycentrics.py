@@ -1,0 +1,85 @@
+"""Differentiable perspective-correct barycentrics of known triangles at pixel centres.
+
+Given which triangle covers a pixel (from the visibility kernel), the barycentrics are a
+smooth function of that triangle's clip-space vertices, so gradients reach ``x, y, w``.
+
+With ``v_i = (x_i, y_i, w_i)`` and the pixel centre ``p = (px, py, 1)`` in NDC
+(``px = (2 ix + 1) / W - 1``, ``py = (2 iy + 1) / H - 1``), the homogeneous edge functions are
+``e_i = c_i . p`` with ``c_i = v_j x v_k`` (``(i, j, k)`` cyclic) and the perspective-correct
+barycentrics are ``b_i = e_i / S`` with ``S = e_0 + e_1 + e_2``.  nvdiffrast reports
+``u = b_0``, ``v = b_1`` (vertex 2 gets ``1 - u - v``).
+
+Their screen-space derivatives in pixel units (``X``, ``Y`` = pixel index along x, y):
+``db_i/dX = (2 / W) (c_i.x S - e_i S_x) / S^2`` with ``S_x = sum_i c_i.x``, likewise for ``Y``
+with the ``y`` components and ``2 / H``.
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def edge_coefficients(v0: torch.Tensor, v1: torch.Tensor, v2: torch.Tensor) -> torch.Tensor:
+    """``[..., 3 edges, 3]``: ``c_i = v_j x v_k`` for vertices ``v_* [..., 3] = (x, y, w)``;
+    edge function ``i`` (zero on the edge opposite vertex ``i``) is ``c_i . (px, py, 1)``."""
+    return torch.stack([torch.cross(v1, v2, dim=-1), torch.cross(v2, v0, dim=-1), torch.cross(v0, v1, dim=-1)], -2)
+
+
+def pixel_ndc(flat_pixel: torch.Tensor, height: int, width: int, dtype: torch.dtype) -> torch.Tensor:
+    """``[N, 3]`` homogeneous NDC pixel centres ``(px, py, 1)`` of flat pixel indices
+    ``flat_pixel [N]`` int64 into ``[B, H, W]`` images."""
+    ix = flat_pixel % width
+    iy = (flat_pixel // width) % height
+    px = (2 * ix + 1).to(dtype) / width - 1
+    py = (2 * iy + 1).to(dtype) / height - 1
+    return torch.stack([px, py, torch.ones_like(px)], -1)
+
+
+def triangle_vertices_xyw(pos: torch.Tensor, tri: torch.Tensor, view: torch.Tensor, tri_idx: torch.Tensor) -> torch.Tensor:
+    """``[N, 3 vertices, 3]``: ``(x, y, w)`` of triangle ``tri_idx [N]`` in view ``view [N]``
+    gathered from ``pos [B, V, 4]`` (``index_select``, whose backward is ``index_add_``)."""
+    n_verts = pos.shape[1]
+    vertex = tri.index_select(0, tri_idx) + (view * n_verts)[:, None]  # [N, 3]
+    xyw = pos[..., [0, 1, 3]].reshape(-1, 3)
+    return xyw.index_select(0, vertex.reshape(-1)).reshape(-1, 3, 3)
+
+
+def barycentrics(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    view: torch.Tensor,
+    tri_idx: torch.Tensor,
+    p: torch.Tensor,
+    resolution: tuple[int, int],
+    with_db: bool = True,
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Barycentrics ``(u, v)`` and their pixel derivatives at given points.
+
+    Args:
+        pos: ``[B, V, 4]`` clip-space positions (float32 or float64; gradients flow to
+            ``x, y, w``).
+        tri: ``[T, 3]`` int64 vertex indices.
+        view: ``[N]`` int64 view of each point.
+        tri_idx: ``[N]`` int64 triangle of each point (not + 1).
+        p: ``[N, 3]`` homogeneous NDC points ``(px, py, 1)`` (see :func:`pixel_ndc`).
+        resolution: ``(H, W)``, the pixel size for the derivatives.
+        with_db: also return the derivatives.
+
+    Returns:
+        ``(uv [N, 2], db [N, 4] or None)`` in ``pos.dtype``; ``db = (du/dX, du/dY, dv/dX,
+        dv/dY)`` in pixel units.
+    """
+    height, width = resolution
+    verts = triangle_vertices_xyw(pos, tri, view, tri_idx)
+    c = edge_coefficients(verts[:, 0], verts[:, 1], verts[:, 2])  # [N, 3, 3]
+    e = (c[:, :2] * p[:, None]).sum(-1)  # [N, 2]: e_0, e_1
+    s = (c * p[:, None]).sum(-1).sum(-1)  # [N]
+    inv_s = 1.0 / s
+    uv = e * inv_s[:, None]
+    if not with_db:
+        return uv, None
+    s_xy = c[..., :2].sum(1)  # [N, 2]: S_x, S_y
+    scale = torch.tensor([2.0 / width, 2.0 / height], dtype=pos.dtype)
+    # d b_i / d(X, Y) for i = 0, 1: [N, 2 (i), 2 (X, Y)]
+    db = (c[:, :2, :2] - uv[..., None] * s_xy[:, None, :]) * (inv_s[:, None, None] * scale)
+    return uv, db.reshape(-1, 4)

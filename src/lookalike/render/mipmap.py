@@ -1,0 +1,52 @@
+"""Mip pyramids and the mip level (level of detail) of a texture footprint."""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+
+
+def mip_sizes(height: int, width: int, max_mip_level: int | None = None) -> list[tuple[int, int]]:
+    """Sizes of levels 1, 2, ...: each halves both sides (rounding down, never below 1)
+    until ``1 x 1`` or ``max_mip_level`` levels."""
+    sizes = []
+    while (height > 1 or width > 1) and (max_mip_level is None or len(sizes) < max_mip_level):
+        height, width = max(1, height // 2), max(1, width // 2)
+        sizes.append((height, width))
+    return sizes
+
+
+def texture_construct_mip(tex: torch.Tensor, max_mip_level: int | None = None) -> list[torch.Tensor]:
+    """Mip levels 1, 2, ... of ``tex [B, H, W, C]`` as a list of ``[B, h_l, w_l, C]``.
+
+    Each level is the area average of the previous one (a 2x2 box filter for even sides;
+    odd sides average the overlapping source texels proportionally), so it is linear in
+    ``tex`` and gradients reach the base level.  Pass the list as ``texture(..., mip=...)``
+    (nvdiffrast's ``texture_construct_mip`` returns an opaque object for the same use).
+    """
+    levels = []
+    level = tex.permute(0, 3, 1, 2)
+    for size in mip_sizes(tex.shape[1], tex.shape[2], max_mip_level):
+        level = F.interpolate(level, size=size, mode="area")
+        levels.append(level.permute(0, 2, 3, 1))
+    return levels
+
+
+def footprint_level(uv_da: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """Mip level ``[...]`` of the pixel footprints ``uv_da [..., 4] = (du/dX, du/dY, dv/dX,
+    dv/dY)`` on a ``height x width`` base level.
+
+    With the footprint Jacobian in texels ``J = [[W du/dX, W du/dY], [H dv/dX, H dv/dY]]``
+    the level is ``log2`` of its largest singular value, ``0.5 log2(lambda_max(J J^T))``
+    where ``lambda_max = (a + c)/2 + sqrt(((a - c)/2)^2 + b^2)`` for ``J J^T = [[a, b], [b, c]]``.
+    Zero footprints give a very negative level (clamped to 0 by the caller) and gradients
+    stay finite.
+    """
+    ds = uv_da[..., 0:2] * width
+    dt = uv_da[..., 2:4] * height
+    a = (ds * ds).sum(-1)
+    c = (dt * dt).sum(-1)
+    b = (ds * dt).sum(-1)
+    tiny = torch.finfo(uv_da.dtype).tiny
+    root = torch.sqrt((0.25 * (a - c) ** 2 + b * b).clamp_min(tiny))
+    return 0.5 * torch.log2((0.5 * (a + c) + root).clamp_min(tiny))

@@ -1,0 +1,92 @@
+"""``rasterize``: nvdiffrast's rasterization primitive on the CPU."""
+
+from __future__ import annotations
+
+import torch
+
+from .barycentrics import barycentrics, pixel_ndc
+from .context import RasterizeContext
+from .views import check_triangles, per_view_positions
+from .visibility import visible_triangles
+
+
+def rasterize(
+    glctx: RasterizeContext | None,
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    resolution: tuple[int, int],
+    ranges: torch.Tensor | None = None,
+    grad_db: bool = True,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Rasterize triangles into ``B`` images (nvdiffrast's ``dr.rasterize``).
+
+    Args:
+        glctx: a :class:`RasterizeContext` or None (ignored).
+        pos: ``[B, V, 4]`` clip-space positions (instanced mode), or ``[V, 4]`` with
+            ``ranges`` (range mode).  float32 or float64.
+        tri: ``[T, 3]`` int32 or int64 vertex indices.
+        resolution: ``(H, W)`` in pixels.
+        ranges: ``[B, 2]`` int ``(first triangle, count)`` per view, range mode only.
+        grad_db: when False, no gradient flows through ``rast_db`` (values still returned).
+
+    Returns:
+        ``rast [B, H, W, 4]``: ``(u, v, z/w, triangle_id + 1)`` per pixel, all zero where no
+        triangle covers the pixel centre.  ``u``, ``v`` are the perspective-correct
+        barycentric weights of vertices 0 and 1 (vertex 2 gets ``1 - u - v``); the id is
+        a float holding the (global) triangle index + 1.  ``rast_db [B, H, W, 4]``:
+        ``(du/dX, du/dY, dv/dX, dv/dY)`` in pixel units (zero on background).
+
+    Conventions (nvdiffrast's): pixel ``(ix, iy)`` samples NDC ``((2 ix + 1)/W - 1,
+    (2 iy + 1)/H - 1)``; row 0 of the image is ``y = -1`` (OpenGL order: displayed images
+    must be flipped vertically).  Only points with ``w > 0`` and ``-1 <= z/w <= 1`` are
+    drawn (near- and far-plane clipping per pixel), both faces are drawn, the nearest
+    depth wins (lower triangle index on ties).  Gradients of ``u, v`` and ``rast_db`` flow
+    to ``x, y, w`` of ``pos``; depth and id carry no gradient.
+    """
+    rast, rast_db, _ = rasterize_layer(pos, tri, resolution, ranges, grad_db, None)
+    return rast, rast_db
+
+
+def rasterize_layer(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    resolution: tuple[int, int],
+    ranges: torch.Tensor | None,
+    grad_db: bool,
+    min_depth: torch.Tensor | None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """:func:`rasterize` keeping only fragments deeper than ``min_depth [B,H,W] float32``
+    (None: no limit); also returns the layer's ``depth [B,H,W] float32`` (+inf = none),
+    bit-exact, to pass as the next layer's ``min_depth``."""
+    height, width = int(resolution[0]), int(resolution[1])
+    if height <= 0 or width <= 0:
+        raise ValueError(f"resolution must be positive, got {resolution}")
+    if not pos.is_floating_point():
+        raise ValueError(f"pos must be a floating-point tensor, got {pos.dtype}")
+    views, tri_range = per_view_positions(pos, tri, ranges)
+    tri = check_triangles(tri, views.shape[1])
+    n_views = views.shape[0]
+    tri_id, depth = visible_triangles(
+        views.detach().float().cpu().numpy(),
+        tri.cpu().numpy(),
+        tri_range.numpy(),
+        height,
+        width,
+        None if min_depth is None else min_depth.cpu().numpy(),
+    )
+    tri_id = torch.from_numpy(tri_id).to(pos.device)
+    depth = torch.from_numpy(depth).to(pos.device)
+    flat_id = tri_id.reshape(-1)
+    covered = torch.nonzero(flat_id).squeeze(1)
+    p = pixel_ndc(covered, height, width, pos.dtype)
+    view = covered // (height * width)
+    uv, db = barycentrics(views, tri, view, flat_id[covered].long() - 1, p, (height, width))
+    if not grad_db:
+        db = db.detach()
+    n_pixels = n_views * height * width
+    zeros = pos.new_zeros(n_pixels, 2)
+    rast_uv = zeros.index_copy(0, covered, uv)
+    rast_zid = torch.stack([torch.where(flat_id > 0, depth.reshape(-1), 0.0), flat_id.float()], -1).to(pos.dtype)
+    rast = torch.cat([rast_uv, rast_zid], -1).reshape(n_views, height, width, 4)
+    rast_db = pos.new_zeros(n_pixels, 4).index_copy(0, covered, db).reshape(n_views, height, width, 4)
+    return rast, rast_db, depth

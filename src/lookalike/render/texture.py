@@ -1,0 +1,101 @@
+"""``texture``: filtered texture lookups (nearest, bilinear, mipmapped) with gradients to
+texels, texture coordinates and their derivatives."""
+
+from __future__ import annotations
+
+import torch
+
+from .mipmap import footprint_level, texture_construct_mip
+from .sampling import Pyramid, sample_bilinear, sample_nearest
+
+FILTER_MODES = ("auto", "nearest", "linear", "linear-mipmap-nearest", "linear-mipmap-linear")
+BOUNDARY_MODES = ("wrap", "clamp", "zero")
+
+
+def texture(
+    tex: torch.Tensor,
+    uv: torch.Tensor,
+    uv_da: torch.Tensor | None = None,
+    mip_level_bias: torch.Tensor | None = None,
+    mip: list[torch.Tensor] | None = None,
+    filter_mode: str = "auto",
+    boundary_mode: str = "wrap",
+    max_mip_level: int | None = None,
+) -> torch.Tensor:
+    """Sample a 2D texture at every pixel (nvdiffrast's ``dr.texture``).
+
+    Args:
+        tex: ``[B, Ht, Wt, C]`` (or ``[1, Ht, Wt, C]`` shared by all views) texels, level 0.
+        uv: ``[B, H, W, 2]`` texture coordinates.  Texel ``(row r, column c)`` has its centre
+            at ``uv = ((c + 0.5) / Wt, (r + 0.5) / Ht)``: ``u`` runs along columns, ``v`` along
+            rows, row 0 at ``v = 0``.
+        uv_da: ``[B, H, W, 4]`` ``(du/dX, du/dY, dv/dX, dv/dY)`` in pixel units (from
+            :func:`interpolate` with ``diff_attrs``), which pick the mip level.
+        mip_level_bias: ``[B, H, W]`` added to the mip level.
+        mip: mip levels 1, 2, ... as a list of ``[B, h_l, w_l, C]`` tensors, each its own
+            variable (gradients go to each level); None builds them from ``tex`` with
+            :func:`texture_construct_mip` (gradients reach ``tex``).
+        filter_mode: ``"nearest"``, ``"linear"`` (bilinear), ``"linear-mipmap-nearest"``
+            (bilinear in the nearest level), ``"linear-mipmap-linear"`` (trilinear), or
+            ``"auto"``: trilinear when ``uv_da`` or ``mip_level_bias`` is given, else bilinear.
+        boundary_mode: ``"wrap"`` (repeat), ``"clamp"`` (edge texels) or ``"zero"`` (texels
+            outside are zero).
+        max_mip_level: use at most this many levels above level 0.
+
+    Returns:
+        ``[B, H, W, C]`` filtered values.  The mip level is
+        ``clamp(log2(sigma_max) + bias, 0, L)`` with ``sigma_max`` the largest singular
+        value of the footprint in level-0 texels (see :func:`.mipmap.footprint_level`);
+        trilinear blends the bilinear lookups of levels ``floor`` and ``floor + 1`` by the
+        fraction.  Gradients flow to texels (all levels), ``uv`` (not in nearest mode),
+        ``uv_da`` and ``mip_level_bias`` (trilinear only).
+    """
+    if filter_mode not in FILTER_MODES:
+        raise ValueError(f"filter_mode must be one of {FILTER_MODES}, got {filter_mode!r}")
+    if boundary_mode not in BOUNDARY_MODES:
+        raise ValueError(f"boundary_mode must be one of {BOUNDARY_MODES}, got {boundary_mode!r}")
+    if tex.dim() != 4:
+        raise ValueError(f"tex must have shape [B, Ht, Wt, C], got {tuple(tex.shape)}")
+    if uv.dim() != 4 or uv.shape[-1] != 2:
+        raise ValueError(f"uv must have shape [B, H, W, 2], got {tuple(uv.shape)}")
+    if tex.shape[0] not in (1, uv.shape[0]):
+        raise ValueError(f"tex has {tex.shape[0]} views, uv has {uv.shape[0]}")
+    if filter_mode == "auto":
+        mipmapped = uv_da is not None or mip_level_bias is not None
+        filter_mode = "linear-mipmap-linear" if mipmapped else "linear"
+    n_views, height, width = uv.shape[:3]
+    flat_uv = uv.reshape(-1, 2)
+    view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
+
+    if filter_mode in ("nearest", "linear"):
+        pyramid = Pyramid([tex])
+        sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
+        out = sample(pyramid, None, view, flat_uv, boundary_mode)
+        return out.reshape(n_views, height, width, -1)
+
+    if uv_da is None and mip_level_bias is None:
+        raise ValueError(f"filter_mode {filter_mode!r} needs uv_da or mip_level_bias")
+    levels = [tex] + (texture_construct_mip(tex, max_mip_level) if mip is None else list(mip))
+    if max_mip_level is not None:
+        levels = levels[: max_mip_level + 1]
+    pyramid = Pyramid(levels)
+    top = float(len(levels) - 1)
+    level = uv.new_zeros(n_views * height * width)
+    if uv_da is not None:
+        level = level + footprint_level(uv_da.reshape(-1, 4), tex.shape[1], tex.shape[2])
+    if mip_level_bias is not None:
+        level = level + mip_level_bias.reshape(-1)
+    level = level.clamp(0.0, top)
+    if filter_mode == "linear-mipmap-nearest":
+        nearest = torch.floor(level.detach() + 0.5).long()
+        out = sample_bilinear(pyramid, nearest, view, flat_uv, boundary_mode)
+        return out.reshape(n_views, height, width, -1)
+    lower = torch.floor(level.detach()).clamp(max=max(top - 1.0, 0.0))
+    frac = (level - lower)[:, None]
+    lower = lower.long()
+    fine = sample_bilinear(pyramid, lower, view, flat_uv, boundary_mode)
+    if top == 0:
+        return fine.reshape(n_views, height, width, -1)
+    coarse = sample_bilinear(pyramid, lower + 1, view, flat_uv, boundary_mode)
+    out = fine + frac * (coarse - fine)
+    return out.reshape(n_views, height, width, -1)

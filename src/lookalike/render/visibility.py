@@ -1,0 +1,289 @@
+"""Compiled visibility query: which triangle is nearest at each pixel centre.
+
+This is the only compiled part of the renderer; it answers a discrete question (triangle id
+and depth per pixel) through which no gradient flows.  Everything differentiable is torch
+(see :mod:`.barycentrics`).  The pure-torch twin is :func:`.reference.reference_visibility`.
+
+Conventions (nvdiffrast's / OpenGL's):
+
+- Pixel ``(ix, iy)`` of an ``H x W`` image has its centre at normalised device coordinates
+  ``px = (2 ix + 1) / W - 1``, ``py = (2 iy + 1) / H - 1``; row ``iy = 0`` is ``y = -1``.
+- A clip-space point ``(x, y, z, w)`` is inside the view volume when ``w > 0`` and
+  ``-w <= x, y, z <= w``; its depth is ``z / w`` in ``[-1, 1]``, smaller is nearer.
+- Both faces of a triangle are rasterized (no culling).
+
+Method: homogeneous 2D rasterization (Olano & Greer 1997).  With the clip-space vertices
+``v_i = (x_i, y_i, w_i)`` as columns of ``M`` and ``p = (px, py, 1)``, the edge functions
+are ``e_i(p) = (v_j x v_k) . p`` for ``(i, j, k)`` cyclic, i.e. ``e = adj(M) p``.  The pixel
+centre lies on the triangle, in front of the eye (``w > 0``), exactly when
+``sign(det M) * e_i >= 0`` for all ``i`` (and not all are zero).  Its depth is
+``z/w = sum_i e_i z_i / det M``, an affine function of ``(px, py)``.  Triangles crossing the
+near plane need no clipping: points behind the eye fail the edge test, points between eye
+and near plane fail the depth test ``z/w >= -1``.  Depths are float32 and compared in
+float32 throughout, so a depth written by one pass compares bit-exactly in the next
+(depth peeling).
+
+Parallelism: triangles are binned into ``TILE x TILE`` pixel tiles, then ``prange`` runs
+over (view, tile) pairs, so a single view still keeps every core busy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+TILE = 32
+"""Side of a screen tile in pixels."""
+
+_CHUNKS = 16
+"""Triangle chunks binned in parallel (per view)."""
+
+
+@njit(cache=True, inline="always")
+def _edge_and_depth_planes(pos, b, i0, i1, i2, width, height, planes):
+    """Edge functions and depth of one triangle as affine functions of the pixel index.
+
+    Writes ``planes[0:3] = (A, B, C)`` of edge 0, ``[3:6]`` edge 1, ``[6:9]`` edge 2, with
+    ``e_i(ix, iy) = A ix + B iy + C`` scaled so that inside is ``e_i >= 0``, and
+    ``planes[9:12]`` the depth plane ``z/w = A ix + B iy + C``.  Returns False for a
+    degenerate triangle (``det M == 0``).
+    """
+    x0, y0, z0, w0 = pos[b, i0, 0], pos[b, i0, 1], pos[b, i0, 2], pos[b, i0, 3]
+    x1, y1, z1, w1 = pos[b, i1, 0], pos[b, i1, 1], pos[b, i1, 2], pos[b, i1, 3]
+    x2, y2, z2, w2 = pos[b, i2, 0], pos[b, i2, 1], pos[b, i2, 2], pos[b, i2, 3]
+    x0, y0, z0, w0 = np.float64(x0), np.float64(y0), np.float64(z0), np.float64(w0)
+    x1, y1, z1, w1 = np.float64(x1), np.float64(y1), np.float64(z1), np.float64(w1)
+    x2, y2, z2, w2 = np.float64(x2), np.float64(y2), np.float64(z2), np.float64(w2)
+    # c_i = v_j x v_k with v = (x, y, w)
+    c0x, c0y, c0w = y1 * w2 - w1 * y2, w1 * x2 - x1 * w2, x1 * y2 - y1 * x2
+    c1x, c1y, c1w = y2 * w0 - w2 * y0, w2 * x0 - x2 * w0, x2 * y0 - y2 * x0
+    c2x, c2y, c2w = y0 * w1 - w0 * y1, w0 * x1 - x0 * w1, x0 * y1 - y0 * x1
+    det = x0 * c0x + y0 * c0y + w0 * c0w
+    if det == 0.0:
+        return False
+    s = 1.0 if det > 0.0 else -1.0
+    sx = 2.0 / width
+    sy = 2.0 / height
+    ox = 1.0 / width - 1.0
+    oy = 1.0 / height - 1.0
+    planes[0] = s * c0x * sx
+    planes[1] = s * c0y * sy
+    planes[2] = s * (c0w + c0x * ox + c0y * oy)
+    planes[3] = s * c1x * sx
+    planes[4] = s * c1y * sy
+    planes[5] = s * (c1w + c1x * ox + c1y * oy)
+    planes[6] = s * c2x * sx
+    planes[7] = s * c2y * sy
+    planes[8] = s * (c2w + c2x * ox + c2y * oy)
+    dx = (c0x * z0 + c1x * z1 + c2x * z2) / det
+    dy = (c0y * z0 + c1y * z1 + c2y * z2) / det
+    dw = (c0w * z0 + c1w * z1 + c2w * z2) / det
+    planes[9] = dx * sx
+    planes[10] = dy * sy
+    planes[11] = dw + dx * ox + dy * oy
+    return True
+
+
+@njit(cache=True, inline="always")
+def _outside_one_plane(pos, b, i0, i1, i2):
+    """True when all three vertices lie outside the same clip plane (``x > w``, ``x < -w``,
+    ``y > w``, ``y < -w``, ``z > w``, ``z < -w``): then no point of the triangle is visible."""
+    for axis in range(3):
+        above = True
+        below = True
+        for i in (i0, i1, i2):
+            c = pos[b, i, axis]
+            w = pos[b, i, 3]
+            above = above and c > w
+            below = below and c < -w
+        if above or below:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _pixel_bbox(pos, b, i0, i1, i2, width, height, out):
+    """Inclusive pixel-index bounding box ``out = (x0, x1, y0, y1)`` of the visible part of
+    a triangle; empty (``x0 > x1``) when culled.
+
+    The triangle is first clipped against the near plane ``z + w >= 0``
+    (Sutherland-Hodgman, at most 4 vertices).  When every remaining vertex has ``w > 0`` the
+    box is that of their projections; otherwise (unusual projections) it is the whole screen,
+    which is conservative: the per-pixel test decides.
+    """
+    out[0], out[1], out[2], out[3] = 1, 0, 1, 0
+    if _outside_one_plane(pos, b, i0, i1, i2):
+        return
+    xmin, xmax, ymin, ymax = np.inf, -np.inf, np.inf, -np.inf
+    whole_screen = False
+    idx = (i0, i1, i2)
+    for k in range(3):
+        a = idx[k]
+        c = idx[(k + 1) % 3]
+        da = np.float64(pos[b, a, 2]) + np.float64(pos[b, a, 3])
+        dc = np.float64(pos[b, c, 2]) + np.float64(pos[b, c, 3])
+        # emit a if inside, and the crossing point if the edge a->c crosses the plane
+        for emit in range(2):
+            if emit == 0:
+                if da < 0.0:
+                    continue
+                t = 0.0
+            else:
+                if (da >= 0.0) == (dc >= 0.0):
+                    continue
+                t = da / (da - dc)
+            x = pos[b, a, 0] + t * (np.float64(pos[b, c, 0]) - pos[b, a, 0])
+            y = pos[b, a, 1] + t * (np.float64(pos[b, c, 1]) - pos[b, a, 1])
+            w = pos[b, a, 3] + t * (np.float64(pos[b, c, 3]) - pos[b, a, 3])
+            if w <= 0.0:
+                whole_screen = True
+                continue
+            X = (x / w + 1.0) * 0.5 * width - 0.5
+            Y = (y / w + 1.0) * 0.5 * height - 0.5
+            xmin, xmax = min(xmin, X), max(xmax, X)
+            ymin, ymax = min(ymin, Y), max(ymax, Y)
+    if whole_screen:
+        out[0], out[1], out[2], out[3] = 0, width - 1, 0, height - 1
+        return
+    if xmin > xmax:
+        return
+    # pixel ix is a candidate when its centre (coordinate ix) lies in [xmin, xmax]
+    out[0] = max(0, int(np.ceil(max(xmin, -1.0))))
+    out[1] = min(width - 1, int(np.floor(min(xmax, float(width)))))
+    out[2] = max(0, int(np.ceil(max(ymin, -1.0))))
+    out[3] = min(height - 1, int(np.floor(min(ymax, float(height)))))
+
+
+@njit(cache=True, parallel=True)
+def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
+    """Bin each view's triangles into screen tiles.
+
+    Returns ``(bin_start [B, tiles+1] int64, bin_tris [N] int32)``: the triangles of tile
+    ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b, k + 1]]`` (ascending
+    triangle order).
+    """
+    n_views = pos.shape[0]
+    tiles_x = (width + TILE - 1) // TILE
+    tiles_y = (height + TILE - 1) // TILE
+    n_tiles = tiles_x * tiles_y
+    counts = np.zeros((n_views, _CHUNKS, n_tiles), np.int64)
+    for job in prange(n_views * _CHUNKS):
+        b, chunk = job // _CHUNKS, job % _CHUNKS
+        n = tri_end[b] - tri_begin[b]
+        bbox = np.empty(4, np.int64)
+        for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
+            _pixel_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
+            if bbox[0] > bbox[1] or bbox[2] > bbox[3]:
+                continue
+            for ty in range(bbox[2] // TILE, bbox[3] // TILE + 1):
+                for tx in range(bbox[0] // TILE, bbox[1] // TILE + 1):
+                    counts[b, chunk, ty * tiles_x + tx] += 1
+    # offsets in (view, tile, chunk) order, so each bin lists triangles in ascending order
+    bin_start = np.zeros((n_views, n_tiles + 1), np.int64)
+    offsets = np.empty((n_views, _CHUNKS, n_tiles), np.int64)
+    total = 0
+    for b in range(n_views):
+        for k in range(n_tiles):
+            bin_start[b, k] = total
+            for chunk in range(_CHUNKS):
+                offsets[b, chunk, k] = total
+                total += counts[b, chunk, k]
+        bin_start[b, n_tiles] = total
+    bin_tris = np.empty(total, np.int32)
+    for job in prange(n_views * _CHUNKS):
+        b, chunk = job // _CHUNKS, job % _CHUNKS
+        n = tri_end[b] - tri_begin[b]
+        bbox = np.empty(4, np.int64)
+        for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
+            _pixel_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
+            if bbox[0] > bbox[1] or bbox[2] > bbox[3]:
+                continue
+            for ty in range(bbox[2] // TILE, bbox[3] // TILE + 1):
+                for tx in range(bbox[0] // TILE, bbox[1] // TILE + 1):
+                    k = ty * tiles_x + tx
+                    bin_tris[offsets[b, chunk, k]] = t
+                    offsets[b, chunk, k] += 1
+    return bin_start, bin_tris
+
+
+@njit(cache=True, parallel=True)
+def _rasterize_tiles(pos, tri, bin_start, bin_tris, width, height, min_depth, tri_id, depth):
+    """Fill ``tri_id [B,H,W] int32`` (triangle index + 1, 0 = none) and ``depth [B,H,W]
+    float32`` (z/w, +inf where none) with, per pixel, the nearest triangle whose depth is
+    strictly greater than ``min_depth [B,H,W] float32``.  Bins list triangles in ascending
+    order and the depth test is strict, so on equal depths the lower index wins."""
+    n_views = pos.shape[0]
+    tiles_x = (width + TILE - 1) // TILE
+    n_tiles = bin_start.shape[1] - 1
+    for job in prange(n_views * n_tiles):
+        b, k = job // n_tiles, job % n_tiles
+        tx0 = (k % tiles_x) * TILE
+        ty0 = (k // tiles_x) * TILE
+        tx1 = min(tx0 + TILE, width) - 1
+        ty1 = min(ty0 + TILE, height) - 1
+        planes = np.empty(12, np.float64)
+        bbox = np.empty(4, np.int64)
+        for n in range(bin_start[b, k], bin_start[b, k + 1]):
+            t = bin_tris[n]
+            i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
+            if not _edge_and_depth_planes(pos, b, i0, i1, i2, width, height, planes):
+                continue
+            _pixel_bbox(pos, b, i0, i1, i2, width, height, bbox)
+            dA = np.float32(planes[9])
+            dB = np.float32(planes[10])
+            dC = np.float32(planes[11])
+            for iy in range(max(bbox[2], ty0), min(bbox[3], ty1) + 1):
+                e0 = planes[1] * iy + planes[2]
+                e1 = planes[4] * iy + planes[5]
+                e2 = planes[7] * iy + planes[8]
+                fy = np.float32(iy)
+                for ix in range(max(bbox[0], tx0), min(bbox[1], tx1) + 1):
+                    a0 = planes[0] * ix + e0
+                    a1 = planes[3] * ix + e1
+                    a2 = planes[6] * ix + e2
+                    if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
+                        continue
+                    d = dA * np.float32(ix) + dB * fy + dC
+                    if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
+                        continue
+                    if d < depth[b, iy, ix]:
+                        depth[b, iy, ix] = d
+                        tri_id[b, iy, ix] = t + 1
+
+
+def visible_triangles(
+    pos: np.ndarray,
+    tri: np.ndarray,
+    tri_range: np.ndarray,
+    height: int,
+    width: int,
+    min_depth: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest triangle at every pixel centre of every view.
+
+    Args:
+        pos: ``[B, V, 4]`` float32, clip-space vertex positions of each view.
+        tri: ``[T, 3]`` int32 vertex indices.
+        tri_range: ``[B, 2]`` int64 ``(first, count)``: view ``b`` draws triangles
+            ``first .. first+count-1`` (all views: ``(0, T)``).
+        height, width: image size in pixels.
+        min_depth: ``[B, H, W]`` float32 or None; only fragments with depth ``z/w``
+            strictly greater are kept (the previous layer's depth, for depth peeling).
+
+    Returns:
+        ``(tri_id [B,H,W] int32, depth [B,H,W] float32)``: triangle index + 1 (0 where no
+        triangle) and its depth z/w (``+inf`` where none).
+    """
+    pos = np.ascontiguousarray(pos, dtype=np.float32)
+    tri = np.ascontiguousarray(tri, dtype=np.int32)
+    n_views = pos.shape[0]
+    begin = np.ascontiguousarray(tri_range[:, 0], dtype=np.int64)
+    end = begin + np.ascontiguousarray(tri_range[:, 1], dtype=np.int64)
+    if min_depth is None:
+        min_depth = np.full((n_views, height, width), -np.inf, np.float32)
+    min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
+    tri_id = np.zeros((n_views, height, width), np.int32)
+    depth = np.full((n_views, height, width), np.inf, np.float32)
+    bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
+    _rasterize_tiles(pos, tri, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
+    return tri_id, depth

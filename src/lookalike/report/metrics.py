@@ -1,0 +1,93 @@
+"""Image metrics for held-out views: PSNR and FLIP on tone-mapped images.
+
+Renders are linear HDR radiance. Both metrics first apply the paper's tone map
+(Sec. "Objective function"), ``x' = srgb(log(x + 1))`` with ``srgb`` the sRGB transfer
+function, then clamp to [0, 1]; they compare the *whole* image, background included (reference
+and candidate share the background, so uncovered pixels agree and add no error; every method
+is scored on the same pixels, which keeps the comparison fair).
+"""
+
+from __future__ import annotations
+
+import flip_evaluator
+import numpy as np
+import torch
+
+PSNR_CAP_DB = 100.0                # PSNR of identical images (MSE 0) is reported as this cap
+
+
+def srgb_encode(x: torch.Tensor) -> torch.Tensor:
+    """sRGB transfer function (IEC 61966-2-1) of linear values ``x`` (any shape, float):
+    ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x^(1/2.4) - 0.055``."""
+    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055)
+
+
+def tonemap(x: torch.Tensor) -> torch.Tensor:
+    """The paper's tone map ``srgb(log(x + 1))`` of linear radiance ``x >= 0`` (any shape).
+
+    Differentiable; not clamped (values above ``e - 1`` map above 1)."""
+    return srgb_encode(torch.log1p(x.clamp(min=0)))
+
+
+def display_values(images) -> np.ndarray:
+    """Tone-mapped RGB in [0, 1]: ``[..., C>=3]`` linear (torch or numpy) -> ``[..., 3]`` float32 numpy."""
+    x = torch.as_tensor(images).detach().to("cpu", torch.float32)[..., :3]
+    return tonemap(x).clamp(0, 1).numpy()
+
+
+def _as_batch(images) -> np.ndarray:
+    values = display_values(images)
+    return values[None] if values.ndim == 3 else values
+
+
+def psnr_views(reference, test) -> np.ndarray:
+    """PSNR in dB of each view: ``10 log10(1 / MSE)`` over all pixels and RGB channels of the
+    tone-mapped, clamped images (peak 1).
+
+    Args:
+        reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance, torch or numpy.
+
+    Returns:
+        ``[B]`` float64; identical views give ``PSNR_CAP_DB`` (100 dB) instead of infinity.
+    """
+    a, b = _as_batch(reference).astype(np.float64), _as_batch(test).astype(np.float64)
+    if a.shape != b.shape:
+        raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
+    mse = ((a - b) ** 2).mean(axis=(1, 2, 3))
+    return np.minimum(10 * np.log10(1.0 / np.maximum(mse, 1e-300)), PSNR_CAP_DB)
+
+
+def psnr(reference, test) -> float:
+    """Mean over views of ``psnr_views`` (dB)."""
+    return float(psnr_views(reference, test).mean())
+
+
+def flip_views(reference, test, with_maps: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Mean FLIP error of each view (NVIDIA's ``flip-evaluator``, LDR mode, default 67 pixels
+    per degree) between the tone-mapped images, which it reads as sRGB.
+
+    Args:
+        reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance.
+        with_maps: also return the per-pixel error maps, coloured with FLIP's magma map.
+
+    Returns:
+        ``(mean [B] float64 in [0, 1], maps [B, H, W, 3] uint8 or None)``; 0 means identical.
+    """
+    a, b = _as_batch(reference), _as_batch(test)
+    if a.shape != b.shape:
+        raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
+    means, maps = [], []
+    for ref_view, test_view in zip(a, b):
+        error_map, mean, _ = flip_evaluator.evaluate(
+            np.ascontiguousarray(ref_view), np.ascontiguousarray(test_view), "LDR",
+            inputsRGB=True, applyMagma=with_maps, computeMeanError=True,
+        )
+        means.append(mean)
+        if with_maps:
+            maps.append(np.clip(np.round(error_map * 255), 0, 255).astype(np.uint8))
+    return np.asarray(means, dtype=np.float64), (np.stack(maps) if with_maps else None)
+
+
+def flip(reference, test) -> float:
+    """Mean FLIP error over all views (each view weighs the same)."""
+    return float(flip_views(reference, test)[0].mean())

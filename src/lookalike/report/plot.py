@@ -1,0 +1,71 @@
+"""The loss curve of a run as a PNG (matplotlib, drawn off-screen)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def smooth(values: np.ndarray, fraction: float = 0.02) -> np.ndarray:
+    """Exponential moving average of ``values [N]`` with a time constant of ``fraction * N``
+    steps (at least 1), bias-corrected so the first values are not pulled toward 0:
+    ``s_t = (sum_k (1 - a)^(t-k) a v_k) / (1 - (1 - a)^(t+1))``, ``a = 1 / (1 + fraction * N)``."""
+    from scipy.signal import lfilter
+
+    values = np.asarray(values, dtype=np.float64)
+    alpha = 1.0 / (1.0 + max(1.0, fraction * len(values)))
+    running = lfilter([alpha], [1.0, alpha - 1.0], values)
+    return running / (1 - (1 - alpha) ** np.arange(1, len(values) + 1))
+
+
+def _minor_label(value: float, _position) -> str:
+    """Label the minor log ticks 2 and 5 of each decade, leave the rest bare."""
+    leading = round(value / 10 ** np.floor(np.log10(value)))
+    return f"{value:g}" if leading in (2, 5) else ""
+
+
+def plot_loss(history, path: str | Path, title: str = "Training loss") -> Path:
+    """Write the loss curve: raw loss per iteration (light) under its smoothed curve, log y.
+
+    Args:
+        history: ``[N]`` loss per iteration (non-positive values are dropped from the log plot).
+        path: the PNG to write.
+
+    Returns:
+        ``path``.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
+
+    path = Path(path)
+    values = np.asarray(history, dtype=np.float64)
+    steps = np.arange(1, len(values) + 1)
+    fig, ax = plt.subplots(figsize=(8, 3.6), dpi=150)
+    try:
+        ax.plot(steps, values, color="#9bb7d4", linewidth=0.8, alpha=0.7, label="per iteration")
+        if len(values) > 2:
+            ax.plot(steps, smooth(values), color="#1f4e8c", linewidth=2.0, label="smoothed")
+        if (values > 0).any():
+            ax.set_yscale("log")
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.yaxis.set_minor_formatter(FuncFormatter(_minor_label))
+        ax.set_xlabel("iteration")
+        ax.set_ylabel("loss")
+        ax.set_title(title, loc="left", fontsize=12, color="#222222")
+        ax.grid(True, which="major", color="#e3e3e3", linewidth=0.8)
+        ax.grid(True, which="minor", color="#f1f1f1", linewidth=0.5)
+        for side in ("top", "right"):
+            ax.spines[side].set_visible(False)
+        for side in ("left", "bottom"):
+            ax.spines[side].set_color("#bbbbbb")
+        ax.tick_params(which="both", colors="#555555", labelsize=9)
+        ax.legend(frameon=False, fontsize=9, loc="upper right")
+        ax.set_xlim(1, max(2, len(values)))
+        fig.tight_layout()
+        fig.savefig(path, facecolor="white")
+    finally:
+        plt.close(fig)
+    return path

@@ -1,0 +1,124 @@
+"""The deferred G-buffer: per covered pixel, the surface attributes the shader needs.
+
+Pixels are kept as a flat list of the covered ones (``rast`` triangle id > 0) in the
+rasterizer's memory order (row 0 = clip-space y = -1), so texturing and shading cost scales
+with coverage, not with the image size.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+import lookalike.render as dr
+
+from ..asset.mesh import Mesh
+from ..asset.normals import face_normals, safe_normalize, vertex_normals
+from .camera import Camera
+
+
+@dataclass
+class MeshBuffers:
+    """Per-render vertex data derived from a mesh (the differentiable mesh operations).
+
+    Attributes (V vertices, T triangles, B views):
+        mesh: the source mesh.
+        tri: ``[T, 3]`` int32 position triangles, as the rasterizer wants them.
+        clip: ``[B, V, 4]`` clip-space positions.
+        v_nrm: ``[V, 3]`` smooth area-weighted vertex normals.
+        t_nrm: ``[T, 3]`` unit geometric (face) normals.
+        uv: per UV set ``(v_tex [VT, 2], t_tex_idx [T, 3] int32)``.
+        tangents: ``{uv set: (v_tng [N, 4], t_tng_idx [T, 3] int32)}`` for the UV sets that
+            normal maps use.
+    """
+
+    mesh: Mesh
+    tri: torch.Tensor
+    clip: torch.Tensor
+    v_nrm: torch.Tensor
+    t_nrm: torch.Tensor
+    uv: list[tuple[torch.Tensor, torch.Tensor]]
+    tangents: dict[int, tuple[torch.Tensor, torch.Tensor]]
+
+    @staticmethod
+    def build(mesh: Mesh, camera: Camera, tangent_uv_sets: set[int]) -> "MeshBuffers":
+        """Smooth normals, face normals, clip positions, and tangent frames
+        (``lookalike.asset.tangents.vertex_tangents``) for ``tangent_uv_sets``."""
+        from ..asset.tangents import vertex_tangents
+
+        v_nrm = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
+        tangents = {}
+        for k in sorted(tangent_uv_sets):
+            v_tex, t_tex_idx = mesh.uv[k]
+            v_tng, t_tng_idx = vertex_tangents(mesh.v_pos, mesh.t_pos_idx, v_tex, t_tex_idx, v_nrm)
+            tangents[k] = (v_tng, t_tng_idx.to(torch.int32))
+        return MeshBuffers(
+            mesh=mesh,
+            tri=mesh.t_pos_idx.to(torch.int32),
+            clip=camera.clip(mesh.v_pos),
+            v_nrm=v_nrm,
+            t_nrm=safe_normalize(face_normals(mesh.v_pos, mesh.t_pos_idx)),
+            uv=[(v_tex, t_tex_idx.to(torch.int32)) for v_tex, t_tex_idx in mesh.uv],
+            tangents=tangents,
+        )
+
+
+@dataclass
+class GBuffer:
+    """Attributes of the N covered pixels of one rasterized layer.
+
+    Attributes:
+        pixel: ``[N]`` int64 flat indices into ``[B, H, W]``.
+        view: ``[N]`` int64 view (batch) index.
+        triangle: ``[N]`` int64 triangle index.
+        position: ``[N, 3]`` world positions.
+        normal: ``[N, 3]`` interpolated smooth normals (not normalised).
+        geometric_normal: ``[N, 3]`` unit face normals.
+        uv: per UV set ``(uv [N, 2], uv_da [N, 4])``.
+        tangent: ``{uv set: [N, 4]}`` interpolated tangents (``w`` = handedness).
+        color: ``[N, 4]`` interpolated vertex colours, or ``None``.
+    """
+
+    pixel: torch.Tensor
+    view: torch.Tensor
+    triangle: torch.Tensor
+    position: torch.Tensor
+    normal: torch.Tensor
+    geometric_normal: torch.Tensor
+    uv: list[tuple[torch.Tensor, torch.Tensor]]
+    tangent: dict[int, torch.Tensor]
+    color: torch.Tensor | None
+
+    @staticmethod
+    def build(buffers: MeshBuffers, rast: torch.Tensor, rast_db: torch.Tensor) -> "GBuffer":
+        """Interpolate every attribute of ``buffers`` over ``rast [B, H, W, 4]`` (with
+        ``rast_db [B, H, W, 4]`` for UV derivatives) and keep the covered pixels."""
+        batch, height, width = rast.shape[:3]
+        triangle_flat = rast[..., 3].reshape(-1).long() - 1
+        pixel = torch.nonzero(triangle_flat >= 0).reshape(-1)
+
+        def covered(image: torch.Tensor) -> torch.Tensor:
+            return image.reshape(-1, image.shape[-1])[pixel]
+
+        mesh = buffers.mesh
+        vertex_attrs = [mesh.v_pos, buffers.v_nrm] + ([mesh.v_color] if mesh.v_color is not None else [])
+        interpolated = covered(dr.interpolate(torch.cat(vertex_attrs, dim=-1), rast, buffers.tri)[0])
+        uv = []
+        for v_tex, t_tex_idx in buffers.uv:
+            values, derivatives = dr.interpolate(v_tex, rast, t_tex_idx, rast_db=rast_db, diff_attrs="all")
+            uv.append((covered(values), covered(derivatives)))
+        tangent = {k: covered(dr.interpolate(v_tng, rast, t_tng_idx)[0])
+                   for k, (v_tng, t_tng_idx) in buffers.tangents.items()}
+        triangle = triangle_flat[pixel]
+        return GBuffer(
+            pixel=pixel,
+            view=torch.div(pixel, height * width, rounding_mode="floor"),
+            triangle=triangle,
+            position=interpolated[:, 0:3],
+            normal=interpolated[:, 3:6],
+            geometric_normal=buffers.t_nrm[triangle],
+            uv=uv,
+            tangent=tangent,
+            color=interpolated[:, 6:10] if mesh.v_color is not None else None,
+        )

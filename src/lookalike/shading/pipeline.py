@@ -1,0 +1,191 @@
+"""The paper's deferred rendering pipeline (Sec. 5.2):
+
+mesh operations (smooth normals, tangent frames) -> rasterize at ``resolution * spp``
+(depth-peeled into ``layers``) -> G-buffer -> material lookup -> shade -> per layer, composite
+over what lies behind it and antialias -> box-downsample by ``spp``.
+
+Images are linear RGB plus alpha, ``[B, H, W, 4]`` with row 0 at the TOP of the picture (the
+rasterizer's memory order is flipped at the end). Everything is differentiable with respect to
+the mesh positions, texture data and camera/light tensors.
+
+Conventions:
+- Back faces of double-sided materials are shaded with flipped normals; back faces of
+  single-sided materials are culled (alpha 0, so the next depth layer or the background shows
+  through), as glTF prescribes.
+- Alpha modes: OPAQUE 1, MASK ``kd.a >= cutoff`` (straight-through gradient), BLEND ``kd.a``.
+  Layers are composited back to front with the "over" operator on straight alpha; with
+  ``layers=1`` a blended surface composites over the background only.
+- ``msaa=True`` (the paper's MSAA for the latent model): visibility, antialiasing and
+  compositing run at ``spp x spp`` samples per pixel, but each pixel is shaded once, at one
+  representative sample (the centre sample if it is covered, else the first covered one);
+  the shaded colour is replicated to the pixel's samples.
+- No ambient light: surfaces the point light does not reach are black.
+"""
+
+from __future__ import annotations
+
+import torch
+
+import lookalike.render as dr
+
+from ..asset.normals import safe_normalize
+from . import bsdf
+from .camera import Camera
+from .gbuffer import GBuffer, MeshBuffers
+from .light import PointLight
+from .normal_map import bend_towards_viewer, perturb_normal
+from .surface import Surface, sample_surface
+
+
+def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    return (a * b).sum(dim=-1, keepdim=True)
+
+
+def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLight) -> torch.Tensor:
+    """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of the G-buffer's pixels:
+    ``shade(kd, ks, n, v, l) * irradiance + emissive``, with ``n`` the normal-mapped smooth
+    normal, flipped on back faces and bent towards the viewer (``normal_map``)."""
+    view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
+    normal = safe_normalize(gb.normal)
+    if surface.normal_map is not None:
+        for uv_set, tangent in gb.tangent.items():
+            rows = torch.nonzero(surface.normal_uv_set == uv_set).reshape(-1)
+            mapped = perturb_normal(gb.normal[rows], tangent[rows], surface.normal_map[rows])
+            normal = normal.index_put((rows,), mapped)
+    front = _dot(gb.geometric_normal, view_dir) >= 0
+    facing = torch.where(front, 1.0, -1.0).to(normal)
+    normal = bend_towards_viewer(normal * facing, gb.geometric_normal * facing, view_dir)
+    light_dir, irradiance = light.illuminate(gb.position, gb.view)
+    radiance = bsdf.shade(surface.kd[:, :3], surface.ks, normal, view_dir, light_dir) * irradiance
+    if surface.emissive is not None:
+        radiance = radiance + surface.emissive
+    visible = front | surface.double_sided[:, None]
+    return torch.cat([radiance, surface.alpha * visible.to(radiance)], dim=-1)
+
+
+def shade_layer(asset, buffers: MeshBuffers, camera: Camera, light: PointLight,
+                rast: torch.Tensor, rast_db: torch.Tensor) -> torch.Tensor:
+    """Straight-alpha image ``[B, H, W, 4]`` (rasterizer row order) of one rasterized layer;
+    uncovered pixels are zero."""
+    gb = GBuffer.build(buffers, rast, rast_db)
+    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, getattr(asset, "source", None))
+    colour = shade_pixels(gb, surface, camera, light)
+    image = colour.new_zeros(rast.shape[0] * rast.shape[1] * rast.shape[2], 4)
+    return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
+
+
+def representative_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int):
+    """One sample per ``factor x factor`` block for MSAA shading: the block's centre sample if
+    it is covered, else its first covered sample (else the centre).
+
+    Args:
+        rast, rast_db: ``[B, H*factor, W*factor, 4]``.
+    Returns:
+        ``(rast [B, H, W, 4], rast_db [B, H, W, 4])``; derivatives are rescaled to the
+        coarse pixel size (times ``factor``).
+    """
+    batch, high, wide = rast.shape[:3]
+    height, width = high // factor, wide // factor
+
+    def blocks(x: torch.Tensor) -> torch.Tensor:
+        return (x.reshape(batch, height, factor, width, factor, 4)
+                 .permute(0, 1, 3, 2, 4, 5).reshape(batch, height, width, factor * factor, 4))
+
+    rast_blocks, db_blocks = blocks(rast), blocks(rast_db)
+    centre = (factor // 2) * factor + factor // 2
+    priority = 2 * (rast_blocks[..., 3] > 0).to(torch.int64)
+    priority[..., centre] += 1
+    choice = priority.argmax(dim=-1)[..., None, None].expand(-1, -1, -1, 1, 4)
+    return (rast_blocks.gather(3, choice).squeeze(3),
+            factor * db_blocks.gather(3, choice).squeeze(3))
+
+
+def shade_layer_msaa(asset, buffers: MeshBuffers, camera: Camera, light: PointLight,
+                     rast: torch.Tensor, rast_db: torch.Tensor, factor: int) -> torch.Tensor:
+    """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel
+    (see the module docstring); coverage (alpha) stays per sample."""
+    low_rast, low_db = representative_samples(rast, rast_db, factor)
+    colour = shade_layer(asset, buffers, camera, light, low_rast, low_db)
+    colour = colour.repeat_interleave(factor, dim=1).repeat_interleave(factor, dim=2)
+    covered = (rast[..., 3:4] > 0).to(colour)
+    return torch.cat([colour[..., :3], colour[..., 3:4] * covered], dim=-1)
+
+
+def background_image(background, batch: int, height: int, width: int, factor: int,
+                     like: torch.Tensor) -> torch.Tensor:
+    """``[B, H*factor, W*factor, 4]`` background in the rasterizer's row order: zero (alpha 0)
+    for ``None``; else opaque, from an RGB colour ``[3]`` or an image ``[B, H, W, 3]`` (row 0 at
+    the top; nearest-upsampled by ``factor``)."""
+    shape = (batch, height * factor, width * factor)
+    if background is None:
+        return like.new_zeros(*shape, 4)
+    background = torch.as_tensor(background).to(like)
+    if background.dim() == 1:
+        rgb = background.expand(*shape, 3)
+    else:
+        rgb = background.flip(1).repeat_interleave(factor, dim=1).repeat_interleave(factor, dim=2)
+        rgb = rgb.expand(*shape, 3)
+    return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
+
+
+def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
+    """Average ``factor x factor`` blocks of ``image [B, H*factor, W*factor, C]`` -> ``[B, H, W, C]``."""
+    if factor == 1:
+        return image
+    batch, high, wide, channels = image.shape
+    return image.reshape(batch, high // factor, factor, wide // factor, factor, channels).mean(dim=(2, 4))
+
+
+def rasterize_layers(buffers: MeshBuffers, resolution: tuple[int, int], layers: int):
+    """Up to ``layers`` depth-peeled ``(rast, rast_db)`` layers, nearest first; stops early
+    once a layer covers nothing."""
+    peeled = []
+    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, resolution) as peeler:
+        for _ in range(layers):
+            rast, rast_db = peeler.rasterize_next_layer()
+            if peeled and not (rast[..., 3] > 0).any():
+                break
+            peeled.append((rast, rast_db))
+    return peeled
+
+
+def _resolution(resolution) -> tuple[int, int]:
+    if isinstance(resolution, int):
+        return resolution, resolution
+    height, width = resolution
+    return int(height), int(width)
+
+
+def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, layers: int = 1,
+           background=None, msaa: bool = False) -> torch.Tensor:
+    """Render B views of an asset.
+
+    Args:
+        asset: an ``Asset`` or anything with ``.mesh`` (``Mesh``) and ``.materials``.
+        camera: B cameras.
+        light: B point lights (or 1, shared).
+        resolution: ``H`` (square) or ``(H, W)`` of the output.
+        spp: supersampling factor per axis (``spp x spp`` samples per pixel).
+        layers: depth-peeled layers composited (1 = nearest surface only).
+        background: ``None`` (black, alpha 0), an RGB colour ``[3]`` or an image
+            ``[B, H, W, 3]`` (row 0 at the top); opaque.
+        msaa: shade once per pixel while sampling visibility ``spp x spp`` times.
+    Returns:
+        ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture.
+    """
+    height, width = _resolution(resolution)
+    full = (height * spp, width * spp)
+    mesh = asset.mesh
+    tangent_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
+    buffers = MeshBuffers.build(mesh, camera, tangent_sets)
+    topology = dr.antialias_construct_topology_hash(buffers.tri)
+    accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
+    for rast, rast_db in reversed(rasterize_layers(buffers, full, layers)):
+        if msaa and spp > 1:
+            colour = shade_layer_msaa(asset, buffers, camera, light, rast, rast_db, spp)
+        else:
+            colour = shade_layer(asset, buffers, camera, light, rast, rast_db)
+        opaque = torch.cat([colour[..., :3], torch.ones_like(colour[..., 3:])], dim=-1)
+        accum = torch.lerp(accum, opaque, colour[..., 3:])
+        accum = dr.antialias(accum.contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)
+    return box_downsample(accum, spp).flip(1)

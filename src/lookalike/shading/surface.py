@@ -1,0 +1,97 @@
+"""Material parameters at the covered pixels of a G-buffer: every material's textures are
+sampled at the pixels whose triangle uses it (each with its own UV set, transform and wrap)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from ..asset.material import Material, Texture
+from ..errors import AssetError
+from .gbuffer import GBuffer
+from .texturing import sample_texture
+
+
+@dataclass
+class Surface:
+    """Shading inputs of N pixels.
+
+    Attributes:
+        kd: ``[N, 4]`` linear base colour and alpha (times vertex colour where present).
+        ks: ``[N, 3]`` (gamma, roughness, metalness).
+        normal_map: ``[N, 3]`` tangent-space normals (``(0, 0, 1)`` where the material has
+            no normal map), or ``None`` when no material has one.
+        normal_uv_set: ``[N]`` int64 UV set (tangent frame) of each pixel's normal map, -1 for none.
+        emissive: ``[N, 3]`` linear emission, or ``None`` when no material emits.
+        alpha: ``[N, 1]`` coverage from the alpha mode: OPAQUE 1, MASK ``kd.a >= cutoff``
+            (forward) with the gradient of ``kd.a`` (straight-through), BLEND ``kd.a``.
+        double_sided: ``[N]`` bool.
+    """
+
+    kd: torch.Tensor
+    ks: torch.Tensor
+    normal_map: torch.Tensor | None
+    normal_uv_set: torch.Tensor
+    emissive: torch.Tensor | None
+    alpha: torch.Tensor
+    double_sided: torch.Tensor
+
+
+def _uv_of(texture: Texture, gb: GBuffer, material: Material, source) -> tuple[torch.Tensor, torch.Tensor | None]:
+    constant = texture.data.shape[0] == 1 and texture.data.shape[1] == 1
+    if texture.uv_set < len(gb.uv):
+        return gb.uv[texture.uv_set]
+    if constant:
+        return gb.position.new_zeros(gb.position.shape[0], 2), None
+    raise AssetError(source or "asset", f"material {material.name!r} samples UV set {texture.uv_set}, "
+                                        f"which the mesh does not have")
+
+
+def _sample(texture: Texture, gb: GBuffer, rows: torch.Tensor, material: Material, source) -> torch.Tensor:
+    uv, uv_da = _uv_of(texture, gb, material, source)
+    return sample_texture(texture, uv[rows], None if uv_da is None else uv_da[rows])
+
+
+def _alpha(material: Material, opacity: torch.Tensor) -> torch.Tensor:
+    if material.alpha_mode == "OPAQUE":
+        return torch.ones_like(opacity)
+    if material.alpha_mode == "MASK":
+        hard = (opacity >= material.alpha_cutoff).to(opacity)
+        return hard + opacity - opacity.detach()
+    return opacity
+
+
+def sample_surface(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuffer, source=None) -> Surface:
+    """Material parameters of the pixels of ``gb``; ``t_mat_idx [T]`` gives each triangle's
+    material. ``source`` names the asset in errors."""
+    count = gb.pixel.shape[0]
+    dtype, device = gb.position.dtype, gb.position.device
+    material_of_pixel = t_mat_idx.to(device)[gb.triangle]
+    kd = torch.zeros(count, 4, dtype=dtype, device=device)
+    ks = torch.zeros(count, 3, dtype=dtype, device=device)
+    alpha = torch.zeros(count, 1, dtype=dtype, device=device)
+    any_map = any(m.normal is not None for m in materials)
+    any_emission = any(m.emissive is not None for m in materials)
+    normal_map = gb.position.new_tensor([0.0, 0.0, 1.0]).expand(count, 3) if any_map else None
+    emissive = torch.zeros(count, 3, dtype=dtype, device=device) if any_emission else None
+    normal_uv_set = torch.full((count,), -1, dtype=torch.int64, device=device)
+    double_sided = torch.zeros(count, dtype=torch.bool, device=device)
+    for index, material in enumerate(materials):
+        rows = torch.nonzero(material_of_pixel == index).reshape(-1)
+        if rows.numel() == 0:
+            continue
+        base = _sample(material.kd, gb, rows, material, source)
+        if gb.color is not None:
+            base = base * gb.color[rows]
+        kd = kd.index_put((rows,), base)
+        ks = ks.index_put((rows,), _sample(material.ks, gb, rows, material, source))
+        alpha = alpha.index_put((rows,), _alpha(material, base[:, 3:4]))
+        if material.normal is not None:
+            normal_map = normal_map.index_put((rows,), _sample(material.normal, gb, rows, material, source))
+            normal_uv_set[rows] = material.normal.uv_set
+        if material.emissive is not None:
+            emissive = emissive.index_put((rows,), _sample(material.emissive, gb, rows, material, source))
+        double_sided[rows] = material.double_sided
+    return Surface(kd=kd, ks=ks, normal_map=normal_map, normal_uv_set=normal_uv_set, emissive=emissive,
+                   alpha=alpha, double_sided=double_sided)

@@ -1,0 +1,83 @@
+"""Random cameras and point lights around an object, as in the paper's virtual
+photo-goniometer (Sec. 3): cameras uniformly distributed over the directions around the
+object's bounding sphere, looking at its centre; one point light per view whose direction from
+the centre is cosine-distributed around the direction to the camera (mostly frontal light,
+sometimes grazing).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from .camera import Camera
+from .light import PointLight
+
+FOVY = math.radians(45.0)
+"""Default vertical field of view."""
+
+FRAMING = 1.05
+"""Default camera distance is ``FRAMING * radius / sin(fovy / 2)``: the bounding sphere just
+fits the picture vertically."""
+
+IRRADIANCE = 3.0
+"""Default irradiance at the centre, facing the light (a white Lambertian surface there
+reflects radiance ``3 / pi``, about 0.95)."""
+
+UP = (0.0, 1.0, 0.0)
+"""World up (glTF is y-up); it points up in every picture except straight top/bottom views."""
+
+
+def unit_vectors(rng: np.random.Generator, n: int) -> np.ndarray:
+    """``[n, 3]`` float64 directions uniform on the unit sphere (normalised Gaussians)."""
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True).clip(min=1e-12)
+
+
+def cosine_around(rng: np.random.Generator, axis: np.ndarray) -> np.ndarray:
+    """``[n, 3]`` unit directions with density ``cos(theta) / pi`` around unit ``axis [n, 3]``:
+    ``theta = asin(sqrt(u1))``, ``phi = 2 pi u2`` in a frame built around each axis."""
+    n = axis.shape[0]
+    u1, u2 = rng.uniform(size=n), rng.uniform(size=n)
+    sin_t, cos_t, phi = np.sqrt(u1), np.sqrt(1.0 - u1), 2.0 * np.pi * u2
+    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    tangent = np.cross(axis, helper)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    bitangent = np.cross(axis, tangent)
+    return ((sin_t * np.cos(phi))[:, None] * tangent + (sin_t * np.sin(phi))[:, None] * bitangent
+            + cos_t[:, None] * axis)
+
+
+def framing_distance(radius: float, fovy: float = FOVY) -> float:
+    """Camera distance at which a sphere of ``radius`` fills the picture (``FRAMING``)."""
+    return FRAMING * radius / math.sin(fovy / 2.0)
+
+
+def random_views(centre, radius: float, n: int, generator: np.random.Generator, fovy: float = FOVY,
+                 distance: float | None = None, aspect: float = 1.0) -> Camera:
+    """``n`` cameras at ``distance`` (default ``framing_distance``) from ``centre [3]`` in
+    directions uniform on the sphere, looking at it with up ``UP``; near and far planes hug
+    the bounding sphere of ``radius``. Float32."""
+    radius = max(float(radius), 1e-12)
+    distance = framing_distance(radius, fovy) if distance is None else float(distance)
+    centre = np.asarray(torch.as_tensor(centre, dtype=torch.float64).cpu(), dtype=np.float64)
+    eye = torch.from_numpy(centre + distance * unit_vectors(generator, n)).float()
+    target = torch.from_numpy(np.broadcast_to(centre, (n, 3)).copy()).float()
+    return Camera.looking_at(eye, target, up=UP, fovy=fovy, aspect=aspect,
+                             near=max(distance - 1.5 * radius, 0.01 * radius), far=distance + 1.5 * radius)
+
+
+def random_lights(camera: Camera, centre, generator: np.random.Generator, distance: float | None = None,
+                  irradiance: float = IRRADIANCE) -> PointLight:
+    """One white point light per camera, at ``distance`` (default: the camera's) from
+    ``centre [3]``, in a direction cosine-distributed around the direction to the camera;
+    intensity ``irradiance * distance^2`` so the irradiance at the centre is ``irradiance``."""
+    centre = np.asarray(torch.as_tensor(centre, dtype=torch.float64).cpu(), dtype=np.float64)
+    offset = camera.position.detach().double().cpu().numpy() - centre
+    camera_distance = np.linalg.norm(offset, axis=1, keepdims=True).clip(min=1e-12)
+    distance = camera_distance if distance is None else np.full_like(camera_distance, float(distance))
+    position = centre + distance * cosine_around(generator, offset / camera_distance)
+    intensity = np.repeat(irradiance * distance ** 2, 3, axis=1)
+    return PointLight(position=torch.from_numpy(position).float(), intensity=torch.from_numpy(intensity).float())

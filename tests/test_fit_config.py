@@ -1,0 +1,69 @@
+"""Run configuration: defaults, TOML round trip, validation, durations."""
+
+from __future__ import annotations
+
+import pytest
+
+from lookalike.errors import ConfigError
+from lookalike.fit.config import Config, config_from_dict, load_config, parse_duration, to_toml
+
+
+def test_toml_round_trip_keeps_every_setting(tmp_path):
+    config = config_from_dict({
+        "io": {"input": "a.obj", "outdir": "out", "export_obj": True},
+        "latent": {"triangles": 1500, "texture_size": 256, "init": "random"},
+        "optim": {"iterations": 20, "laplacian_weight": 3.5, "loss": "smape", "time_budget": "2m"},
+        "clamp": {"roughness": [0.1, 0.9]},
+    })
+    path = tmp_path / "run.toml"
+    path.write_text(to_toml(config))
+    again = load_config(path)
+    assert again == config
+    assert again.optim.time_budget == 120.0 and again.clamp.roughness == (0.1, 0.9)
+    assert again.latent.ratio is None and again.latent.triangles == 1500
+
+
+def test_defaults_round_trip():
+    import tomllib
+    assert config_from_dict(tomllib.loads(to_toml(Config()))) == Config()
+
+
+@pytest.mark.parametrize("data, words", [
+    ({"latent": {"triangles": 0}}, "positive"),
+    ({"latent": {"triangles": -5}}, "positive"),
+    ({"latent": {"triangles": 10, "ratio": 0.5}}, "not both"),
+    ({"latent": {"ratio": 1.5}}, "(0, 1)"),
+    ({"latent": {"triangles": "many"}}, "wrong type"),
+    ({"optim": {"loss": "l3"}}, "optim.loss"),
+    ({"optim": {"lr_textures": True}}, "wrong type"),
+    ({"optim": {"time_budget": "soon"}}, "duration"),
+    ({"optim": {"bogus": 1}}, "unknown key 'bogus'"),
+    ({"extras": {}}, "unknown section [extras]"),
+    ({"views": {"pool_size": 1, "batch_size": 4}}, "pool_size"),
+])
+def test_invalid_settings_are_refused_with_a_clear_message(data, words):
+    with pytest.raises(ConfigError, match=None) as info:
+        config_from_dict(data)
+    assert words in str(info.value)
+
+
+def test_unreadable_files_are_config_errors(tmp_path):
+    with pytest.raises(ConfigError, match="no such configuration file"):
+        load_config(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[optim\nseed = ")
+    with pytest.raises(ConfigError, match="bad.toml: not a valid TOML"):
+        load_config(bad)
+
+
+@pytest.mark.parametrize("text, seconds", [
+    ("90", 90.0), ("90s", 90.0), ("10m", 600.0), ("1h", 3600.0), ("1h30m", 5400.0), ("2.5m", 150.0), (45, 45.0),
+])
+def test_durations(text, seconds):
+    assert parse_duration(text) == seconds
+
+
+@pytest.mark.parametrize("text", ["", "m", "ten minutes", "0", "-5", "5d"])
+def test_bad_durations(text):
+    with pytest.raises(ConfigError):
+        parse_duration(text)

@@ -1,0 +1,134 @@
+"""The optimisation loop with a toy differentiable "renderer" (no rasterizer needed):
+convergence, NaN rollback, Ctrl-C checkpoint and resume, determinism, time-budget planning."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from lookalike.fit.config import Config, config_from_dict
+from lookalike.fit.latent import Latent
+from lookalike.fit.optimize import SNAPSHOT_EVERY, Batch, Fitter, read_checkpoint
+from lookalike.shading.camera import Camera
+from lookalike.shading.light import PointLight
+
+from test_fit_latent import make_latent
+
+SIZE = 4
+
+
+def toy_render(asset, camera, light):
+    """``[B, S, S, 4]``: texel colour times the light's intensity plus a term in the mean
+    vertex position, alpha 1. Differentiable in the textures and the positions."""
+    kd = asset.materials[0].kd.data[..., :3]
+    shift = 0.05 * asset.mesh.v_pos.mean(dim=0)
+    rgb = kd[None] * light.intensity[:, None, None, :] + shift
+    return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
+
+
+class ToySource:
+    def __init__(self, truth: Latent):
+        self.truth = truth
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        eye = torch.from_numpy(rng.normal(size=(batch_size, 3)).astype(np.float32)) + 3
+        camera = Camera.looking_at(eye, torch.zeros_like(eye))
+        light = PointLight(position=eye, intensity=torch.from_numpy(rng.uniform(0.5, 2, (batch_size, 3)).astype(np.float32)))
+        with torch.no_grad():
+            return Batch(camera, light, toy_render(self.truth.as_asset(), camera, light))
+
+
+def config(**optim) -> Config:
+    return config_from_dict({"optim": {"lr_textures": 0.05, "lr_positions": 0.01, **optim}, "views": {"batch_size": 2}})
+
+
+def fitter(cfg: Config, render=toy_render, checkpoint=None) -> Fitter:
+    torch.manual_seed(1)
+    truth, start = make_latent(SIZE), make_latent(SIZE)
+    return Fitter(start, ToySource(truth), render, cfg, checkpoint=checkpoint)
+
+
+def test_loss_goes_down_and_the_best_state_is_kept():
+    fit = fitter(config(iterations=60))
+    result = fit.run(progress=False)
+    assert result.iterations == 60 and len(result.losses) == 60
+    assert np.mean(result.losses[-10:]) < 0.3 * np.mean(result.losses[:5])
+    assert fit.progress.best_ema < math.inf
+    assert not torch.equal(result.best.kd, make_latent(SIZE).kd)
+
+
+def test_same_seed_same_result_and_another_seed_differs():
+    a = fitter(config(iterations=25, seed=3)).run(progress=False)
+    b = fitter(config(iterations=25, seed=3)).run(progress=False)
+    c = fitter(config(iterations=25, seed=4)).run(progress=False)
+    assert a.losses == b.losses
+    assert torch.equal(a.best.kd, b.best.kd) and torch.equal(a.best.v_pos, b.best.v_pos)
+    assert a.losses != c.losses
+
+
+def test_a_nan_step_rolls_back_lowers_the_learning_rate_and_carries_on():
+    calls = {"n": 0}
+    poisoned_call = SNAPSHOT_EVERY + 4  # a few steps after the first snapshot
+
+    def poisoned(asset, camera, light):
+        calls["n"] += 1
+        image = toy_render(asset, camera, light)
+        return image * math.nan if calls["n"] == poisoned_call else image
+
+    fit = fitter(config(iterations=30), render=poisoned)
+    for _ in range(poisoned_call - 1):
+        fit.step()
+    good_kd = fit._good[0]["kd"].clone()
+    assert not torch.equal(good_kd, fit.latent.kd)  # moved on since the snapshot
+    assert math.isnan(fit.step())
+    assert torch.equal(fit.latent.kd, good_kd)  # rolled back
+    assert fit.progress.lr_scale == 0.5 and fit.progress.rollbacks == 1
+    result = fit.run(progress=False)
+    assert result.iterations == 30 and all(math.isfinite(v) for v in result.losses[poisoned_call:])
+    assert torch.isfinite(result.best.kd).all()
+
+
+def test_too_many_failures_in_a_row_stop_the_loop():
+    fit = fitter(config(iterations=50, max_rollbacks=3), render=lambda *a: toy_render(*a) * math.nan)
+    result = fit.run(progress=False)
+    assert result.iterations == 3 and result.rollbacks == 3
+
+
+def test_ctrl_c_writes_a_checkpoint_and_resume_continues_exactly(tmp_path):
+    straight_fit = fitter(config(iterations=24))
+    straight = straight_fit.run(progress=False)
+
+    calls = {"n": 0}
+
+    def interrupting(asset, camera, light):
+        calls["n"] += 1
+        if calls["n"] == 14:
+            raise KeyboardInterrupt
+        return toy_render(asset, camera, light)
+
+    path = tmp_path / "checkpoint.pt"
+    first = fitter(config(iterations=24), render=interrupting, checkpoint=path)
+    result = first.run(progress=False)
+    assert result.interrupted and result.iterations == 13 and path.exists()
+
+    state, cfg, latent = read_checkpoint(path)
+    assert cfg == config(iterations=24) and state["progress"]["iteration"] == 13
+    torch.manual_seed(1)
+    second = Fitter(latent, ToySource(make_latent(SIZE)), toy_render, cfg, checkpoint=path)
+    second.load_state_dict(state)
+    assert second.progress.iteration == 13
+    resumed = second.run(progress=False)
+    assert resumed.iterations == 24 and resumed.losses == straight.losses
+    assert torch.equal(second.latent.kd, straight_fit.latent.kd)
+    assert torch.equal(second.latent.v_pos, straight_fit.latent.v_pos)
+
+
+def test_the_time_budget_fixes_the_iteration_count():
+    fit = fitter(config())
+    result = fit.run(seconds_available=0.5, progress=False)
+    assert fit.progress.total == result.iterations
+    assert 5 < result.iterations
+    assert result.seconds < 1.5

@@ -1,0 +1,244 @@
+"""The deferred pipeline on scenes with known answers, and its camera and light helpers."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from lookalike.asset import Asset, Material, Mesh, Texture
+from lookalike.shading import Camera, PointLight, look_at, perspective, render
+
+NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
+
+
+def quad(z: float = 0.0, size: float = 1.0, material: int = 0) -> Mesh:
+    """A square of half-size ``size`` in the plane ``z``, facing +z, UVs with (0, 0) top-left."""
+    v_pos = torch.tensor([[-1.0, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]) * size + torch.tensor([0, 0, z])
+    t_pos_idx = torch.tensor([[0, 1, 2], [0, 2, 3]])
+    v_tex = torch.tensor([[0.0, 1], [1, 1], [1, 0], [0, 0]])
+    return Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, uv=[(v_tex, t_pos_idx.clone())],
+                t_mat_idx=torch.full((2,), material))
+
+
+def merge(meshes: list[Mesh]) -> Mesh:
+    offsets = torch.cumsum(torch.tensor([0] + [m.num_vertices for m in meshes[:-1]]), 0)
+    return Mesh(
+        v_pos=torch.cat([m.v_pos for m in meshes]),
+        t_pos_idx=torch.cat([m.t_pos_idx + o for m, o in zip(meshes, offsets)]),
+        uv=[(torch.cat([m.uv[0][0] for m in meshes]), torch.cat([m.uv[0][1] + o for m, o in zip(meshes, offsets)]))],
+        t_mat_idx=torch.cat([m.t_mat_idx for m in meshes]),
+    )
+
+
+def uv_sphere(radius: float = 1.0, rings: int = 48, segments: int = 96) -> Mesh:
+    """A UV sphere (poles on +-y), counter-clockwise seen from outside, u around, v down."""
+    theta = torch.linspace(0, math.pi, rings + 1)
+    phi = torch.linspace(0, 2 * math.pi, segments + 1)
+    t, p = torch.meshgrid(theta, phi, indexing="ij")
+    v_pos = radius * torch.stack([torch.sin(t) * torch.sin(p), torch.cos(t), torch.sin(t) * torch.cos(p)], -1)
+    v_tex = torch.stack([p / (2 * math.pi), t / math.pi], -1)
+    idx = torch.arange((rings + 1) * (segments + 1)).reshape(rings + 1, segments + 1)
+    a, b = idx[:-1, :-1].reshape(-1), idx[:-1, 1:].reshape(-1)
+    c, d = idx[1:, :-1].reshape(-1), idx[1:, 1:].reshape(-1)
+    tris = torch.cat([torch.stack([a, c, d], 1), torch.stack([a, d, b], 1)])
+    return Mesh(v_pos=v_pos.reshape(-1, 3), t_pos_idx=tris, uv=[(v_tex.reshape(-1, 2), tris.clone())])
+
+
+def front_camera(distance: float = 3.0, fovy: float = math.radians(60), batch: int = 1) -> Camera:
+    eye = torch.tensor([[0.0, 0.0, distance]]).expand(batch, 3)
+    return Camera.looking_at(eye, torch.zeros(batch, 3), fovy=fovy, near=0.5, far=20.0)
+
+
+def light_at(position, intensity: float = 1.0) -> PointLight:
+    return PointLight(torch.tensor([position], dtype=torch.float32), torch.full((1, 3), intensity))
+
+
+def emissive_material(rgb, alpha: float, mode: str) -> Material:
+    """A material whose colour is its emission (black, no specular), with alpha."""
+    return Material(kd=Texture.constant([0.0, 0.0, 0.0, alpha]), ks=Texture.constant(NO_SPECULAR),
+                    emissive=Texture.constant(rgb), alpha_mode=mode, double_sided=True)
+
+
+def test_look_at_and_perspective():
+    eye = torch.tensor([[1.0, 2.0, 3.0]])
+    mv = look_at(eye, torch.zeros(1, 3), [0.0, 1.0, 0.0])
+    assert torch.allclose(mv[0, :3, :3] @ mv[0, :3, :3].T, torch.eye(3), atol=1e-6)
+    assert torch.allclose(mv[0] @ torch.tensor([1.0, 2, 3, 1]), torch.tensor([0.0, 0, 0, 1]), atol=1e-6)
+    target_view = mv[0] @ torch.tensor([0.0, 0, 0, 1])
+    assert torch.allclose(target_view[:3], torch.tensor([0.0, 0, -math.sqrt(14)]), atol=1e-5)
+    up_view = mv[0, :3, :3] @ torch.tensor([0.0, 1.0, 0.0])
+    assert up_view[1] > 0 and abs(up_view[0]) < 1e-6  # world up stays up in the picture
+    # Looking straight down the up vector still gives a valid rotation.
+    straight = look_at(torch.tensor([[0.0, 5.0, 0.0]]), torch.zeros(1, 3), [0.0, 1.0, 0.0])
+    assert torch.isfinite(straight).all()
+    assert torch.allclose(straight[0, :3, :3] @ straight[0, :3, :3].T, torch.eye(3), atol=1e-6)
+    proj = perspective(math.radians(90), 2.0, 1.0, 10.0)
+    for depth, ndc in ((1.0, -1.0), (10.0, 1.0)):
+        clip = proj @ torch.tensor([0.0, 0.0, -depth, 1.0])
+        assert math.isclose(clip[2] / clip[3], ndc, abs_tol=1e-6)
+    clip = proj @ torch.tensor([2.0, 1.0, -1.0, 1.0])  # 45 degrees up, aspect 2: the corner
+    assert torch.allclose(clip[:2] / clip[3], torch.tensor([1.0, 1.0]))
+
+
+def test_point_light_falloff():
+    light = PointLight(torch.tensor([[0.0, 0, 2], [0, 0, 4]]), torch.tensor([[4.0, 4, 4], [8, 8, 8]]))
+    direction, irradiance = light.illuminate(torch.zeros(2, 3), torch.tensor([0, 1]))
+    assert torch.allclose(direction, torch.tensor([[0.0, 0, 1], [0, 0, 1]]))
+    assert torch.allclose(irradiance[:, 0], torch.tensor([1.0, 0.5]))
+
+
+def test_lambertian_quad_centre_has_analytic_radiance():
+    albedo, intensity, distance = 0.6, 9.0, 3.0
+    asset = Asset(quad(), [Material(kd=Texture.constant([albedo, albedo, albedo, 1.0]), ks=Texture.constant(NO_SPECULAR))])
+    image = render(asset, front_camera(distance), light_at([0.0, 0.0, distance], intensity), 33)
+    expected = albedo / math.pi * intensity / distance ** 2
+    assert torch.allclose(image[0, 16, 16], torch.tensor([expected, expected, expected, 1.0]), rtol=1e-4)
+    assert image[0, 0, 0, 3] == 0  # corner: background, alpha 0
+    # A metal with roughness r has radiance F0 * D * Vis * E = kd / (4 pi r^4) * E head-on.
+    rough = 0.5
+    metal = Asset(quad(), [Material(kd=Texture.constant([0.9, 0.5, 0.2, 1.0]), ks=Texture.constant([0.0, rough, 1.0]))])
+    image = render(metal, front_camera(distance), light_at([0.0, 0.0, distance], intensity), 33)
+    expected = torch.tensor([0.9, 0.5, 0.2]) / (4 * math.pi * rough ** 4) * intensity / distance ** 2
+    assert torch.allclose(image[0, 16, 16, :3], expected, rtol=1e-3)
+
+
+def test_orientation_row_zero_is_top_and_u_runs_right():
+    texels = torch.zeros(2, 2, 4)
+    texels[..., 3] = 1.0
+    texels[0, :, 0] = 1.0  # top row of the image: red
+    texels[:, 0, 2] = 1.0  # left column: blue
+    material = Material(kd=Texture(texels, wrap="clamp"), ks=Texture.constant(NO_SPECULAR))
+    image = render(Asset(quad(), [material]), front_camera(), light_at([0.0, 0.0, 3.0], 30.0), 32)
+    top_left, bottom_right = image[0, 7, 7], image[0, 24, 24]  # texel centres are at 1/4, 3/4
+    assert top_left[0] > 0.1 and top_left[2] > 0.1
+    assert bottom_right[0] < 1e-3 and bottom_right[2] < 1e-3
+    # The world's +y is the top of the picture: a quad above the axis covers the upper rows.
+    upper = quad(size=0.5)
+    upper.v_pos = upper.v_pos + torch.tensor([0.0, 0.8, 0.0])
+    alpha = render(Asset(upper, [material]), front_camera(), light_at([0.0, 0.0, 3.0]), 32)[0, ..., 3]
+    assert alpha[:16].sum() > 0 and alpha[16:].sum() == 0
+
+
+def test_sphere_coverage_matches_projected_area():
+    radius, distance, fovy = 1.0, 4.0, math.radians(40)
+    asset = Asset(uv_sphere(radius), [Material()])
+    alpha = render(asset, front_camera(distance, fovy), light_at([0.0, 0.0, distance]), 96, spp=2)[0, ..., 3]
+    # The silhouette is a circle of angular radius asin(r / d); in NDC its radius is
+    # tan(asin(r / d)) / tan(fovy / 2), and the NDC square has area 4.
+    ndc_radius = math.tan(math.asin(radius / distance)) / math.tan(fovy / 2)
+    expected = math.pi * ndc_radius ** 2 / 4
+    assert abs(alpha.mean().item() - expected) < 0.01 * expected
+
+
+def test_supersampling_reduces_edge_aliasing():
+    tilted = quad(size=0.8)
+    angle = math.radians(17)
+    rotation = torch.tensor([[math.cos(angle), -math.sin(angle), 0], [math.sin(angle), math.cos(angle), 0], [0, 0, 1.0]])
+    tilted.v_pos = tilted.v_pos @ rotation.T
+    asset = Asset(tilted, [Material()])
+    camera, light = front_camera(), light_at([0.0, 0.0, 3.0], 9.0)
+    reference = render(asset, camera, light, 24, spp=12)[..., 3]
+    errors = [(render(asset, camera, light, 24, spp=s)[..., 3] - reference).abs().mean().item() for s in (1, 4)]
+    assert errors[1] < 0.5 * errors[0]
+
+
+def test_depth_peeled_blended_quads_composite_back_to_front():
+    front, back, background = [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], torch.tensor([0.0, 1.0, 0.0])
+    a_front, a_back = 0.5, 0.6
+    materials = [emissive_material(front, a_front, "BLEND"), emissive_material(back, a_back, "BLEND")]
+    camera, light = front_camera(), light_at([0.0, 0.0, 3.0])
+    expected_two = (a_front * torch.tensor(front)
+                    + (1 - a_front) * (a_back * torch.tensor(back) + (1 - a_back) * background))
+    expected_one = a_front * torch.tensor(front) + (1 - a_front) * background
+    for order in ((0, 1), (1, 0)):  # triangle order must not matter
+        meshes = [quad(0.0, 0.5, material=0), quad(-1.0, 0.5, material=1)]
+        asset = Asset(merge([meshes[i] for i in order]), materials)
+        two = render(asset, camera, light, 16, layers=2, background=background)
+        assert torch.allclose(two[0, 8, 8, :3], expected_two, atol=1e-5)
+        assert two[0, 8, 8, 3] == 1.0
+        one = render(asset, camera, light, 16, layers=1, background=background)
+        assert torch.allclose(one[0, 8, 8, :3], expected_one, atol=1e-5)
+    # Without a background the alpha accumulates: 1 - (1 - a_front)(1 - a_back).
+    alpha = render(asset, camera, light, 16, layers=4)[0, 8, 8, 3]
+    assert math.isclose(alpha.item(), 1 - (1 - a_front) * (1 - a_back), rel_tol=1e-5)
+
+
+def test_mask_alpha_mode_and_background_image_orientation():
+    mask_low, mask_high = emissive_material([1.0, 1.0, 1.0], 0.4, "MASK"), emissive_material([1.0, 1.0, 1.0], 0.4, "MASK")
+    mask_low.alpha_cutoff, mask_high.alpha_cutoff = 0.3, 0.5
+    background = torch.zeros(1, 16, 16, 3)
+    background[:, :8, :, 0] = 1.0  # top half red
+    camera, light = front_camera(), light_at([0.0, 0.0, 3.0])
+    kept = render(Asset(quad(size=0.5), [mask_low]), camera, light, 16, background=background)
+    dropped = render(Asset(quad(size=0.5), [mask_high]), camera, light, 16, background=background)
+    assert torch.allclose(kept[0, 8, 8, :3], torch.ones(3))
+    assert torch.allclose(dropped[0, 8, 8, :3], torch.zeros(3))  # bottom half of the background
+    assert torch.allclose(dropped[0, 7, 8, :3], torch.tensor([1.0, 0, 0]))
+
+
+def test_back_faces_single_sided_culled_double_sided_flipped():
+    behind = Camera.looking_at(torch.tensor([[0.0, 0.0, -3.0]]), torch.zeros(1, 3), fovy=math.radians(60))
+    light = light_at([0.0, 0.0, -3.0], 9.0)
+    single = Material(ks=Texture.constant(NO_SPECULAR))
+    double = Material(ks=Texture.constant(NO_SPECULAR), double_sided=True)
+    culled = render(Asset(quad(), [single]), behind, light, 16)
+    assert culled[..., 3].max() == 0
+    shown = render(Asset(quad(), [double]), behind, light, 16)
+    lit = render(Asset(quad(), [double]), front_camera(), light_at([0.0, 0.0, 3.0], 9.0), 16)
+    assert torch.allclose(shown[0, 8, 8], lit[0, 8, 8], rtol=1e-5)
+
+
+def normal_mapped_sphere(normal: Texture | None) -> Asset:
+    texels = torch.rand(16, 16, 4, generator=torch.Generator().manual_seed(3))
+    texels[..., 3] = 1.0
+    material = Material(kd=Texture(texels), ks=Texture.constant([0.0, 0.4, 0.2]), normal=normal)
+    return Asset(uv_sphere(1.0, 24, 48), [material])
+
+
+def test_flat_normal_map_renders_like_no_normal_map():
+    camera, light = front_camera(), light_at([1.0, 2.0, 3.0], 12.0)
+    plain = render(normal_mapped_sphere(None), camera, light, 48)
+    flat = torch.tensor([0.0, 0.0, 1.0]).expand(8, 8, 3).clone()
+    mapped = render(normal_mapped_sphere(Texture(flat)), camera, light, 48)
+    assert torch.allclose(mapped, plain, atol=1e-5)
+    tilted = torch.nn.functional.normalize(torch.tensor([0.5, 0.0, 1.0]), dim=0).expand(8, 8, 3).clone()
+    bumped = render(normal_mapped_sphere(Texture(tilted)), camera, light, 48)
+    assert (bumped - plain).abs().max() > 0.05  # a tilted map does change the picture
+
+
+def test_msaa_shades_once_but_covers_like_supersampling():
+    asset = Asset(uv_sphere(1.0, 16, 32), [Material()])
+    camera, light = front_camera(), light_at([0.0, 0.0, 3.0], 9.0)
+    ssaa = render(asset, camera, light, 24, spp=4)
+    msaa = render(asset, camera, light, 24, spp=4, msaa=True)
+    assert torch.allclose(msaa[..., 3], ssaa[..., 3], atol=1e-5)
+    interior = ssaa[..., 3] == 1
+    assert torch.allclose(msaa[interior], ssaa[interior], atol=0.03)  # shaded 1/8 pixel off centre
+
+
+def test_batch_of_views_and_gradients_reach_positions_and_textures():
+    mesh = uv_sphere(1.0, 12, 24)
+    mesh.v_pos.requires_grad_(True)
+    texels = torch.full((8, 8, 4), 0.5, requires_grad=True)
+    specular = torch.full((4, 4, 3), 0.4, requires_grad=True)
+    asset = Asset(mesh, [Material(kd=Texture(texels), ks=Texture(specular))])
+    eye = torch.tensor([[0.0, 0.0, 3.0], [3.0, 0.0, 0.0]])
+    camera = Camera.looking_at(eye, torch.zeros(2, 3), fovy=math.radians(50))
+    light = PointLight(eye.clone(), torch.full((2, 3), 9.0))
+    image = render(asset, camera, light, 24, spp=2, layers=2, msaa=True)
+    assert image.shape == (2, 24, 24, 4) and torch.isfinite(image).all()
+    # A sphere looks the same from both views up to the texture.
+    assert math.isclose(image[0, ..., 3].mean().item(), image[1, ..., 3].mean().item(), rel_tol=0.02)
+    image[..., :3].sum().backward()
+    for grad in (mesh.v_pos.grad, texels.grad, specular.grad):
+        assert grad is not None and torch.isfinite(grad).all() and grad.abs().sum() > 0
+
+
+@pytest.mark.parametrize("spp", [1, 2])
+def test_no_nans_at_grazing_views(spp):
+    asset = normal_mapped_sphere(Texture(torch.nn.functional.normalize(torch.rand(8, 8, 3) - 0.5 + torch.tensor([0, 0, 1.0]), dim=-1)))
+    camera, light = front_camera(), light_at([3.0, 0.0, 0.1], 9.0)  # light grazing from the side
+    image = render(asset, camera, light, 32, spp=spp)
+    assert torch.isfinite(image).all() and (image >= 0).all()

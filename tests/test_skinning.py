@@ -1,0 +1,114 @@
+"""Dense linear-blend skinning and glTF animation sampling."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from lookalike.asset import Animation, Channel, Node, Skin
+from lookalike.asset.skinning import (dense_weights, joint_matrices, node_world_matrices, quaternion_to_matrix,
+                                      skin_vertices, slerp)
+
+
+def axis_angle_quaternion(axis, angle):
+    axis = torch.tensor(axis, dtype=torch.float32)
+    axis = axis / axis.norm()
+    return torch.cat([axis * math.sin(angle / 2), torch.tensor([math.cos(angle / 2)])])
+
+
+def rotation_z(angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return torch.tensor([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def two_bone_skin() -> Skin:
+    """Root at (1, 0, 0); child 2 units up the root's y axis, scaled by 2 along x."""
+    nodes = [
+        Node("root", -1, torch.tensor([1.0, 0, 0]), torch.tensor([0.0, 0, 0, 1]), torch.ones(3)),
+        Node("child", 0, torch.tensor([0.0, 2, 0]), torch.tensor([0.0, 0, 0, 1]), torch.tensor([2.0, 1, 1])),
+    ]
+    rest_world = torch.stack([torch.eye(4), torch.eye(4)])
+    rest_world[:, 0, 3] = 1.0
+    rest_world[1, 1, 3] = 2.0
+    rest_world[1, 0, 0] = 2.0
+    return Skin(nodes=nodes, joints=torch.tensor([0, 1]), inverse_bind=torch.linalg.inv(rest_world))
+
+
+def test_skin_vertices_matches_loop():
+    frames, joints, verts = 2, 3, 5
+    v_pos = torch.randn(verts, 3, dtype=torch.float64)
+    weights = torch.rand(verts, joints, dtype=torch.float64)
+    mats = torch.randn(frames, joints, 4, 4, dtype=torch.float64)
+    got = skin_vertices(v_pos, weights, mats)
+    for f in range(frames):
+        for v in range(verts):
+            h = torch.cat([v_pos[v], torch.ones(1, dtype=torch.float64)])
+            expected = sum(weights[v, j] * (mats[f, j] @ h)[:3] for j in range(joints))
+            assert torch.allclose(got[f, v], expected)
+
+
+def test_skin_vertices_gradient():
+    v_pos = torch.randn(4, 3, dtype=torch.float64, requires_grad=True)
+    weights = torch.rand(4, 2, dtype=torch.float64, requires_grad=True)
+    mats = torch.randn(2, 2, 4, 4, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(skin_vertices, (v_pos, weights, mats))
+
+
+def test_dense_weights_scatter_and_sum_duplicates():
+    dense = dense_weights(torch.tensor([[0, 2, 2, 0]]), torch.tensor([[0.5, 0.25, 0.25, 0.0]]), 4)
+    assert torch.equal(dense, torch.tensor([[0.5, 0.0, 0.5, 0.0]]))
+
+
+def test_quaternion_and_slerp():
+    q = axis_angle_quaternion([0, 0, 1], math.pi / 2)
+    assert torch.allclose(quaternion_to_matrix(q), rotation_z(math.pi / 2), atol=1e-6)
+    identity = torch.tensor([0.0, 0, 0, 1])
+    half = slerp(identity[None], q[None], torch.tensor([0.5]))[0]
+    assert torch.allclose(half, axis_angle_quaternion([0, 0, 1], math.pi / 4), atol=1e-6)
+    # Shortest path: -q is the same rotation, slerp must not go the long way round.
+    assert torch.allclose(slerp(identity[None], -q[None], torch.tensor([0.5]))[0], half, atol=1e-6)
+    assert torch.allclose(slerp(q[None], q[None], torch.tensor([0.3]))[0], q, atol=1e-6)
+
+
+def test_rest_pose_is_identity_skinning():
+    skin = two_bone_skin()
+    mats = joint_matrices(skin)
+    assert mats.shape == (1, 2, 4, 4)
+    assert torch.allclose(mats, torch.eye(4).expand(1, 2, 4, 4), atol=1e-6)
+
+
+def test_animation_linear_and_step():
+    skin = two_bone_skin()
+    q90 = axis_angle_quaternion([0, 0, 1], math.pi / 2)
+    animation = Animation("clip", [
+        Channel(0, "translation", torch.tensor([0.0, 2.0]), torch.tensor([[1.0, 0, 0], [3.0, 0, 0]])),
+        Channel(1, "rotation", torch.tensor([0.0, 1.0]), torch.stack([torch.tensor([0.0, 0, 0, 1]), q90])),
+        Channel(1, "scale", torch.tensor([0.0, 1.0]), torch.tensor([[2.0, 1, 1], [4.0, 1, 1]]), "STEP"),
+    ])
+    times = torch.tensor([-1.0, 0.5, 1.0, 5.0])
+    world = node_world_matrices(skin, animation, times)
+    # Root translation: lerp, clamped outside the keys.
+    assert torch.allclose(world[:, 0, 0, 3], torch.tensor([1.0, 1.5, 2.0, 3.0]))
+    # Child at t = 0.5: rotation 45 degrees (slerp), scale still the first STEP key.
+    expected = torch.eye(4)
+    expected[:3, :3] = rotation_z(math.pi / 4) @ torch.diag(torch.tensor([2.0, 1, 1]))
+    expected[:3, 3] = torch.tensor([1.5, 2.0, 0.0])
+    assert torch.allclose(world[1, 1], expected, atol=1e-6)
+    # At t = 1 the STEP key switches to 4.
+    assert torch.allclose(world[2, 1, :3, 0].norm(), torch.tensor(4.0))
+    # A vertex bound to the child at its origin follows the child's origin.
+    mats = joint_matrices(skin, animation, times)
+    vertex = torch.tensor([[1.0, 2.0, 0.0]])
+    moved = skin_vertices(vertex, torch.tensor([[0.0, 1.0]]), mats)
+    assert torch.allclose(moved[:, 0], world[:, 1, :3, 3], atol=1e-6)
+
+
+def test_mesh_to_world_is_undone():
+    skin = two_bone_skin()
+    skin.mesh_to_world = torch.diag(torch.tensor([2.0, 2.0, 2.0, 1.0]))
+    # Loaded positions are mesh_to_world @ local; rest-pose skinning maps local -> local.
+    local = torch.tensor([[0.5, 0.5, 0.5]])
+    loaded = 2.0 * local
+    skinned = skin_vertices(loaded, torch.tensor([[1.0, 0.0]]), joint_matrices(skin))
+    assert torch.allclose(skinned[0], local, atol=1e-6)
