@@ -94,3 +94,28 @@ def dilate(values: np.ndarray, covered: np.ndarray, iterations: int) -> tuple[np
         values[grow] = total[grow] / hits[grow][:, None]
         covered |= grow
     return values, covered
+
+
+def sample_bilinear(texture: np.ndarray, uv: np.ndarray, wrap: str = "wrap") -> np.ndarray:
+    """Bilinear lookup of ``texture [H, W, C]`` at ``uv [K, 2]`` (glTF convention, texel centres
+    at ``(i + 0.5) / size``), with ``wrap`` ("wrap": repeat, "clamp": clamp to edge).
+
+    Returns:
+        ``[K, C]`` float32 ``sum_corners w * texel``, ``w`` the bilinear weights of the four
+        texels around ``uv * (W, H) - 0.5``.
+    """
+    height, width = texture.shape[:2]
+    x = np.asarray(uv[:, 0], np.float64) * width - 0.5
+    y = np.asarray(uv[:, 1], np.float64) * height - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+
+    def index(i, size):
+        return np.mod(i, size) if wrap == "wrap" else np.clip(i, 0, size - 1)
+
+    xs = (index(x0, width), index(x0 + 1, width))
+    ys = (index(y0, height), index(y0 + 1, height))
+    top = texture[ys[0], xs[0]] * (1 - fx) + texture[ys[0], xs[1]] * fx
+    bottom = texture[ys[1], xs[0]] * (1 - fx) + texture[ys[1], xs[1]] * fx
+    return (top * (1 - fy) + bottom * fy).astype(np.float32)

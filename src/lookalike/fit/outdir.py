@@ -36,25 +36,29 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         temp.write_text(text, encoding="utf-8")
 
 
-def prepare_outdir(outdir: str | Path, *, force: bool, resume: bool) -> Path:
-    """Create ``outdir`` or check that this run may write into it.
+def check_outdir(outdir: str | Path, *, force: bool, resume: bool) -> None:
+    """Raise ``ConfigError`` unless this run may write into ``outdir``.
 
     An absent or empty folder is always fine. With ``resume`` the folder must hold our
-    ``checkpoint.pt``. Otherwise a non-empty folder is refused unless ``force`` (which lets the
-    run overwrite our files in it; a stale checkpoint is removed). Raises ``ConfigError``.
+    ``checkpoint.pt``. Otherwise a non-empty folder is refused unless ``force``.
     """
     outdir = Path(outdir)
     if outdir.exists() and not outdir.is_dir():
         raise ConfigError(f"{outdir}: the output path exists and is not a folder")
-    has_content = outdir.is_dir() and any(outdir.iterdir())
-    checkpoint = outdir / CHECKPOINT_NAME
     if resume:
-        if not checkpoint.is_file():
+        if not (outdir / CHECKPOINT_NAME).is_file():
             raise ConfigError(f"{outdir}: nothing to resume (no {CHECKPOINT_NAME} in it)")
-    elif has_content:
-        if not force:
-            raise ConfigError(f"{outdir}: the output folder exists and is not empty; "
-                              "pass --force to overwrite it or --resume to continue its run")
-        checkpoint.unlink(missing_ok=True)
+    elif outdir.is_dir() and any(outdir.iterdir()) and not force:
+        raise ConfigError(f"{outdir}: the output folder exists and is not empty; "
+                          "pass --force to overwrite it or --resume to continue its run")
+
+
+def prepare_outdir(outdir: str | Path, *, force: bool, resume: bool) -> Path:
+    """``check_outdir``, then create the folder; a fresh (not resumed) run removes a stale
+    checkpoint (``force`` lets it overwrite our other files in place)."""
+    check_outdir(outdir, force=force, resume=resume)
+    outdir = Path(outdir)
+    if not resume:
+        (outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
     outdir.mkdir(parents=True, exist_ok=True)
     return outdir

@@ -34,7 +34,7 @@ from .evaluate import HeldoutViews
 from .initial import decimation_baseline, initial_latent, target_triangle_count
 from .latent import Latent
 from .optimize import Fitter, FitResult, read_checkpoint
-from .outdir import CHECKPOINT_NAME, atomic_path, prepare_outdir, write_text_atomic
+from .outdir import CHECKPOINT_NAME, atomic_path, check_outdir, prepare_outdir, write_text_atomic
 from .targets import FreshViews, MeshTarget, ViewPool, latent_renderer
 from .views import view_sampler
 
@@ -108,7 +108,7 @@ def build_config(base: Config | str | Path | None, **overrides) -> Config:
     return config_from_dict(changes, base=config)
 
 
-def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: int | None = None,
+def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
              ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
              time_budget: float | None = None, iterations: int | None = None, seed: int | None = None,
              config: Config | str | Path | None = None, resume: bool = False, force: bool = False,
@@ -117,7 +117,7 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
     """Simplify the asset in ``input`` into ``outdir``.
 
     Args:
-        input: any file ``lookalike.io.load`` reads.
+        input: any file ``lookalike.io.load`` reads, or an ``Asset``.
         outdir: output folder (default: ``<input name>-lookalike`` in the current folder). An
             existing non-empty folder is refused unless ``force`` (or ``resume``).
         triangles, ratio: target triangle count, or fraction of the input's (default 0.02).
@@ -128,7 +128,8 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
         iterations: fixed number of optimisation steps.
         seed: random seed (default 0); same seed, same result.
         config: a ``Config`` or a TOML file with further settings; the arguments above override it.
-        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (its settings are used).
+        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (with the settings
+            stored in it; ``input`` must be the same asset).
         force: overwrite an existing ``outdir``.
         material_override: render the input with this material on every triangle (e.g. a
             colour for untextured scans).
@@ -140,9 +141,10 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
     """
     started = time.monotonic()
     timings: dict[str, float] = {}
-    input = Path(input)
-    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{input.stem}{OUTDIR_SUFFIX}"
-    prepare_outdir(outdir, force=force, resume=resume)
+    asset = input if isinstance(input, Asset) else None
+    name = asset.name if asset is not None else Path(input).stem
+    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
+    check_outdir(outdir, force=force, resume=resume)
     checkpoint = outdir / CHECKPOINT_NAME
     state = None
     if resume:
@@ -151,13 +153,15 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
         cfg = build_config(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
                            resolution=resolution, time_budget=time_budget, iterations=iterations, seed=seed,
                            export_obj=export_obj)
-        cfg.io = dataclasses.replace(cfg.io, input=str(input), outdir=str(outdir))
-    write_text_atomic(outdir / "config.toml", to_toml(cfg))
+        input_name = str(input) if asset is None else str(asset.source or asset.name)
+        cfg.io = dataclasses.replace(cfg.io, input=input_name, outdir=str(outdir))
 
     clock = time.monotonic()
-    asset = io.load(cfg.io.input)
-    notes = _prepare_input(asset, material_override)
+    asset = asset if asset is not None else io.load(input)
+    asset, notes = _prepare_input(asset, material_override)
     count = target_triangle_count(cfg.latent, asset.mesh.num_triangles)
+    prepare_outdir(outdir, force=force, resume=resume)
+    write_text_atomic(outdir / "config.toml", to_toml(cfg))
     decimated = decimate(asset.mesh, count)
     latent = resumed_latent if state is not None else initial_latent(
         asset, decimated, cfg.latent, cfg.clamp, np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
@@ -186,7 +190,8 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
     timings["optimisation"] = time.monotonic() - clock
 
     clock = time.monotonic()
-    ours = heldout.score("ours", "Ours", fit.best.as_asset(), draw, cfg.latent.texture_size)
+    with torch.no_grad():
+        ours = heldout.score("ours", "Ours", fit.best.as_asset(), draw, cfg.latent.texture_size)
     timings["scoring ours"] = time.monotonic() - clock
     result = _write_outputs(outdir, cfg, asset, fit, heldout, baseline, ours, timings, started, notes)
     if not fit.interrupted:
@@ -194,18 +199,19 @@ def simplify(input: str | Path, outdir: str | Path | None = None, *, triangles: 
     return result
 
 
-def _prepare_input(asset: Asset, material_override: Material | None) -> list[str]:
-    """Apply ``material_override``; return remarks about the input for the report."""
+def _prepare_input(asset: Asset, material_override: Material | None) -> tuple[Asset, list[str]]:
+    """``asset`` with ``material_override`` applied (a copy; the input is not modified), and
+    remarks about it for the report."""
     notes = []
     if material_override is not None:
-        asset.materials = [material_override]
-        asset.mesh.t_mat_idx = torch.zeros_like(asset.mesh.t_mat_idx)
+        mesh = dataclasses.replace(asset.mesh, t_mat_idx=torch.zeros_like(asset.mesh.t_mat_idx))
+        asset = dataclasses.replace(asset, mesh=mesh, materials=[material_override])
         notes.append("every triangle of the input rendered with one given material")
     if not asset.mesh.uv:
         notes.append("the input has no UVs: plain decimation shows its constant materials")
     if asset.skin is not None:
         notes.append("the input is skinned: it was simplified in its bind pose, and the output is static")
-    return notes
+    return asset, notes
 
 
 def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, heldout: HeldoutViews,

@@ -1,7 +1,8 @@
 """Exact closest points on a triangle mesh, fast.
 
 ``closest_barycentric`` is the vectorised point-triangle closest point (Voronoi-region
-classification, Ericson, *Real-Time Collision Detection*, Sec. 5.1.5).
+classification, Ericson, *Real-Time Collision Detection*, Sec. 5.1.5); ``_best_candidates`` is
+its compiled twin (Numba) that scans each query point's shortlist.
 ``SurfaceQuery`` finds, for many points at once, the closest point on a whole mesh: a k-d tree
 over samples that cover every triangle shortlists candidates, the exact test picks the best,
 and a bound certifies the answer (or widens the shortlist for the few points it cannot).
@@ -12,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 from scipy.spatial import cKDTree
 
 _SHORTLIST = 16                    # first shortlist size (samples per query point)
@@ -67,6 +69,90 @@ def closest_barycentric(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarr
     for condition, (ra, rb, rc) in regions:
         wa, wb, wc = np.where(condition, ra, wa), np.where(condition, rb, wb), np.where(condition, rc, wc)
     return np.stack([wa, wb, wc], axis=-1)
+
+
+@njit(cache=True, inline="always")
+def _clip_divide(num: float, den: float) -> float:
+    if den == 0.0:
+        return 0.0
+    return min(max(num / den, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _dot(x0, x1, x2, y0, y1, y2):
+    return x0 * y0 + x1 * y1 + x2 * y2
+
+
+@njit(cache=True)
+def _closest_barycentric_one(p, tri):
+    """Scalar ``closest_barycentric`` of one point ``p [3]`` and one triangle ``tri [3, 3]``
+    (rows a, b, c): returns ``(wa, wb, wc)``; the same regions in the same order."""
+    ab0, ab1, ab2 = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
+    ac0, ac1, ac2 = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
+    ap0, ap1, ap2 = p[0] - tri[0, 0], p[1] - tri[0, 1], p[2] - tri[0, 2]
+    d1, d2 = _dot(ab0, ab1, ab2, ap0, ap1, ap2), _dot(ac0, ac1, ac2, ap0, ap1, ap2)
+    if d1 <= 0 and d2 <= 0:
+        return 1.0, 0.0, 0.0
+    bp0, bp1, bp2 = p[0] - tri[1, 0], p[1] - tri[1, 1], p[2] - tri[1, 2]
+    d3, d4 = _dot(ab0, ab1, ab2, bp0, bp1, bp2), _dot(ac0, ac1, ac2, bp0, bp1, bp2)
+    if d3 >= 0 and d4 <= d3:
+        return 0.0, 1.0, 0.0
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0 and d1 >= 0 and d3 <= 0:
+        t = _clip_divide(d1, d1 - d3)
+        return 1.0 - t, t, 0.0
+    cp0, cp1, cp2 = p[0] - tri[2, 0], p[1] - tri[2, 1], p[2] - tri[2, 2]
+    d5, d6 = _dot(ab0, ab1, ab2, cp0, cp1, cp2), _dot(ac0, ac1, ac2, cp0, cp1, cp2)
+    if d6 >= 0 and d5 <= d6:
+        return 0.0, 0.0, 1.0
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0 and d2 >= 0 and d6 <= 0:
+        t = _clip_divide(d2, d2 - d6)
+        return 1.0 - t, 0.0, t
+    va = d3 * d6 - d5 * d4
+    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
+        t = _clip_divide(d4 - d3, (d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - t, t
+    denom = va + vb + vc
+    v, w = _clip_divide(vb, denom), _clip_divide(vc, denom)
+    return 1.0 - v - w, v, w
+
+
+@njit(cache=True, parallel=True)
+def _best_candidates(points, candidates, corners, t_label, labels):
+    """For each point, the closest of its candidate triangles.
+
+    Args:
+        points: ``[P, 3]`` float64; candidates: ``[P, k]`` int64 triangle indices;
+        corners: ``[T, 3, 3]`` float64; t_label: ``[T]`` int64; labels: ``[P]`` int64, or an
+        empty array to accept every candidate.
+
+    Returns:
+        ``(column [P] int64, bary [P, 3] float64, distance [P] float64)``: the winning column of
+        ``candidates`` (-1 and distance inf where no candidate has the point's label).
+    """
+    n, k = candidates.shape
+    column = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 3))
+    distance = np.full(n, np.inf)
+    restrict = labels.shape[0] > 0
+    for i in prange(n):
+        p = points[i]
+        for j in range(k):
+            t = candidates[i, j]
+            if restrict and t_label[t] != labels[i]:
+                continue
+            tri = corners[t]
+            wa, wb, wc = _closest_barycentric_one(p, tri)
+            q0 = wa * tri[0, 0] + wb * tri[1, 0] + wc * tri[2, 0] - p[0]
+            q1 = wa * tri[0, 1] + wb * tri[1, 1] + wc * tri[2, 1] - p[1]
+            q2 = wa * tri[0, 2] + wb * tri[1, 2] + wc * tri[2, 2] - p[2]
+            d = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+            if d < distance[i]:
+                distance[i] = d
+                column[i] = j
+                bary[i, 0], bary[i, 1], bary[i, 2] = wa, wb, wc
+    return column, bary, distance
 
 
 def _cover_samples(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -132,9 +218,11 @@ class SurfaceQuery:
 
     Correctness: with shortlist size k, every sample outside the shortlist lies at least
     ``d_k`` (the k-th sample distance) away, so every triangle not examined lies at least
-    ``d_k - r`` away (``r`` the cover radius). A point whose best exact distance is at most
-    that bound is final; the others are retried with a shortlist four times larger, up to all
-    samples. The answer is therefore the exact closest point, whatever the mesh.
+    ``d_k - r`` away (``r`` the cover radius). A point whose best exact distance ``d`` is at
+    most that bound is final. The others are retried with a shortlist that holds every sample
+    within ``d + r`` (counted with a ball query), or four times the last one where no candidate
+    had the point's label yet, up to all samples. The answer is therefore the exact closest
+    point, whatever the mesh.
     """
 
     def __init__(self, v_pos: np.ndarray, t_pos_idx: np.ndarray, t_label: np.ndarray | None = None):
@@ -165,24 +253,36 @@ class SurfaceQuery:
         triangle = np.zeros(n, dtype=np.int64)
         bary = np.zeros((n, 3))
         dist = np.full(n, np.inf)
+        shortlist = np.full(n, _SHORTLIST, dtype=np.int64)
         pending = np.arange(n)
-        k = _SHORTLIST
         while pending.size:
-            k = min(k, self.tree.n)
-            exhaustive = k == self.tree.n
-            chunk = max(1, _MAX_GATHER // k)
             unresolved = []
-            for start in range(0, len(pending), chunk):
-                rows = pending[start:start + chunk]
-                best_t, best_b, best_d, bound = self._shortlist(points[rows], None if labels is None else labels[rows], k)
-                better = best_d < dist[rows]
-                triangle[rows[better]], bary[rows[better]], dist[rows[better]] = best_t[better], best_b[better], best_d[better]
-                if not exhaustive:
-                    unresolved.append(rows[dist[rows] > bound])
+            for k in np.unique(shortlist[pending]):
+                k_used = min(int(k), self.tree.n)
+                rows_k = pending[shortlist[pending] == k]
+                chunk = max(1, _MAX_GATHER // k_used)
+                for start in range(0, len(rows_k), chunk):
+                    rows = rows_k[start:start + chunk]
+                    best_t, best_b, best_d, bound = self._shortlist(
+                        points[rows], None if labels is None else labels[rows], k_used)
+                    triangle[rows], bary[rows], dist[rows] = best_t, best_b, best_d
+                    if k_used < self.tree.n:
+                        unresolved.append(rows[best_d > bound])
             pending = np.concatenate(unresolved) if unresolved else np.zeros(0, dtype=np.int64)
-            k *= 4
+            shortlist[pending] = self._next_shortlist(points[pending], dist[pending], shortlist[pending])
         point = (bary[:, :, None] * self.corners[triangle]).sum(axis=1)
         return ClosestPoints(triangle, bary, point, dist)
+
+    def _next_shortlist(self, points: np.ndarray, best: np.ndarray, last: np.ndarray) -> np.ndarray:
+        """Shortlist sizes ``[P]`` (powers of two) that hold every sample within ``best + r`` of
+        each point, at least twice ``last``; four times ``last`` where ``best`` is infinite."""
+        size = 4 * last
+        found = np.isfinite(best)
+        if found.any():
+            inside = self.tree.query_ball_point(points[found], best[found] + self.cover_radius, return_length=True)
+            needed = 2 ** np.ceil(np.log2(np.asarray(inside, dtype=np.float64) + 1)).astype(np.int64)
+            size[found] = np.maximum(needed, 2 * last[found])
+        return size
 
     def _shortlist(self, points: np.ndarray, labels: np.ndarray | None, k: int):
         """Best exact candidate among the k nearest samples of each point ``[P, 3]``;
@@ -190,13 +290,9 @@ class SurfaceQuery:
         sample_dist, sample = self.tree.query(points, k=k)
         sample_dist, sample = sample_dist.reshape(len(points), k), sample.reshape(len(points), k)
         candidates = self.sample_triangle[sample]                                  # [P, k]
-        corners = self.corners[candidates]                                         # [P, k, 3, 3]
-        w = closest_barycentric(points[:, None], corners[:, :, 0], corners[:, :, 1], corners[:, :, 2])
-        closest = (w[..., None] * corners).sum(axis=2)
-        d = np.linalg.norm(closest - points[:, None], axis=-1)
-        if labels is not None:
-            d = np.where(self.t_label[candidates] == labels[:, None], d, np.inf)
-        pick = d.argmin(axis=1)
-        rows = np.arange(len(points))
-        bound = sample_dist[:, -1] - self.cover_radius
-        return candidates[rows, pick], w[rows, pick], d[rows, pick], bound
+        no_labels = np.zeros(0, dtype=np.int64)
+        column, bary, distance = _best_candidates(
+            points, candidates, self.corners,
+            no_labels if self.t_label is None else self.t_label, no_labels if labels is None else labels)
+        triangle = candidates[np.arange(len(points)), np.maximum(column, 0)]
+        return triangle, bary, distance, sample_dist[:, -1] - self.cover_radius

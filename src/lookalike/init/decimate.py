@@ -17,7 +17,7 @@ from .transfer import transfer_attributes
 from .weld import weld_tolerance, weld_vertices
 
 DEFAULT_AGGRESSIVENESS = 7.0       # fast-simplification's ``agg``: lower keeps shape better but may stop early
-_ATTEMPTS = 6                      # re-runs with a corrected request to land on the exact count
+_ATTEMPTS = 4                      # re-runs with a corrected request to land on the exact count
 _ZERO_AREA = 1e-12                 # triangle area below this times the squared bbox diagonal is degenerate
 
 

@@ -115,7 +115,8 @@ def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin
         warnings.warn(f"{data.path}: {where} has mode {prim.mode} (points or lines); skipped")
         return None
     linear = world[:3, :3]
-    positions = local @ linear.T + world[:3, 3]
+    with np.errstate(invalid="ignore", over="ignore"):  # non-finite input is reported by _merge
+        positions = local @ linear.T + world[:3, 3]
     if np.linalg.det(linear) < 0:  # a mirroring transform flips the winding (glTF 2.0, Sec. 3.7.4)
         triangles = triangles[:, [0, 2, 1]]
     normal_matrix = np.linalg.inv(linear).T if abs(np.linalg.det(linear)) > 0 else linear

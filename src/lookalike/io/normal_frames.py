@@ -20,6 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 import torch
+from numba import njit
 
 from ..asset import Material, Mesh, Texture
 from ..asset.normals import vertex_normals
@@ -32,7 +33,7 @@ def _unit(x: np.ndarray) -> np.ndarray:
     return x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-30)
 
 
-def _texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bary: np.ndarray):
+def texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bary: np.ndarray):
     """Per-texel orthonormal ``(t, b, n)``, each ``[K, 3]``, interpolated as a renderer does (module
     docstring); a tangent that vanishes after Gram-Schmidt falls back to ``cross(axis, n)``."""
     n = _unit(np.einsum("kc,kcd->kd", bary, normals[tri]))
@@ -46,27 +47,101 @@ def _texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, ba
     return t, b, n
 
 
+def reexpress_normal_map_reference(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
+                                   dst: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Plain NumPy twin of ``reexpress_normal_map`` (same arguments and result), built on
+    ``rasterize_uv``; slow on large textures, kept to test the compiled kernel against."""
+    height, width = pixels.shape[:2]
+    rows, cols, tri, bary = rasterize_uv(uv, height, width)
+    m = pixels[rows, cols].astype(np.float64)
+    t1, b1, n1 = texel_frames(*src, tri, bary)
+    surface = m[:, :1] * t1 + m[:, 1:2] * b1 + m[:, 2:] * n1
+    t2, b2, n2 = texel_frames(*dst, tri, bary)
+    converted = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
+    out = pixels.astype(np.float32, copy=True)
+    out[rows, cols] = _unit(converted)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _frame_at(normals, tangents, f, l0, l1, l2):
+    """Orthonormal frame ``(t, b, n)`` of triangle ``f`` at barycentrics ``(l0, l1, l2)`` as nine
+    scalars ``tx, ty, tz, bx, by, bz, nx, ny, nz`` (the same computation as ``texel_frames``)."""
+    nx = l0 * normals[f, 0, 0] + l1 * normals[f, 1, 0] + l2 * normals[f, 2, 0]
+    ny = l0 * normals[f, 0, 1] + l1 * normals[f, 1, 1] + l2 * normals[f, 2, 1]
+    nz = l0 * normals[f, 0, 2] + l1 * normals[f, 1, 2] + l2 * normals[f, 2, 2]
+    length = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-30)
+    nx, ny, nz = nx / length, ny / length, nz / length
+    tx = l0 * tangents[f, 0, 0] + l1 * tangents[f, 1, 0] + l2 * tangents[f, 2, 0]
+    ty = l0 * tangents[f, 0, 1] + l1 * tangents[f, 1, 1] + l2 * tangents[f, 2, 1]
+    tz = l0 * tangents[f, 0, 2] + l1 * tangents[f, 1, 2] + l2 * tangents[f, 2, 2]
+    tw = l0 * tangents[f, 0, 3] + l1 * tangents[f, 1, 3] + l2 * tangents[f, 2, 3]
+    d = nx * tx + ny * ty + nz * tz
+    tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
+    length = np.sqrt(tx * tx + ty * ty + tz * tz)
+    if length < 1e-6:  # fallback: cross(axis, n) with axis = x, or y where n is close to x
+        if abs(nx) < 0.9:
+            tx, ty, tz = 0.0, -nz, ny
+        else:
+            tx, ty, tz = nz, 0.0, -nx
+        length = np.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx / length, ty / length, tz / length
+    sign = -1.0 if tw < 0 else 1.0
+    bx, by, bz = sign * (ny * tz - nz * ty), sign * (nz * tx - nx * tz), sign * (nx * ty - ny * tx)
+    return tx, ty, tz, bx, by, bz, nx, ny, nz
+
+
+@njit(cache=True)
+def _reexpress_kernel(pixels, out, xy, src_n, src_t, dst_n, dst_t):
+    """Write ``out [H, W, 3]`` at texels covered by triangles ``xy [T, 3, 2]`` (texel-index space,
+    ``uv * (W, H) - 0.5``) with ``pixels [H, W, 3]`` converted; triangles in order, so the last
+    covering triangle wins."""
+    height, width = out.shape[0], out.shape[1]
+    for f in range(xy.shape[0]):
+        ax, ay, bx, by, cx, cy = xy[f, 0, 0], xy[f, 0, 1], xy[f, 1, 0], xy[f, 1, 1], xy[f, 2, 0], xy[f, 2, 1]
+        area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if area == 0.0:
+            continue
+        for row in range(int(np.ceil(min(ay, by, cy))), int(np.floor(max(ay, by, cy))) + 1):
+            for col in range(int(np.ceil(min(ax, bx, cx))), int(np.floor(max(ax, bx, cx))) + 1):
+                l0 = ((cx - bx) * (row - by) - (cy - by) * (col - bx)) / area
+                l1 = ((ax - cx) * (row - cy) - (ay - cy) * (col - cx)) / area
+                l2 = ((bx - ax) * (row - ay) - (by - ay) * (col - ax)) / area
+                if l0 < -1e-9 or l1 < -1e-9 or l2 < -1e-9:
+                    continue
+                r, c = row % height, col % width
+                t1x, t1y, t1z, b1x, b1y, b1z, n1x, n1y, n1z = _frame_at(src_n, src_t, f, l0, l1, l2)
+                t2x, t2y, t2z, b2x, b2y, b2z, n2x, n2y, n2z = _frame_at(dst_n, dst_t, f, l0, l1, l2)
+                m0, m1, m2 = pixels[r, c, 0], pixels[r, c, 1], pixels[r, c, 2]
+                sx = m0 * t1x + m1 * b1x + m2 * n1x
+                sy = m0 * t1y + m1 * b1y + m2 * n1y
+                sz = m0 * t1z + m1 * b1z + m2 * n1z
+                v0 = sx * t2x + sy * t2y + sz * t2z
+                v1 = sx * b2x + sy * b2y + sz * b2z
+                v2 = sx * n2x + sy * n2y + sz * n2z
+                length = max(np.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 1e-30)
+                out[r, c, 0], out[r, c, 1], out[r, c, 2] = v0 / length, v1 / length, v2 / length
+
+
 def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
                          dst: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """Convert a tangent-space normal map from frame ``src`` to frame ``dst``.
+    """Convert a tangent-space normal map from frame ``src`` to frame ``dst`` (compiled kernel).
 
     Args:
         pixels: ``[H, W, 3]`` unit tangent-space normals in the ``src`` frame.
         uv: ``[T, 3, 2]`` corner UVs of the triangles that use the map.
         src, dst: ``(normals [T, 3, 3], tangents [T, 3, 4])`` corner frames.
     Returns:
-        ``[H, W, 3]`` float32 unit normals in the ``dst`` frame.
+        ``[H, W, 3]`` float32 unit normals in the ``dst`` frame; where several triangles cover a
+        texel the last one wins, uncovered texels keep their value.
     """
     height, width = pixels.shape[:2]
-    rows, cols, tri, bary = rasterize_uv(uv, height, width)
-    m = pixels[rows, cols].astype(np.float64)
-    t1, b1, n1 = _texel_frames(*src, tri, bary)
-    surface = m[:, :1] * t1 + m[:, 1:2] * b1 + m[:, 2:] * n1
-    t2, b2, n2 = _texel_frames(*dst, tri, bary)
-    converted = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
-    out = pixels.astype(np.float32, copy=True)
-    out[rows, cols] = _unit(converted)
-    return out
+    source = np.ascontiguousarray(pixels, np.float64)
+    out = source.copy()
+    xy = np.asarray(uv, np.float64) * np.array([width, height]) - 0.5
+    f64 = [np.ascontiguousarray(a, np.float64) for a in (*src, *dst)]
+    _reexpress_kernel(source, out, xy, *f64)
+    return out.astype(np.float32)
 
 
 def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:

@@ -131,11 +131,10 @@ def read_obj(path: Path) -> Asset:
         values = np.concatenate([values[:, :width].astype(np.float32), np.zeros((1, width), np.float32)])
         return torch.from_numpy(values), torch.from_numpy(np.where(idx < 0, len(values) - 1, idx)[tri_corners])
 
-    uv = []
+    if len(vt):
+        vt = np.stack([vt[:, 0], 1.0 - vt[:, 1]], axis=1) if vt.shape[1] > 1 else np.pad(vt, ((0, 0), (0, 1)))
     tex = indexed(vt, tex_idx, 2)
-    if tex is not None:
-        tex[0][:, 1] = 1.0 - tex[0][:, 1]
-        uv.append(tex)
+    uv = [] if tex is None else [tex]
     nrm = indexed(vn, nrm_idx, 3)
     colors = None
     if v.shape[1] >= 6:

@@ -18,15 +18,18 @@ from .registry import reader
 
 
 def _fan(faces: list[np.ndarray]) -> np.ndarray:
-    """``[T, 3]`` fan triangulation ``(f0, fi, fi+1)`` of polygons of any sizes (vectorised by size)."""
-    sizes = np.array([len(f) for f in faces])
-    triangles = []
+    """``[T, 3]`` fan triangulation ``(f0, fi, fi+1)`` of polygons of any sizes, in face order
+    (vectorised over the faces of each size)."""
+    sizes = np.array([len(f) for f in faces], dtype=np.int64)
+    first_triangle = np.cumsum(np.maximum(sizes - 2, 0)) - np.maximum(sizes - 2, 0)
+    out = np.zeros((int(np.maximum(sizes - 2, 0).sum()), 3), np.int64)
     for size in np.unique(sizes[sizes >= 3]):
-        polygons = np.stack([faces[i] for i in np.flatnonzero(sizes == size)]).astype(np.int64)
+        ids = np.flatnonzero(sizes == size)
+        polygons = np.stack([faces[i] for i in ids]).astype(np.int64)
         i = np.arange(1, size - 1)
-        triangles.append(np.stack([np.broadcast_to(polygons[:, :1], (len(polygons), size - 2)),
-                                   polygons[:, i], polygons[:, i + 1]], axis=-1).reshape(-1, 3))
-    return np.concatenate(triangles) if triangles else np.zeros((0, 3), np.int64)
+        fan = np.stack([np.broadcast_to(polygons[:, :1], (len(ids), size - 2)), polygons[:, i], polygons[:, i + 1]], -1)
+        out[(first_triangle[ids][:, None] + np.arange(size - 2)).reshape(-1)] = fan.reshape(-1, 3)
+    return out
 
 
 def _face_list(element) -> list[np.ndarray] | np.ndarray:

@@ -12,11 +12,18 @@ barycentrics are ``b_i = e_i / S`` with ``S = e_0 + e_1 + e_2``.  nvdiffrast rep
 Their screen-space derivatives in pixel units (``X``, ``Y`` = pixel index along x, y):
 ``db_i/dX = (2 / W) (c_i.x S - e_i S_x) / S^2`` with ``S_x = sum_i c_i.x``, likewise for ``Y``
 with the ``y`` components and ``2 / H``.
+
+:func:`barycentrics` is the plain-torch form (the reference); :func:`pixel_barycentrics`
+computes the same on whole images with compiled loops (:mod:`.pixel_kernels`) from
+per-triangle coefficients, with a hand-written backward.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import torch
+
+from . import pixel_kernels
 
 
 def edge_coefficients(v0: torch.Tensor, v1: torch.Tensor, v2: torch.Tensor) -> torch.Tensor:
@@ -83,3 +90,61 @@ def barycentrics(
     # d b_i / d(X, Y) for i = 0, 1: [N, 2 (i), 2 (X, Y)]
     db = (c[:, :2, :2] - uv[..., None] * s_xy[:, None, :]) * (inv_s[:, None, None] * scale)
     return uv, db.reshape(-1, 4)
+
+
+def triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
+    """``[B, T, 9]``: per view and triangle ``(c_0, c_1, c_0 + c_1 + c_2)`` (each
+    ``(x, y, w)`` components) of :func:`edge_coefficients`, from ``pos [B, V, 4]`` and
+    ``tri [T, 3]`` int64; differentiable in ``pos``."""
+    xyw = pos[..., [0, 1, 3]]
+    verts = xyw[:, tri]  # [B, T, 3, 3]
+    c = edge_coefficients(verts[:, :, 0], verts[:, :, 1], verts[:, :, 2])
+    return torch.cat([c[:, :, 0], c[:, :, 1], c.sum(2)], -1)
+
+
+class _PixelBarycentrics(torch.autograd.Function):
+    """``(coef [B,T,9], tri_id [B,H,W] int32 numpy, depth [B,H,W] float32 numpy, use_db)``
+    -> ``(rast, rast_db)``; gradients reach ``coef`` only."""
+
+    @staticmethod
+    def forward(ctx, coef, tri_id, depth, use_db):
+        n_views, height, width = tri_id.shape
+        rast = coef.new_empty(n_views, height, width, 4)
+        rast_db = coef.new_empty(n_views, height, width, 4)
+        coef_np = coef.detach().contiguous().numpy()
+        pixel_kernels.barycentrics_forward(coef_np, tri_id, depth, rast.numpy(), rast_db.numpy())
+        ctx.save_for_backward(coef)
+        ctx.tri_id = tri_id
+        ctx.use_db = use_db
+        if not use_db:
+            ctx.mark_non_differentiable(rast_db)
+        return rast, rast_db
+
+    @staticmethod
+    def backward(ctx, grad_rast, grad_db):
+        (coef,) = ctx.saved_tensors
+        grad_coef = torch.zeros_like(coef)
+        shape = (*ctx.tri_id.shape, 4)
+        grad_rast = coef.new_zeros(shape) if grad_rast is None else grad_rast.contiguous()
+        use_db = ctx.use_db and grad_db is not None
+        grad_db = grad_rast if not use_db else grad_db.contiguous()
+        pixel_kernels.barycentrics_backward(
+            coef.detach().contiguous().numpy(), ctx.tri_id, grad_rast.numpy(), grad_db.numpy(), use_db, grad_coef.numpy()
+        )
+        return grad_coef, None, None, None
+
+
+def pixel_barycentrics(
+    pos: torch.Tensor, tri: torch.Tensor, tri_id: np.ndarray, depth: np.ndarray, with_db_gradient: bool = True
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]`` of whole images.
+
+    Args:
+        pos: ``[B, V, 4]`` clip-space positions (CPU; gradients flow to ``x, y, w``).
+        tri: ``[T, 3]`` int64.
+        tri_id: ``[B, H, W]`` int32 numpy, triangle index + 1 (0 = background).
+        depth: ``[B, H, W]`` float32 numpy, copied into ``rast[..., 2]`` (no gradient).
+        with_db_gradient: let gradients of ``rast_db`` flow back.
+    """
+    coef = triangle_coefficients(pos, tri)
+    return _PixelBarycentrics.apply(coef, tri_id, depth, with_db_gradient)

@@ -4,7 +4,47 @@ from __future__ import annotations
 
 import torch
 
+from . import pixel_kernels
 from .pixels import covered_pixels, scatter_to_image
+
+
+class _Interpolate(torch.autograd.Function):
+    """``(attr [Ba,V,C], rast, rast_db or None, tri [T,3] int64, channels [D] int64)`` ->
+    ``(out, out_da)`` with the compiled kernels."""
+
+    @staticmethod
+    def forward(ctx, attr, rast, rast_db, tri, channels):
+        n_views, height, width = rast.shape[:3]
+        dtype = torch.promote_types(attr.dtype, rast.dtype)
+        attr, rast = attr.detach().to(dtype).contiguous(), rast.detach().to(dtype).contiguous()
+        db = rast if rast_db is None else rast_db.detach().to(dtype).contiguous()
+        out = attr.new_empty(n_views, height, width, attr.shape[2])
+        out_da = attr.new_empty(n_views, height, width, 2 * channels.shape[0])
+        pixel_kernels.interpolate_forward(
+            attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(), out.numpy(), out_da.numpy()
+        )
+        ctx.save_for_backward(attr, rast, db, tri, channels)
+        ctx.has_db = rast_db is not None
+        return out, out_da
+
+    @staticmethod
+    def backward(ctx, grad_out, grad_da):
+        attr, rast, db, tri, channels = ctx.saved_tensors
+        n_views = rast.shape[0]
+        grad_out = torch.zeros_like(rast[..., :1].expand(-1, -1, -1, attr.shape[2])) if grad_out is None else grad_out
+        if grad_da is None or channels.numel() == 0:
+            grad_da, channels = grad_out[..., :0], channels[:0]
+        grad_attr = attr.new_zeros(n_views, *attr.shape[1:])
+        grad_rast = torch.zeros_like(rast)
+        grad_db = torch.zeros_like(rast)
+        pixel_kernels.interpolate_backward(
+            attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(),
+            grad_out.to(attr.dtype).contiguous().numpy(), grad_da.to(attr.dtype).contiguous().numpy(),
+            grad_attr.numpy(), grad_rast.numpy(), grad_db.numpy(),
+        )
+        if attr.shape[0] == 1:
+            grad_attr = grad_attr.sum(0, keepdim=True)
+        return grad_attr, grad_rast, grad_db if ctx.has_db else None, None, None
 
 
 def interpolate(
@@ -30,16 +70,29 @@ def interpolate(
         = ``(dA/dX, dA/dY)`` in pixel units for each of the ``D`` selected channels in order
         (``dA/dX = (a_0 - a_2) du/dX + (a_1 - a_2) dv/dX``), or ``[B, H, W, 0]`` when
         ``diff_attrs`` is None.  Gradients flow to ``attr``, ``rast[..., 0:2]`` and ``rast_db``.
+
+    The per-pixel loops are compiled (:mod:`.pixel_kernels`) with a hand-written backward;
+    :func:`interpolate_reference` is the plain-torch twin.
     """
-    if attr.dim() == 2:
-        attr = attr[None]
-    if attr.dim() != 3:
-        raise ValueError(f"attr must have shape [B, V, C] or [V, C], got {tuple(attr.shape)}")
-    if rast.dim() != 4 or rast.shape[-1] != 4:
-        raise ValueError(f"rast must have shape [B, H, W, 4], got {tuple(rast.shape)}")
+    attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
+    out, out_da = _Interpolate.apply(
+        attr, rast, rast_db if channels else None, tri.long().contiguous(), torch.tensor(channels, dtype=torch.int64)
+    )
+    return out, out_da
+
+
+
+
+def interpolate_reference(
+    attr: torch.Tensor,
+    rast: torch.Tensor,
+    tri: torch.Tensor,
+    rast_db: torch.Tensor | None = None,
+    diff_attrs: str | list[int] | None = None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Plain-torch twin of :func:`interpolate` (same contract), its test reference."""
+    attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
     n_views, height, width = rast.shape[:3]
-    if attr.shape[0] not in (1, n_views):
-        raise ValueError(f"attr has {attr.shape[0]} views, rast has {n_views}")
     n_attr_views, n_verts, n_channels = attr.shape
     tri = tri.long()
     flat_pixel, tri_idx = covered_pixels(rast)
@@ -54,14 +107,34 @@ def interpolate(
     out = a[:, 2] + uv[:, :1] * da_du + uv[:, 1:] * da_dv
     image_shape = (n_views, height, width)
     out_image = scatter_to_image(out, flat_pixel, image_shape)
-    if diff_attrs is None:
+    if not channels:
         return out_image, out_image.new_zeros(*image_shape, 0)
-    if rast_db is None:
-        raise ValueError("diff_attrs needs rast_db")
-    channels = list(range(n_channels)) if diff_attrs == "all" else [int(c) for c in diff_attrs]
     db = rast_db.reshape(-1, 4).index_select(0, flat_pixel)  # du/dX, du/dY, dv/dX, dv/dY
     du, dv = da_du[:, channels], da_dv[:, channels]
     d_dx = du * db[:, 0:1] + dv * db[:, 2:3]
     d_dy = du * db[:, 1:2] + dv * db[:, 3:4]
     out_da = torch.stack([d_dx, d_dy], -1).reshape(-1, 2 * len(channels))
     return out_image, scatter_to_image(out_da, flat_pixel, image_shape)
+
+
+def _check_inputs(attr, rast, rast_db, diff_attrs) -> tuple[torch.Tensor, list[int]]:
+    """Validate the arguments of :func:`interpolate`; returns ``attr`` as ``[Ba, V, C]``
+    and the list of differentiated channels (empty for None)."""
+    if attr.dim() == 2:
+        attr = attr[None]
+    if attr.dim() != 3:
+        raise ValueError(f"attr must have shape [B, V, C] or [V, C], got {tuple(attr.shape)}")
+    if rast.dim() != 4 or rast.shape[-1] != 4:
+        raise ValueError(f"rast must have shape [B, H, W, 4], got {tuple(rast.shape)}")
+    n_views, height, width = rast.shape[:3]
+    if attr.shape[0] not in (1, n_views):
+        raise ValueError(f"attr has {attr.shape[0]} views, rast has {n_views}")
+    if diff_attrs is None:
+        return attr, []
+    if rast_db is None:
+        raise ValueError("diff_attrs needs rast_db")
+    n_channels = attr.shape[2]
+    channels = list(range(n_channels)) if diff_attrs == "all" else [int(c) for c in diff_attrs]
+    if any(c < 0 or c >= n_channels for c in channels):
+        raise ValueError(f"diff_attrs {diff_attrs} names channels outside 0..{n_channels - 1}")
+    return attr, channels

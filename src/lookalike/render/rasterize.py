@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from .barycentrics import barycentrics, pixel_ndc
+from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
 from .views import check_triangles, per_view_positions
 from .visibility import visible_triangles
@@ -65,7 +65,6 @@ def rasterize_layer(
         raise ValueError(f"pos must be a floating-point tensor, got {pos.dtype}")
     views, tri_range = per_view_positions(pos, tri, ranges)
     tri = check_triangles(tri, views.shape[1])
-    n_views = views.shape[0]
     tri_id, depth = visible_triangles(
         views.detach().float().cpu().numpy(),
         tri.cpu().numpy(),
@@ -74,19 +73,5 @@ def rasterize_layer(
         width,
         None if min_depth is None else min_depth.cpu().numpy(),
     )
-    tri_id = torch.from_numpy(tri_id).to(pos.device)
-    depth = torch.from_numpy(depth).to(pos.device)
-    flat_id = tri_id.reshape(-1)
-    covered = torch.nonzero(flat_id).squeeze(1)
-    p = pixel_ndc(covered, height, width, pos.dtype)
-    view = covered // (height * width)
-    uv, db = barycentrics(views, tri, view, flat_id[covered].long() - 1, p, (height, width))
-    if not grad_db:
-        db = db.detach()
-    n_pixels = n_views * height * width
-    zeros = pos.new_zeros(n_pixels, 2)
-    rast_uv = zeros.index_copy(0, covered, uv)
-    rast_zid = torch.stack([torch.where(flat_id > 0, depth.reshape(-1), 0.0), flat_id.float()], -1).to(pos.dtype)
-    rast = torch.cat([rast_uv, rast_zid], -1).reshape(n_views, height, width, 4)
-    rast_db = pos.new_zeros(n_pixels, 4).index_copy(0, covered, db).reshape(n_views, height, width, 4)
-    return rast, rast_db, depth
+    rast, rast_db = pixel_barycentrics(views, tri, tri_id, depth, grad_db)
+    return rast, rast_db, torch.from_numpy(depth)

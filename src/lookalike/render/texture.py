@@ -5,11 +5,54 @@ from __future__ import annotations
 
 import torch
 
+from . import texture_kernels as kernels
 from .mipmap import footprint_level, texture_construct_mip
 from .sampling import Pyramid, sample_bilinear, sample_nearest
 
-FILTER_MODES = ("auto", "nearest", "linear", "linear-mipmap-nearest", "linear-mipmap-linear")
-BOUNDARY_MODES = ("wrap", "clamp", "zero")
+FILTER_MODES = {
+    "nearest": kernels.NEAREST,
+    "linear": kernels.LINEAR,
+    "linear-mipmap-nearest": kernels.MIP_NEAREST,
+    "linear-mipmap-linear": kernels.MIP_LINEAR,
+}
+BOUNDARY_MODES = {"wrap": kernels.WRAP, "clamp": kernels.CLAMP, "zero": kernels.ZERO}
+
+
+class _Texture(torch.autograd.Function):
+    """Compiled lookups: ``(table [N,C], uv [P,2], uv_da [P,4]|None, bias [P]|None, pyramid,
+    per_view, pixels_per_view, mode, boundary)`` -> ``[P, C]``."""
+
+    @staticmethod
+    def forward(ctx, table, uv, uv_da, bias, pyramid, per_view, pixels_per_view, mode, boundary):
+        dtype = torch.promote_types(table.dtype, uv.dtype)
+        arrays = [
+            table.detach().to(dtype).contiguous(),
+            uv.detach().to(dtype).contiguous(),
+            (uv_da.detach().to(dtype) if uv_da is not None else uv.new_zeros(0, 4, dtype=dtype)).contiguous(),
+            (bias.detach().to(dtype) if bias is not None else uv.new_zeros(0, dtype=dtype)).contiguous(),
+        ]
+        geometry = (pyramid.heights.numpy(), pyramid.widths.numpy(), pyramid.offsets.numpy(), per_view, pixels_per_view)
+        out = arrays[0].new_zeros(uv.shape[0], table.shape[1])
+        kernels.texture_forward(arrays[0].numpy(), *geometry, *(a.numpy() for a in arrays[1:]), mode, boundary, out.numpy())
+        ctx.save_for_backward(*arrays)
+        ctx.geometry, ctx.mode, ctx.boundary = geometry, mode, boundary
+        ctx.present = (uv_da is not None, bias is not None)
+        return out
+
+    @staticmethod
+    def backward(ctx, grad_out):
+        table, uv, uv_da, bias = ctx.saved_tensors
+        grads = [torch.zeros_like(t) for t in (table, uv, uv_da, bias)]
+        kernels.texture_backward(
+            table.numpy(), *ctx.geometry, uv.numpy(), uv_da.numpy(), bias.numpy(), ctx.mode, ctx.boundary,
+            grad_out.to(table.dtype).contiguous().numpy(), *(g.numpy() for g in grads),
+        )
+        grad_table, grad_uv, grad_uv_da, grad_bias = grads
+        return (
+            grad_table, grad_uv,
+            grad_uv_da if ctx.present[0] else None, grad_bias if ctx.present[1] else None,
+            None, None, None, None, None,
+        )
 
 
 def texture(
@@ -49,11 +92,35 @@ def texture(
         trilinear blends the bilinear lookups of levels ``floor`` and ``floor + 1`` by the
         fraction.  Gradients flow to texels (all levels), ``uv`` (not in nearest mode),
         ``uv_da`` and ``mip_level_bias`` (trilinear only).
+
+    The per-pixel work is compiled (:mod:`.texture_kernels`) with a hand-written backward;
+    :func:`texture_reference` is the plain-torch twin.
     """
-    if filter_mode not in FILTER_MODES:
-        raise ValueError(f"filter_mode must be one of {FILTER_MODES}, got {filter_mode!r}")
+    filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
+    n_views, height, width = uv.shape[:3]
+    mipmapped = filter_mode in ("linear-mipmap-nearest", "linear-mipmap-linear")
+    pyramid = Pyramid(levels)
+    out = _Texture.apply(
+        pyramid.table,
+        uv.reshape(-1, 2),
+        uv_da.reshape(-1, 4) if mipmapped and uv_da is not None else None,
+        mip_level_bias.reshape(-1) if mipmapped and mip_level_bias is not None else None,
+        pyramid,
+        tex.shape[0] > 1,
+        height * width,
+        FILTER_MODES[filter_mode],
+        BOUNDARY_MODES[boundary_mode],
+    )
+    return out.reshape(n_views, height, width, -1)
+
+
+def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level):
+    """Validate the arguments of :func:`texture`; returns the concrete filter mode and the
+    list of levels to sample (``[tex]`` without mipmapping)."""
+    if filter_mode != "auto" and filter_mode not in FILTER_MODES:
+        raise ValueError(f"filter_mode must be 'auto' or one of {tuple(FILTER_MODES)}, got {filter_mode!r}")
     if boundary_mode not in BOUNDARY_MODES:
-        raise ValueError(f"boundary_mode must be one of {BOUNDARY_MODES}, got {boundary_mode!r}")
+        raise ValueError(f"boundary_mode must be one of {tuple(BOUNDARY_MODES)}, got {boundary_mode!r}")
     if tex.dim() != 4:
         raise ValueError(f"tex must have shape [B, Ht, Wt, C], got {tuple(tex.shape)}")
     if uv.dim() != 4 or uv.shape[-1] != 2:
@@ -63,22 +130,36 @@ def texture(
     if filter_mode == "auto":
         mipmapped = uv_da is not None or mip_level_bias is not None
         filter_mode = "linear-mipmap-linear" if mipmapped else "linear"
-    n_views, height, width = uv.shape[:3]
-    flat_uv = uv.reshape(-1, 2)
-    view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
-
     if filter_mode in ("nearest", "linear"):
-        pyramid = Pyramid([tex])
-        sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
-        out = sample(pyramid, None, view, flat_uv, boundary_mode)
-        return out.reshape(n_views, height, width, -1)
-
+        return filter_mode, [tex]
     if uv_da is None and mip_level_bias is None:
         raise ValueError(f"filter_mode {filter_mode!r} needs uv_da or mip_level_bias")
     levels = [tex] + (texture_construct_mip(tex, max_mip_level) if mip is None else list(mip))
     if max_mip_level is not None:
         levels = levels[: max_mip_level + 1]
+    return filter_mode, levels
+
+
+def texture_reference(
+    tex: torch.Tensor,
+    uv: torch.Tensor,
+    uv_da: torch.Tensor | None = None,
+    mip_level_bias: torch.Tensor | None = None,
+    mip: list[torch.Tensor] | None = None,
+    filter_mode: str = "auto",
+    boundary_mode: str = "wrap",
+    max_mip_level: int | None = None,
+) -> torch.Tensor:
+    """Plain-torch twin of :func:`texture` (same contract), its test reference."""
+    filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
+    n_views, height, width = uv.shape[:3]
+    flat_uv = uv.reshape(-1, 2)
+    view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
     pyramid = Pyramid(levels)
+    if filter_mode in ("nearest", "linear"):
+        sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
+        out = sample(pyramid, None, view, flat_uv, boundary_mode)
+        return out.reshape(n_views, height, width, -1)
     top = float(len(levels) - 1)
     level = uv.new_zeros(n_views * height * width)
     if uv_da is not None:

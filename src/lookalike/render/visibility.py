@@ -101,25 +101,48 @@ def _outside_one_plane(pos, b, i0, i1, i2):
     return False
 
 
-@njit(cache=True)
-def _pixel_bbox(pos, b, i0, i1, i2, width, height, out):
-    """Inclusive pixel-index bounding box ``out = (x0, x1, y0, y1)`` of the visible part of
-    a triangle; empty (``x0 > x1``) when culled.
+@njit(cache=True, inline="always")
+def _store_bbox(xmin, xmax, ymin, ymax, width, height, bbox, b, t):
+    """Store the inclusive pixel-index box of candidates: pixel ``ix`` is one when its
+    centre (pixel coordinate ``ix``) lies in ``[xmin, xmax]``."""
+    bbox[b, t, 0] = max(0, int(np.ceil(max(xmin, -1.0))))
+    bbox[b, t, 1] = min(width - 1, int(np.floor(min(xmax, float(width)))))
+    bbox[b, t, 2] = max(0, int(np.ceil(max(ymin, -1.0))))
+    bbox[b, t, 3] = min(height - 1, int(np.floor(min(ymax, float(height)))))
 
-    The triangle is first clipped against the near plane ``z + w >= 0``
-    (Sutherland-Hodgman, at most 4 vertices).  When every remaining vertex has ``w > 0`` the
-    box is that of their projections; otherwise (unusual projections) it is the whole screen,
-    which is conservative: the per-pixel test decides.
+
+@njit(cache=True)
+def _triangle_bbox(pos, b, t, i0, i1, i2, width, height, bbox):
+    """Write into ``bbox[b, t] = (x0, x1, y0, y1)`` the inclusive pixel-index bounding box
+    of the visible part of a triangle; empty (``x0 > x1``) when culled.
+
+    Pixel coordinates are ``X = (x/w + 1) W/2 - 1/2`` (pixel ``ix`` has its centre at
+    ``X = ix``).  When the triangle crosses the near plane ``z + w = 0`` it is first clipped
+    against it (Sutherland-Hodgman, at most 4 vertices).  If a remaining vertex still has
+    ``w <= 0`` (unusual projections) the box is the whole screen, which is conservative:
+    the per-pixel test decides.
     """
-    out[0], out[1], out[2], out[3] = 1, 0, 1, 0
+    bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = 1, 0, 1, 0
     if _outside_one_plane(pos, b, i0, i1, i2):
         return
+    half_w, half_h = 0.5 * width, 0.5 * height
+    w0, w1, w2 = pos[b, i0, 3], pos[b, i1, 3], pos[b, i2, 3]
+    if (
+        w0 > 0.0 and w1 > 0.0 and w2 > 0.0
+        and pos[b, i0, 2] + w0 >= 0.0 and pos[b, i1, 2] + w1 >= 0.0 and pos[b, i2, 2] + w2 >= 0.0
+    ):  # common case: entirely in front of the near plane
+        X0 = (pos[b, i0, 0] / np.float64(w0) + 1.0) * half_w - 0.5
+        X1 = (pos[b, i1, 0] / np.float64(w1) + 1.0) * half_w - 0.5
+        X2 = (pos[b, i2, 0] / np.float64(w2) + 1.0) * half_w - 0.5
+        Y0 = (pos[b, i0, 1] / np.float64(w0) + 1.0) * half_h - 0.5
+        Y1 = (pos[b, i1, 1] / np.float64(w1) + 1.0) * half_h - 0.5
+        Y2 = (pos[b, i2, 1] / np.float64(w2) + 1.0) * half_h - 0.5
+        _store_bbox(min(X0, X1, X2), max(X0, X1, X2), min(Y0, Y1, Y2), max(Y0, Y1, Y2), width, height, bbox, b, t)
+        return
     xmin, xmax, ymin, ymax = np.inf, -np.inf, np.inf, -np.inf
-    whole_screen = False
-    idx = (i0, i1, i2)
     for k in range(3):
-        a = idx[k]
-        c = idx[(k + 1) % 3]
+        a = i0 if k == 0 else (i1 if k == 1 else i2)
+        c = i1 if k == 0 else (i2 if k == 1 else i0)
         da = np.float64(pos[b, a, 2]) + np.float64(pos[b, a, 3])
         dc = np.float64(pos[b, c, 2]) + np.float64(pos[b, c, 3])
         # emit a if inside, and the crossing point if the edge a->c crosses the plane
@@ -127,56 +150,49 @@ def _pixel_bbox(pos, b, i0, i1, i2, width, height, out):
             if emit == 0:
                 if da < 0.0:
                     continue
-                t = 0.0
+                s = 0.0
             else:
                 if (da >= 0.0) == (dc >= 0.0):
                     continue
-                t = da / (da - dc)
-            x = pos[b, a, 0] + t * (np.float64(pos[b, c, 0]) - pos[b, a, 0])
-            y = pos[b, a, 1] + t * (np.float64(pos[b, c, 1]) - pos[b, a, 1])
-            w = pos[b, a, 3] + t * (np.float64(pos[b, c, 3]) - pos[b, a, 3])
+                s = da / (da - dc)
+            x = pos[b, a, 0] + s * (np.float64(pos[b, c, 0]) - pos[b, a, 0])
+            y = pos[b, a, 1] + s * (np.float64(pos[b, c, 1]) - pos[b, a, 1])
+            w = pos[b, a, 3] + s * (np.float64(pos[b, c, 3]) - pos[b, a, 3])
             if w <= 0.0:
-                whole_screen = True
-                continue
-            X = (x / w + 1.0) * 0.5 * width - 0.5
-            Y = (y / w + 1.0) * 0.5 * height - 0.5
+                bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = 0, width - 1, 0, height - 1
+                return
+            X = (x / w + 1.0) * half_w - 0.5
+            Y = (y / w + 1.0) * half_h - 0.5
             xmin, xmax = min(xmin, X), max(xmax, X)
             ymin, ymax = min(ymin, Y), max(ymax, Y)
-    if whole_screen:
-        out[0], out[1], out[2], out[3] = 0, width - 1, 0, height - 1
-        return
-    if xmin > xmax:
-        return
-    # pixel ix is a candidate when its centre (coordinate ix) lies in [xmin, xmax]
-    out[0] = max(0, int(np.ceil(max(xmin, -1.0))))
-    out[1] = min(width - 1, int(np.floor(min(xmax, float(width)))))
-    out[2] = max(0, int(np.ceil(max(ymin, -1.0))))
-    out[3] = min(height - 1, int(np.floor(min(ymax, float(height)))))
+    if xmin <= xmax:
+        _store_bbox(xmin, xmax, ymin, ymax, width, height, bbox, b, t)
 
 
 @njit(cache=True, parallel=True)
 def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
-    """Bin each view's triangles into screen tiles.
+    """Bound each view's triangles and bin them into screen tiles.
 
-    Returns ``(bin_start [B, tiles+1] int64, bin_tris [N] int32)``: the triangles of tile
-    ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b, k + 1]]`` (ascending
-    triangle order).
+    Returns ``(bbox [B, T, 4] int32, bin_start [B, tiles+1] int64, bin_tris [N] int32)``:
+    ``bbox`` as written by :func:`_triangle_bbox` (only for the view's triangle range), and
+    the triangles of tile ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b,
+    k + 1]]``, in ascending order.
     """
     n_views = pos.shape[0]
     tiles_x = (width + TILE - 1) // TILE
     tiles_y = (height + TILE - 1) // TILE
     n_tiles = tiles_x * tiles_y
+    bbox = np.empty((n_views, tri.shape[0], 4), np.int32)
     counts = np.zeros((n_views, _CHUNKS, n_tiles), np.int64)
     for job in prange(n_views * _CHUNKS):
         b, chunk = job // _CHUNKS, job % _CHUNKS
         n = tri_end[b] - tri_begin[b]
-        bbox = np.empty(4, np.int64)
         for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
-            _pixel_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
-            if bbox[0] > bbox[1] or bbox[2] > bbox[3]:
+            _triangle_bbox(pos, b, t, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
+            if bbox[b, t, 0] > bbox[b, t, 1] or bbox[b, t, 2] > bbox[b, t, 3]:
                 continue
-            for ty in range(bbox[2] // TILE, bbox[3] // TILE + 1):
-                for tx in range(bbox[0] // TILE, bbox[1] // TILE + 1):
+            for ty in range(bbox[b, t, 2] // TILE, bbox[b, t, 3] // TILE + 1):
+                for tx in range(bbox[b, t, 0] // TILE, bbox[b, t, 1] // TILE + 1):
                     counts[b, chunk, ty * tiles_x + tx] += 1
     # offsets in (view, tile, chunk) order, so each bin lists triangles in ascending order
     bin_start = np.zeros((n_views, n_tiles + 1), np.int64)
@@ -193,21 +209,19 @@ def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
     for job in prange(n_views * _CHUNKS):
         b, chunk = job // _CHUNKS, job % _CHUNKS
         n = tri_end[b] - tri_begin[b]
-        bbox = np.empty(4, np.int64)
         for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
-            _pixel_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
-            if bbox[0] > bbox[1] or bbox[2] > bbox[3]:
+            if bbox[b, t, 0] > bbox[b, t, 1] or bbox[b, t, 2] > bbox[b, t, 3]:
                 continue
-            for ty in range(bbox[2] // TILE, bbox[3] // TILE + 1):
-                for tx in range(bbox[0] // TILE, bbox[1] // TILE + 1):
+            for ty in range(bbox[b, t, 2] // TILE, bbox[b, t, 3] // TILE + 1):
+                for tx in range(bbox[b, t, 0] // TILE, bbox[b, t, 1] // TILE + 1):
                     k = ty * tiles_x + tx
                     bin_tris[offsets[b, chunk, k]] = t
                     offsets[b, chunk, k] += 1
-    return bin_start, bin_tris
+    return bbox, bin_start, bin_tris
 
 
 @njit(cache=True, parallel=True)
-def _rasterize_tiles(pos, tri, bin_start, bin_tris, width, height, min_depth, tri_id, depth):
+def _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth):
     """Fill ``tri_id [B,H,W] int32`` (triangle index + 1, 0 = none) and ``depth [B,H,W]
     float32`` (z/w, +inf where none) with, per pixel, the nearest triangle whose depth is
     strictly greater than ``min_depth [B,H,W] float32``.  Bins list triangles in ascending
@@ -222,22 +236,19 @@ def _rasterize_tiles(pos, tri, bin_start, bin_tris, width, height, min_depth, tr
         tx1 = min(tx0 + TILE, width) - 1
         ty1 = min(ty0 + TILE, height) - 1
         planes = np.empty(12, np.float64)
-        bbox = np.empty(4, np.int64)
         for n in range(bin_start[b, k], bin_start[b, k + 1]):
             t = bin_tris[n]
-            i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
-            if not _edge_and_depth_planes(pos, b, i0, i1, i2, width, height, planes):
+            if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
                 continue
-            _pixel_bbox(pos, b, i0, i1, i2, width, height, bbox)
             dA = np.float32(planes[9])
             dB = np.float32(planes[10])
             dC = np.float32(planes[11])
-            for iy in range(max(bbox[2], ty0), min(bbox[3], ty1) + 1):
+            for iy in range(max(bbox[b, t, 2], ty0), min(bbox[b, t, 3], ty1) + 1):
                 e0 = planes[1] * iy + planes[2]
                 e1 = planes[4] * iy + planes[5]
                 e2 = planes[7] * iy + planes[8]
                 fy = np.float32(iy)
-                for ix in range(max(bbox[0], tx0), min(bbox[1], tx1) + 1):
+                for ix in range(max(bbox[b, t, 0], tx0), min(bbox[b, t, 1], tx1) + 1):
                     a0 = planes[0] * ix + e0
                     a1 = planes[3] * ix + e1
                     a2 = planes[6] * ix + e2
@@ -284,6 +295,6 @@ def visible_triangles(
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
     tri_id = np.zeros((n_views, height, width), np.int32)
     depth = np.full((n_views, height, width), np.inf, np.float32)
-    bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
-    _rasterize_tiles(pos, tri, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
+    bbox, bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
+    _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
     return tri_id, depth

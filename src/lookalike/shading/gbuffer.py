@@ -91,12 +91,15 @@ class GBuffer:
     color: torch.Tensor | None
 
     @staticmethod
-    def build(buffers: MeshBuffers, rast: torch.Tensor, rast_db: torch.Tensor) -> "GBuffer":
+    def build(buffers: MeshBuffers, rast: torch.Tensor, rast_db: torch.Tensor,
+              needed: torch.Tensor | None = None) -> "GBuffer":
         """Interpolate every attribute of ``buffers`` over ``rast [B, H, W, 4]`` (with
-        ``rast_db [B, H, W, 4]`` for UV derivatives) and keep the covered pixels."""
+        ``rast_db [B, H, W, 4]`` for UV derivatives) and keep the covered pixels (those of
+        them where ``needed [B, H, W]`` bool is set, when given)."""
         batch, height, width = rast.shape[:3]
         triangle_flat = rast[..., 3].reshape(-1).long() - 1
-        pixel = torch.nonzero(triangle_flat >= 0).reshape(-1)
+        keep = triangle_flat >= 0 if needed is None else (triangle_flat >= 0) & needed.reshape(-1)
+        pixel = torch.nonzero(keep).reshape(-1)
 
         def covered(image: torch.Tensor) -> torch.Tensor:
             return image.reshape(-1, image.shape[-1])[pixel]

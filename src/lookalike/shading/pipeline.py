@@ -13,8 +13,11 @@ Conventions:
   single-sided materials are culled (alpha 0, so the next depth layer or the background shows
   through), as glTF prescribes.
 - Alpha modes: OPAQUE 1, MASK ``kd.a >= cutoff`` (straight-through gradient), BLEND ``kd.a``.
-  Layers are composited back to front with the "over" operator on straight alpha; with
-  ``layers=1`` a blended surface composites over the background only.
+  Layers are peeled front to back, then composited back to front (starting from the
+  background) with the "over" operator on straight alpha, antialiasing after each layer. With
+  ``layers=1`` a blended surface composites over the background only. Samples behind a fully
+  opaque nearer layer are not shaded (they cannot show), and peeling stops early once nothing
+  more can show.
 - ``msaa=True`` (the paper's MSAA for the latent model): visibility, antialiasing and
   compositing run at ``spp x spp`` samples per pixel, but each pixel is shaded once, at one
   representative sample (the centre sample if it is covered, else the first covered one);
@@ -23,6 +26,8 @@ Conventions:
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import torch
 
@@ -35,6 +40,7 @@ from .gbuffer import GBuffer, MeshBuffers
 from .light import PointLight
 from .normal_map import bend_towards_viewer, perturb_normal
 from .surface import Surface, sample_surface
+from .texturing import TextureSampler
 
 
 def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -63,13 +69,25 @@ def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLigh
     return torch.cat([radiance, surface.alpha * visible.to(radiance)], dim=-1)
 
 
-def shade_layer(asset, buffers: MeshBuffers, camera: Camera, light: PointLight,
-                rast: torch.Tensor, rast_db: torch.Tensor) -> torch.Tensor:
-    """Straight-alpha image ``[B, H, W, 4]`` (rasterizer row order) of one rasterized layer;
-    uncovered pixels are zero."""
-    gb = GBuffer.build(buffers, rast, rast_db)
-    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, getattr(asset, "source", None))
-    colour = shade_pixels(gb, surface, camera, light)
+@dataclass
+class Frame:
+    """What every layer of one ``render`` call shares: the asset, its per-render vertex
+    buffers, the views and lights, and the texture sampler (mip pyramids built once)."""
+
+    asset: object
+    buffers: MeshBuffers
+    camera: Camera
+    light: PointLight
+    sampler: TextureSampler = field(default_factory=TextureSampler)
+
+
+def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor) -> torch.Tensor:
+    """Straight-alpha image ``[B, H, W, 4]`` (rasterizer row order) of one rasterized layer,
+    shaded where ``needed [B, H, W]`` (bool) and covered; zero elsewhere."""
+    asset = frame.asset
+    gb = GBuffer.build(frame.buffers, rast, rast_db, needed)
+    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
+    colour = shade_pixels(gb, surface, frame.camera, frame.light)
     image = colour.new_zeros(rast.shape[0] * rast.shape[1] * rast.shape[2], 4)
     return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
 
@@ -100,12 +118,14 @@ def representative_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: in
             factor * db_blocks.gather(3, choice).squeeze(3))
 
 
-def shade_layer_msaa(asset, buffers: MeshBuffers, camera: Camera, light: PointLight,
-                     rast: torch.Tensor, rast_db: torch.Tensor, factor: int) -> torch.Tensor:
+def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
+                     factor: int) -> torch.Tensor:
     """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel
     (see the module docstring); coverage (alpha) stays per sample."""
     low_rast, low_db = representative_samples(rast, rast_db, factor)
-    colour = shade_layer(asset, buffers, camera, light, low_rast, low_db)
+    batch, high, wide = needed.shape
+    low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
+    colour = shade_layer(frame, low_rast, low_db, low_needed)
     colour = colour.repeat_interleave(factor, dim=1).repeat_interleave(factor, dim=2)
     covered = (rast[..., 3:4] > 0).to(colour)
     return torch.cat([colour[..., :3], colour[..., 3:4] * covered], dim=-1)
@@ -134,19 +154,6 @@ def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
         return image
     batch, high, wide, channels = image.shape
     return image.reshape(batch, high // factor, factor, wide // factor, factor, channels).mean(dim=(2, 4))
-
-
-def rasterize_layers(buffers: MeshBuffers, resolution: tuple[int, int], layers: int):
-    """Up to ``layers`` depth-peeled ``(rast, rast_db)`` layers, nearest first; stops early
-    once a layer covers nothing."""
-    peeled = []
-    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, resolution) as peeler:
-        for _ in range(layers):
-            rast, rast_db = peeler.rasterize_next_layer()
-            if peeled and not (rast[..., 3] > 0).any():
-                break
-            peeled.append((rast, rast_db))
-    return peeled
 
 
 def _resolution(resolution) -> tuple[int, int]:
@@ -179,12 +186,23 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     tangent_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
     buffers = MeshBuffers.build(mesh, camera, tangent_sets)
     topology = dr.antialias_construct_topology_hash(buffers.tri)
+    frame = Frame(asset, buffers, camera, light)
+    shaded = []  # (rast, colour) per layer, nearest first
+    transmittance = buffers.clip.new_ones(camera.batch_size, *full)
+    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full) as peeler:
+        for _ in range(layers):
+            rast, rast_db = peeler.rasterize_next_layer()
+            needed = (rast[..., 3] > 0) & (transmittance > 0)
+            if not needed.any():
+                break
+            if msaa and spp > 1:
+                colour = shade_layer_msaa(frame, rast, rast_db, needed, spp)
+            else:
+                colour = shade_layer(frame, rast, rast_db, needed)
+            transmittance = transmittance * (1.0 - colour[..., 3].detach())
+            shaded.append((rast, colour))
     accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
-    for rast, rast_db in reversed(rasterize_layers(buffers, full, layers)):
-        if msaa and spp > 1:
-            colour = shade_layer_msaa(asset, buffers, camera, light, rast, rast_db, spp)
-        else:
-            colour = shade_layer(asset, buffers, camera, light, rast, rast_db)
+    for rast, colour in reversed(shaded):
         opaque = torch.cat([colour[..., :3], torch.ones_like(colour[..., 3:])], dim=-1)
         accum = torch.lerp(accum, opaque, colour[..., 3:])
         accum = dr.antialias(accum.contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)

@@ -10,7 +10,7 @@ import torch
 from ..asset.material import Material, Texture
 from ..errors import AssetError
 from .gbuffer import GBuffer
-from .texturing import sample_texture
+from .texturing import TextureSampler
 
 
 @dataclass
@@ -38,19 +38,22 @@ class Surface:
     double_sided: torch.Tensor
 
 
-def _uv_of(texture: Texture, gb: GBuffer, material: Material, source) -> tuple[torch.Tensor, torch.Tensor | None]:
-    constant = texture.data.shape[0] == 1 and texture.data.shape[1] == 1
-    if texture.uv_set < len(gb.uv):
-        return gb.uv[texture.uv_set]
-    if constant:
-        return gb.position.new_zeros(gb.position.shape[0], 2), None
-    raise AssetError(source or "asset", f"material {material.name!r} samples UV set {texture.uv_set}, "
-                                        f"which the mesh does not have")
+def _uv_lookup(gb: GBuffer, rows: torch.Tensor, material: Material, source):
+    """``uv_set -> (uv [n, 2], uv_da [n, 4])`` at the G-buffer ``rows`` of ``material``."""
+    def lookup(uv_set: int):
+        if uv_set >= len(gb.uv):
+            raise AssetError(source or "asset", f"material {material.name!r} samples UV set {uv_set}, "
+                                                f"which the mesh does not have")
+        uv, uv_da = gb.uv[uv_set]
+        return uv[rows], uv_da[rows]
+    return lookup
 
 
-def _sample(texture: Texture, gb: GBuffer, rows: torch.Tensor, material: Material, source) -> torch.Tensor:
-    uv, uv_da = _uv_of(texture, gb, material, source)
-    return sample_texture(texture, uv[rows], None if uv_da is None else uv_da[rows])
+def _sample_present(sampler: TextureSampler, textures: list[Texture | None], uv_of, count: int):
+    """``sampler.sample`` of the textures that are not ``None``; ``None`` stays ``None``."""
+    present = [t for t in textures if t is not None]
+    values = iter(sampler.sample(present, uv_of, count))
+    return [None if t is None else next(values) for t in textures]
 
 
 def _alpha(material: Material, opacity: torch.Tensor) -> torch.Tensor:
@@ -62,9 +65,11 @@ def _alpha(material: Material, opacity: torch.Tensor) -> torch.Tensor:
     return opacity
 
 
-def sample_surface(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuffer, source=None) -> Surface:
+def sample_surface(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuffer, sampler: TextureSampler,
+                   source=None) -> Surface:
     """Material parameters of the pixels of ``gb``; ``t_mat_idx [T]`` gives each triangle's
-    material. ``source`` names the asset in errors."""
+    material; ``sampler`` keeps the mip pyramids of the render. ``source`` names the asset in
+    errors."""
     count = gb.pixel.shape[0]
     dtype, device = gb.position.dtype, gb.position.device
     material_of_pixel = t_mat_idx.to(device)[gb.triangle]
@@ -81,17 +86,19 @@ def sample_surface(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuff
         rows = torch.nonzero(material_of_pixel == index).reshape(-1)
         if rows.numel() == 0:
             continue
-        base = _sample(material.kd, gb, rows, material, source)
+        textures = [material.kd, material.ks, material.normal, material.emissive]
+        base, specular, normal, emission = _sample_present(sampler, textures, _uv_lookup(gb, rows, material, source),
+                                                           rows.shape[0])
         if gb.color is not None:
             base = base * gb.color[rows]
         kd = kd.index_put((rows,), base)
-        ks = ks.index_put((rows,), _sample(material.ks, gb, rows, material, source))
+        ks = ks.index_put((rows,), specular)
         alpha = alpha.index_put((rows,), _alpha(material, base[:, 3:4]))
-        if material.normal is not None:
-            normal_map = normal_map.index_put((rows,), _sample(material.normal, gb, rows, material, source))
+        if normal is not None:
+            normal_map = normal_map.index_put((rows,), normal)
             normal_uv_set[rows] = material.normal.uv_set
-        if material.emissive is not None:
-            emissive = emissive.index_put((rows,), _sample(material.emissive, gb, rows, material, source))
+        if emission is not None:
+            emissive = emissive.index_put((rows,), emission)
         double_sided[rows] = material.double_sided
     return Surface(kd=kd, ks=ks, normal_map=normal_map, normal_uv_set=normal_uv_set, emissive=emissive,
                    alpha=alpha, double_sided=double_sided)

@@ -1,8 +1,10 @@
-"""Sampling a material ``Texture`` at a list of points with the differentiable texture
-primitive: applies the texture's UV transform (KHR_texture_transform), boundary mode and
+"""Sampling material ``Texture``s at a list of points with the differentiable texture
+primitive, applying each texture's UV transform (KHR_texture_transform), boundary mode and
 supplied mip levels."""
 
 from __future__ import annotations
+
+from typing import Callable
 
 import torch
 
@@ -24,25 +26,79 @@ def transform_uv(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None)
     return uv, uv_da
 
 
-def sample_texture(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None = None) -> torch.Tensor:
-    """Texels ``[N, C]`` of ``texture`` at ``uv [N, 2]`` (glTF convention: ``(0, 0)`` is the
-    top-left corner of the image = texel row 0).
+UVLookup = Callable[[int], tuple[torch.Tensor, torch.Tensor | None]]
+"""``uv_set -> (uv [N, 2], uv_da [N, 4] or None)`` of the points being shaded."""
 
-    With ``uv_da [N, 4]`` the lookup is trilinear (mip level from the derivatives, using
-    ``texture.mips`` where given); without, bilinear. A 1x1 texture is its constant value.
-    Differentiable in ``texture.data`` (and its mips), ``uv`` and ``uv_da``.
+
+def _is_constant(texture: Texture) -> bool:
+    return texture.data.shape[0] == 1 and texture.data.shape[1] == 1
+
+
+def _stack_key(texture: Texture) -> tuple:
+    """Textures with equal keys can be looked up together, stacked channel-wise."""
+    transform = None if texture.transform is None else tuple(texture.transform.reshape(-1).tolist())
+    own_mips = id(texture) if texture.mips is not None else None
+    return tuple(texture.data.shape[:2]), texture.uv_set, texture.wrap, transform, own_mips
+
+
+class TextureSampler:
+    """Samples material textures at lists of points.
+
+    Textures of one material that share size, UV set, transform and wrap mode (typically
+    base colour, specular and normal map) are stacked channel-wise and filtered in one lookup.
+    Each stack's mip pyramid (``dr.texture_construct_mip``, differentiable) is built at most
+    once per sampler: it depends only on the texels, so one serves every layer and view of a
+    render. Textures with their own ``mips`` (latent prefiltered levels) use those.
     """
-    data = texture.data
-    if data.shape[0] == 1 and data.shape[1] == 1:
-        return data.reshape(1, -1).to(uv.dtype).expand(uv.shape[0], -1)
-    uv, uv_da = transform_uv(texture, uv, uv_da)
-    mipmapped = uv_da is not None
-    out = dr.texture(
-        data[None],
-        uv.reshape(1, -1, 1, 2).contiguous(),
-        uv_da=uv_da.reshape(1, -1, 1, 4).contiguous() if mipmapped else None,
-        mip=[level[None] for level in texture.mips] if mipmapped and texture.mips is not None else None,
-        filter_mode="linear-mipmap-linear" if mipmapped else "linear",
-        boundary_mode=texture.wrap,
-    )
-    return out.reshape(-1, data.shape[-1])
+
+    def __init__(self):
+        self._stacks: dict[tuple[int, ...], tuple[list[Texture], torch.Tensor, list[torch.Tensor]]] = {}
+
+    def _stack(self, textures: list[Texture]) -> tuple[torch.Tensor, list[torch.Tensor]]:
+        """``([1, H, W, sum C] texels, mip levels 1.. [1, h, w, sum C])`` of ``textures``."""
+        key = tuple(id(t) for t in textures)
+        if key not in self._stacks:
+            data = torch.cat([t.data for t in textures], dim=-1)[None]
+            own = textures[0].mips
+            mips = [level[None] for level in own] if own is not None else dr.texture_construct_mip(data)
+            self._stacks[key] = (textures, data, mips)  # the textures are kept so their ids stay unique
+        return self._stacks[key][1], self._stacks[key][2]
+
+    def sample(self, textures: list[Texture], uv_of: UVLookup, count: int) -> list[torch.Tensor]:
+        """Values ``[N, C_i]`` of each texture at the ``count`` points described by ``uv_of``.
+
+        Texture coordinates follow glTF (``(0, 0)`` = top-left corner of the image = texel row
+        0). With derivatives the lookup is trilinear (mip level from the footprint), without
+        bilinear. A 1x1 texture is its constant value and needs no coordinates.
+        Differentiable in texels (and own mips), coordinates and derivatives.
+        """
+        values: list[torch.Tensor | None] = [None] * len(textures)
+        groups: dict[tuple, list[int]] = {}
+        for i, texture in enumerate(textures):
+            if _is_constant(texture):
+                values[i] = texture.data.reshape(1, -1).expand(count, -1)
+            else:
+                groups.setdefault(_stack_key(texture), []).append(i)
+        for members in groups.values():
+            first = textures[members[0]]
+            data, mips = self._stack([textures[i] for i in members])
+            uv, uv_da = transform_uv(first, *uv_of(first.uv_set))
+            mipmapped = uv_da is not None
+            out = dr.texture(
+                data,
+                uv.reshape(1, -1, 1, 2).contiguous(),
+                uv_da=uv_da.reshape(1, -1, 1, 4).contiguous() if mipmapped else None,
+                mip=mips if mipmapped else None,
+                filter_mode="linear-mipmap-linear" if mipmapped else "linear",
+                boundary_mode=first.wrap,
+            ).reshape(count, -1)
+            channels = [textures[i].channels for i in members]
+            for i, part in zip(members, torch.split(out, channels, dim=-1)):
+                values[i] = part
+        return values
+
+
+def sample_texture(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None = None) -> torch.Tensor:
+    """``[N, C]`` values of one texture at ``uv [N, 2]`` (with ``uv_da [N, 4]``: trilinear),
+    whatever its UV set (see ``TextureSampler.sample``)."""
+    return TextureSampler().sample([texture], lambda _: (uv, uv_da), uv.shape[0])[0]

@@ -1,0 +1,129 @@
+"""Merging a multi-material asset into one material with one texture atlas (the latent model of
+the paper has a single material).
+
+A fresh non-overlapping UV atlas comes from ``lookalike.init.unwrap`` (xatlas). Every atlas texel
+covered by a triangle (``lookalike.asset.uv_raster.rasterize_uv``) takes, per channel, the
+triangle's own material sampled bilinearly at the old UV interpolated with the same barycentrics
+(texture transform and wrap mode honoured). Normal maps are re-expressed from our tangent frame
+of the old UVs to our tangent frame of the atlas UVs (``lookalike.io.normal_frames``); materials
+without a normal map contribute the flat normal. Texels are then dilated ``padding`` texels past
+the chart borders so that bilinear filtering and mipmaps do not pull in the background, and any
+texel still uncovered gets the channel's mean.
+
+The merged material is double-sided if any input is, blends if any input blends, else masks if
+any input masks (with the smallest cutoff).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..io.normal_frames import our_corner_frame, texel_frames
+from .asset import Asset
+from .material import Material, Texture
+from .mesh import Mesh
+from .uv_raster import dilate, rasterize_uv, sample_bilinear
+
+_FLAT_NORMAL = (0.0, 0.0, 1.0)
+
+
+def _old_uv(mesh: Mesh, texture: Texture, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """``[K, 2]`` UVs of ``texture`` (its UV set and transform) at the given triangle barycentrics."""
+    if texture.uv_set >= len(mesh.uv):
+        return np.zeros((len(tri), 2))
+    v_tex, t_tex_idx = mesh.uv[texture.uv_set]
+    corners = v_tex.detach().double()[t_tex_idx].numpy()[tri]
+    uv = np.einsum("kc,kcd->kd", bary, corners)
+    if texture.transform is not None:
+        m = texture.transform.detach().double().numpy()
+        uv = uv @ m[:2, :2].T + m[:2, 2]
+    return uv
+
+
+def _sample(mesh: Mesh, texture: Texture, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    data = texture.data.detach().float().numpy()
+    return sample_bilinear(data, _old_uv(mesh, texture, tri, bary), texture.wrap)
+
+
+def _bake_channel(mesh: Mesh, atlas_mesh: Mesh, materials: list[Material], name: str, channels: int,
+                  default, size: int, raster) -> np.ndarray:
+    """``[size, size, channels]`` atlas texels of channel ``name`` (NaN where uncovered)."""
+    rows, cols, tri, bary = raster
+    out = np.full((size, size, channels), np.nan, np.float32)
+    owner = mesh.t_mat_idx.numpy()[tri]
+    for index, material in enumerate(materials):
+        pick = owner == index
+        if not pick.any():
+            continue
+        texture = getattr(material, name)
+        if texture is None:
+            values = np.broadcast_to(np.asarray(default, np.float32), (int(pick.sum()), channels))
+        else:
+            values = _sample(mesh, texture, tri[pick], bary[pick])[:, :channels]
+        if name == "normal":
+            values = _reframe(mesh, atlas_mesh, texture, values, tri[pick], bary[pick])
+        out[rows[pick], cols[pick]] = values
+    return out
+
+
+def _reframe(mesh: Mesh, atlas_mesh: Mesh, texture: Texture | None, values: np.ndarray, tri: np.ndarray,
+             bary: np.ndarray) -> np.ndarray:
+    """Normal-map values in our frame of the old UVs -> our frame of the atlas UVs."""
+    old = our_corner_frame(mesh, texture.uv_set) if texture is not None and texture.uv_set < len(mesh.uv) \
+        else our_corner_frame(atlas_mesh, 0)
+    t1, b1, n1 = texel_frames(*old, tri, bary)
+    t2, b2, n2 = texel_frames(*our_corner_frame(atlas_mesh, 0), tri, bary)
+    surface = values[:, :1] * t1 + values[:, 1:2] * b1 + values[:, 2:] * n1
+    out = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
+    return (out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-30)).astype(np.float32)
+
+
+def _finish(texels: np.ndarray, padding: int) -> torch.Tensor:
+    """Dilate covered texels ``padding`` deep, fill the rest with the mean; ``[H, W, C]`` tensor."""
+    covered = ~np.isnan(texels[..., 0])
+    values, covered = dilate(np.nan_to_num(texels), covered, padding)
+    if covered.any():
+        values[~covered] = values[covered].mean(axis=0)
+    return torch.from_numpy(np.ascontiguousarray(values))
+
+
+def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
+    """One material with a ``size x size`` atlas for every channel (see the module docstring).
+
+    Args:
+        asset: any asset; its mesh keeps positions, normals, skinning and triangle order.
+        size: atlas side in texels.
+        padding: texels between charts and dilation depth.
+    Returns:
+        A new ``Asset`` whose mesh has a single UV set (the atlas) and ``t_mat_idx`` all zero.
+    """
+    from ..init import unwrap
+
+    mesh = asset.mesh.detach()
+    atlas_mesh = unwrap(mesh, texture_size=size, padding=padding)
+    atlas_mesh.t_mat_idx = torch.zeros_like(mesh.t_mat_idx)
+    uv = atlas_mesh.uv[0][0][atlas_mesh.uv[0][1]].numpy()
+    raster = rasterize_uv(uv, size, size)
+    materials = asset.materials
+
+    def bake(name, channels, default):
+        return _finish(_bake_channel(mesh, atlas_mesh, materials, name, channels, default, size, raster), padding)
+
+    has_normal = any(m.normal is not None for m in materials)
+    has_emissive = any(m.emissive is not None for m in materials)
+    normal = None
+    if has_normal:
+        data = bake("normal", 3, _FLAT_NORMAL)
+        normal = Texture(data / data.norm(dim=-1, keepdim=True).clamp_min(1e-12))
+    modes = {m.alpha_mode for m in materials}
+    alpha_mode = "BLEND" if "BLEND" in modes else "MASK" if "MASK" in modes else "OPAQUE"
+    cutoffs = [m.alpha_cutoff for m in materials if m.alpha_mode == "MASK"]
+    merged = Material(
+        name="atlas", kd=Texture(bake("kd", 4, (0.0, 0.0, 0.0, 1.0))), ks=Texture(bake("ks", 3, (0.0, 0.5, 0.0))),
+        normal=normal, alpha_mode=alpha_mode, alpha_cutoff=min(cutoffs) if cutoffs else 0.5,
+        double_sided=any(m.double_sided for m in materials),
+        emissive=Texture(bake("emissive", 3, (0.0, 0.0, 0.0))) if has_emissive else None,
+    )
+    return Asset(mesh=atlas_mesh, materials=[merged], skin=asset.skin, animations=asset.animations,
+                 source=asset.source)

@@ -1,0 +1,202 @@
+"""``lookalike bench render``: speed of the differentiable rasterizer.
+
+Figures (medians over ``repeats``):
+
+- ``visibility_100k_ms`` / ``visibility_500k_ms``: the compiled visibility query alone, 4
+  views at 512x512 of a perturbed sphere with ~100k / ~500k triangles.
+- ``frame_forward_ms`` / ``frame_backward_ms`` / ``frame_total_ms``: one optimisation
+  frame, 4 views at 512x512 of a ~5k-triangle sphere: rasterize, interpolate uv (with
+  derivatives), normal and position, trilinear lookup of a 1024^2 RGBA texture, simple
+  shading, antialias, L1 loss; backward to vertex positions and texels.
+- ``cpu_per_wall``: process CPU time over wall time during the frames (parallelism).
+- ``compile_s``: first call with an empty Numba cache (import + compile + run), in a fresh
+  process; ``startup_s``: the same with the cache filled (import + first call).
+
+Targets on the 2-core reference machine: visibility <= 70 ms (100k) and <= 150 ms (500k),
+frame forward + backward <= 350 ms, CPU/wall >= 1.7, cached start-up <= 1 s.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HELP = "speed of the differentiable rasterizer (visibility, engine frame, start-up)"
+
+TARGETS = {
+    "visibility_100k_ms": 70.0,
+    "visibility_500k_ms": 150.0,
+    "frame_total_ms": 350.0,
+    "cpu_per_wall": 1.7,
+    "startup_s": 1.0,
+}
+
+_STARTUP_SCRIPT = """
+import time
+start = time.perf_counter()
+import torch
+import lookalike.render as dr
+pos = torch.tensor([[[-1.0, -1.0, 0.0, 1.0], [1.0, -1.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0]]])
+dr.rasterize(None, pos, torch.tensor([[0, 1, 2]], dtype=torch.int32), (8, 8))
+print(time.perf_counter() - start)
+"""
+
+
+def sphere_mesh(rows: int, columns: int, bumpiness: float = 0.05):
+    """A bumpy UV sphere: ``(v_pos [V,3], v_nrm [V,3], v_uv [V,2], tri [2 rows columns, 3]
+    int32)`` (float32), with a seam column of duplicated vertices so uv runs 0..1."""
+    import torch
+
+    theta = torch.linspace(0, math.pi, rows + 1)[:, None]
+    phi = torch.linspace(0, 2 * math.pi, columns + 1)[None, :]
+    direction = torch.stack(
+        [torch.sin(theta) * torch.cos(phi), torch.cos(theta).expand(-1, columns + 1), torch.sin(theta) * torch.sin(phi)],
+        -1,
+    ).reshape(-1, 3)
+    radius = 1.0 + bumpiness * torch.sin(7 * theta) * torch.cos(5 * phi)
+    v_pos = direction * radius.reshape(-1, 1)
+    uv = torch.stack([(phi / (2 * math.pi)).expand(rows + 1, -1), (theta / math.pi).expand(-1, columns + 1)], -1)
+    r, c = torch.meshgrid(torch.arange(rows), torch.arange(columns), indexing="ij")
+    corner = (r * (columns + 1) + c).reshape(-1)
+    quads = torch.stack([corner, corner + 1, corner + columns + 1, corner + columns + 2], -1)
+    tri = torch.cat([quads[:, [0, 2, 1]], quads[:, [1, 2, 3]]]).int()
+    return v_pos, direction.clone(), uv.reshape(-1, 2), tri
+
+
+def orbit_mvp(n_views: int):
+    """``[B, 4, 4]`` OpenGL projection x view matrices of cameras circling the origin at
+    distance 3 (fov 45 degrees)."""
+    import torch
+
+    near, far, f = 0.1, 10.0, 1.0 / math.tan(math.radians(22.5))
+    proj = torch.tensor(
+        [[f, 0, 0, 0], [0, f, 0, 0], [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)], [0, 0, -1, 0]]
+    )
+    mats = []
+    for k in range(n_views):
+        angle = 2 * math.pi * k / n_views + 0.3
+        rot = torch.tensor(
+            [[math.cos(angle), 0, -math.sin(angle), 0], [0, 1, 0, 0], [math.sin(angle), 0, math.cos(angle), 0], [0, 0, 0, 1]]
+        )
+        view = torch.eye(4)
+        view[2, 3] = -3.0
+        mats.append(proj @ view @ rot)
+    return torch.stack(mats)
+
+
+def to_clip(v_pos, mvp):
+    """``[B, V, 4]`` clip-space positions of ``v_pos [V, 3]`` under ``mvp [B, 4, 4]``."""
+    import torch
+
+    homogeneous = torch.cat([v_pos, torch.ones_like(v_pos[:, :1])], 1)
+    return torch.einsum("vj,bij->bvi", homogeneous, mvp)
+
+
+def _median_ms(samples):
+    return 1000.0 * statistics.median(samples)
+
+
+def time_visibility(n_triangles: int, repeats: int) -> float:
+    """Median ms of the visibility query, 4 views at 512x512."""
+    import numpy as np
+
+    from lookalike.render.visibility import visible_triangles
+
+    rows = max(2, int(round(math.sqrt(n_triangles / 4))))
+    v_pos, _, _, tri = sphere_mesh(rows, 2 * rows)
+    pos = to_clip(v_pos, orbit_mvp(4)).numpy()
+    tri = tri.numpy()
+    tri_range = np.array([[0, tri.shape[0]]] * 4)
+    visible_triangles(pos, tri, tri_range, 512, 512)
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        visible_triangles(pos, tri, tri_range, 512, 512)
+        samples.append(time.perf_counter() - start)
+    return _median_ms(samples)
+
+
+def time_frame(repeats: int) -> dict:
+    """Median forward / backward ms of one optimisation frame and the CPU/wall ratio."""
+    import torch
+
+    import lookalike.render as dr
+
+    v_pos, v_nrm, v_uv, tri = sphere_mesh(50, 50)
+    v_pos.requires_grad_(True)
+    texels = torch.rand(1, 1024, 1024, 4, requires_grad=True)
+    mvp = orbit_mvp(4)
+    light = torch.tensor([0.3, 0.8, 0.5])
+    target = torch.rand(4, 512, 512, 3)
+    topology = dr.antialias_construct_topology_hash(tri)
+    forward, backward = [], []
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    for _ in range(repeats + 1):
+        start = time.perf_counter()
+        pos = to_clip(v_pos, mvp)
+        rast, rast_db = dr.rasterize(None, pos, tri, (512, 512))
+        uv, uv_da = dr.interpolate(v_uv, rast, tri, rast_db, diff_attrs="all")
+        normal, _ = dr.interpolate(v_nrm, rast, tri)
+        position, _ = dr.interpolate(v_pos, rast, tri)
+        albedo = dr.texture(texels, uv, uv_da, filter_mode="linear-mipmap-linear")
+        shade = (normal * light).sum(-1, keepdim=True).clamp_min(0.0) + 0.05 * position.norm(dim=-1, keepdim=True)
+        color = dr.antialias(albedo[..., :3] * shade, rast, pos, tri, topology)
+        loss = (color - target).abs().mean()
+        middle = time.perf_counter()
+        loss.backward()
+        end = time.perf_counter()
+        forward.append(middle - start)
+        backward.append(end - middle)
+        v_pos.grad, texels.grad = None, None
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    forward, backward = forward[1:], backward[1:]
+    return {
+        "frame_forward_ms": _median_ms(forward),
+        "frame_backward_ms": _median_ms(backward),
+        "frame_total_ms": _median_ms([f + b for f, b in zip(forward, backward)]),
+        "cpu_per_wall": cpu / wall,
+    }
+
+
+def time_startup() -> dict:
+    """Seconds to import and run a first rasterize in a fresh process, with an empty and
+    then with a filled Numba cache."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+
+        def one_run() -> float:
+            done = subprocess.run([sys.executable, "-c", _STARTUP_SCRIPT], env=env, capture_output=True, text=True, check=True)
+            return float(done.stdout.strip().splitlines()[-1])
+
+        compile_s = one_run()
+        startup_s = min(one_run() for _ in range(3))
+    return {"compile_s": compile_s, "startup_s": startup_s}
+
+
+def run(repeats: int | None = None) -> dict:
+    repeats = 5 if repeats is None else max(1, repeats)
+    import torch
+
+    result = {
+        "threads": torch.get_num_threads(),
+        "visibility_100k_ms": time_visibility(100_000, repeats),
+        "visibility_500k_ms": time_visibility(500_000, repeats),
+    }
+    result.update(time_frame(repeats))
+    result.update(time_startup())
+    return result
+
+
+def format_table(result: dict) -> str:
+    rows = [("figure", "value", "target")]
+    for key, value in result.items():
+        target = TARGETS.get(key)
+        bound = "" if target is None else (f">= {target:g}" if key == "cpu_per_wall" else f"<= {target:g}")
+        rows.append((key, f"{value:.3g}" if isinstance(value, float) else str(value), bound))
+    width = [max(len(r[i]) for r in rows) for i in range(3)]
+    return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(r, width)).rstrip() for r in rows)

@@ -1,0 +1,95 @@
+"""The bundled default asset, generated in code: a bumpy, painted (2, 3) torus knot.
+
+A tube of radius ``TUBE`` around the torus-knot curve
+c(t) = ((2 + cos 3t) cos 2t, (2 + cos 3t) sin 2t, sin 3t), t = 2 pi u, u in [0, 1), with its
+radius modulated by a bump field, on a ``segments x sides`` grid (two triangles per cell,
+positions welded around both seams). UV u runs along the knot, v around the tube. Its
+material has painted base colour (hue bands, stripes, gold inlays) and roughness and
+metalness that vary with the paint, which a decimated mesh without the textures' detail
+cannot show.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ..asset import Asset, Material, Mesh, Texture
+
+TUBE = 0.45
+BUMP = 0.08
+SEGMENTS, SIDES = 1000, 50          # 100,000 triangles
+TEXTURE_HEIGHT, TEXTURE_WIDTH = 256, 1024
+
+
+def knot_curve(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points ``[N, 3]`` and unit tangents ``[N, 3]`` of the (2, 3) torus knot at angles ``t [N]``."""
+    r = 2 + np.cos(3 * t)
+    point = np.stack([r * np.cos(2 * t), r * np.sin(2 * t), np.sin(3 * t)], axis=1)
+    dr = -3 * np.sin(3 * t)
+    tangent = np.stack([dr * np.cos(2 * t) - 2 * r * np.sin(2 * t),
+                        dr * np.sin(2 * t) + 2 * r * np.cos(2 * t),
+                        3 * np.cos(3 * t)], axis=1)
+    return point, tangent / np.linalg.norm(tangent, axis=1, keepdims=True)
+
+
+def bump(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Relative radius change in [-1, 1]-ish: ridges around the tube plus a knobbly pattern."""
+    theta = 2 * np.pi * v
+    return (0.55 * np.sin(2 * np.pi * 60 * u) ** 8
+            + 0.45 * np.sin(2 * np.pi * 25 * u + 3 * theta) * np.sin(5 * theta))
+
+
+def knot_mesh(segments: int = SEGMENTS, sides: int = SIDES) -> Mesh:
+    """The tube mesh: ``segments * sides`` welded vertices, ``2 * segments * sides`` triangles."""
+    u = np.arange(segments) / segments
+    v = np.arange(sides) / sides
+    centre, tangent = knot_curve(2 * np.pi * u)
+    side = np.cross(tangent, [0.0, 0.0, 1.0])  # never zero: the knot's tangent always has an xy part
+    side /= np.linalg.norm(side, axis=1, keepdims=True)
+    up = np.cross(tangent, side)
+    theta = 2 * np.pi * v
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    radius = TUBE * (1 + BUMP * bump(uu, vv))
+    ring = np.cos(theta)[None, :, None] * side[:, None] + np.sin(theta)[None, :, None] * up[:, None]
+    v_pos = (centre[:, None] + radius[..., None] * ring).reshape(-1, 3)
+
+    i, j = np.meshgrid(np.arange(segments), np.arange(sides), indexing="ij")
+    i1, j1 = (i + 1) % segments, (j + 1) % sides
+    a, b, c, d = i * sides + j, i1 * sides + j, i1 * sides + j1, i * sides + j1
+    t_pos_idx = np.stack([np.stack([a, d, b], -1), np.stack([b, d, c], -1)], axis=2).reshape(-1, 3)
+
+    # UVs: an unwelded (segments + 1) x (sides + 1) grid, so both seams are cut in UV space
+    tu, tv = np.meshgrid(np.arange(segments + 1) / segments, np.arange(sides + 1) / sides, indexing="ij")
+    v_tex = np.stack([tu, tv], axis=-1).reshape(-1, 2)
+    ta, tb = i * (sides + 1) + j, (i + 1) * (sides + 1) + j
+    tc, td = (i + 1) * (sides + 1) + j + 1, i * (sides + 1) + j + 1
+    t_tex_idx = np.stack([np.stack([ta, td, tb], -1), np.stack([tb, td, tc], -1)], axis=2).reshape(-1, 3)
+    return Mesh(v_pos=torch.from_numpy(v_pos).float(), t_pos_idx=torch.from_numpy(t_pos_idx).long(),
+                uv=[(torch.from_numpy(v_tex).float(), torch.from_numpy(t_tex_idx).long())])
+
+
+def paint(height: int = TEXTURE_HEIGHT, width: int = TEXTURE_WIDTH) -> tuple[np.ndarray, np.ndarray]:
+    """Base colour + alpha ``[H, W, 4]`` and (gamma, roughness, metalness) ``[H, W, 3]``, linear."""
+    u = (np.arange(width) + 0.5) / width
+    v = (np.arange(height) + 0.5) / height
+    uu, vv = np.meshgrid(u, v)  # rows follow v, columns u
+    hue = 2 * np.pi * (3 * uu + 0.15 * np.sin(2 * np.pi * 2 * vv))
+    base = 0.35 + 0.3 * np.stack([np.cos(hue), np.cos(hue - 2.1), np.cos(hue + 2.1)], axis=-1)
+    stripes = (np.sin(2 * np.pi * (40 * uu + 4 * vv)) > 0.6)[..., None]
+    base = np.where(stripes, 0.9 * base + 0.08, 0.55 * base)
+    gold = (np.abs(np.sin(2 * np.pi * 12 * uu)) > 0.985)[..., None]
+    kd = np.where(gold, [1.0, 0.72, 0.3], base).clip(0.02, 1.0) ** 2.2
+    roughness = np.where(stripes[..., 0], 0.25, 0.7) + 0.1 * np.sin(2 * np.pi * 9 * vv)
+    roughness = np.where(gold[..., 0], 0.2, roughness)
+    metalness = gold[..., 0].astype(np.float64)
+    ks = np.stack([np.zeros_like(roughness), roughness, metalness], axis=-1)
+    kd = np.concatenate([kd, np.ones_like(kd[..., :1])], axis=-1)
+    return kd.astype(np.float32), ks.astype(np.float32)
+
+
+def demo_asset() -> Asset:
+    """The default asset of ``lookalike demo``: about 100k triangles, one textured material."""
+    kd, ks = paint()
+    material = Material(name="painted", kd=Texture(torch.from_numpy(kd)), ks=Texture(torch.from_numpy(ks)))
+    return Asset(mesh=knot_mesh(), materials=[material])

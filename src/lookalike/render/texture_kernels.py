@@ -1,0 +1,238 @@
+"""Compiled texture filtering, forward and hand-written backward.
+
+The plain-torch twin is :func:`.texture.texture_reference` (built on :mod:`.sampling`);
+tests compare values and gradients.  The mip pyramid is one flat ``table [N, C]`` (see
+:class:`.sampling.Pyramid`): level ``l`` of view ``k`` starts at row
+``offsets[l] + k heights[l] widths[l]``.
+
+Filter modes: ``NEAREST``, ``LINEAR`` (level 0), ``MIP_NEAREST`` (bilinear in level
+``floor(L + 1/2)``), ``MIP_LINEAR`` (bilinear in ``l0 = min(floor(L), top - 1)`` and
+``l0 + 1`` blended by ``L - l0``), with ``L = clamp(0.5 log2(lambda_max) + bias, 0, top)``
+and ``lambda_max`` the largest eigenvalue of ``J J^T`` for the footprint Jacobian in level-0
+texels ``J = [[W du/dX, W du/dY], [H dv/dX, H dv/dY]]``.  Boundary modes: ``WRAP``,
+``CLAMP``, ``ZERO`` (texels outside read as 0).  Bilinear: ``x = u w - 1/2``, ``x0 =
+floor(x)``, ``fx = x - x0`` (same for ``y`` with ``v``, ``h``), value
+``sum (1-fx|fx)(1-fy|fy) T[y0|y0+1, x0|x0+1]``; nearest: ``T[floor(v h), floor(u w)]``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+NEAREST, LINEAR, MIP_NEAREST, MIP_LINEAR = 0, 1, 2, 3
+WRAP, CLAMP, ZERO = 0, 1, 2
+_TINY = 1e-30  # footprints below this give level -inf (clamped to 0), with zero gradient
+
+
+@njit(cache=True, inline="always")
+def _resolve(i, n, boundary):
+    """Texel index along one axis after the boundary rule; -1 for an outside texel in
+    ``ZERO`` mode."""
+    if boundary == WRAP:
+        return i % n
+    if boundary == CLAMP:
+        return min(max(i, 0), n - 1)
+    return i if 0 <= i < n else -1
+
+
+@njit(cache=True, inline="always")
+def _corners(u, v, h, w, boundary):
+    """Bilinear setup: ``(c0, c1, r0, r1, fx, fy)``, the resolved columns and rows (-1 =
+    zero texel) and the fractions."""
+    x = u * w - 0.5
+    y = v * h - 0.5
+    x0 = math.floor(x)
+    y0 = math.floor(y)
+    ix0 = int(x0)
+    iy0 = int(y0)
+    return (
+        _resolve(ix0, w, boundary), _resolve(ix0 + 1, w, boundary),
+        _resolve(iy0, h, boundary), _resolve(iy0 + 1, h, boundary),
+        x - x0, y - y0,
+    )
+
+
+@njit(cache=True, inline="always")
+def _texel(table, base, w, row, col, ch):
+    if row < 0 or col < 0:
+        return 0.0
+    return table[base + row * w + col, ch]
+
+
+@njit(cache=True)
+def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
+    """``(L, raw, lam)``: the clamped level, the unclamped one and ``lambda_max``."""
+    raw = 0.0
+    lam = 0.0
+    if has_da:
+        dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
+        dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
+        a = dsx * dsx + dsy * dsy
+        c = dtx * dtx + dty * dty
+        b = dsx * dtx + dsy * dty
+        lam = 0.5 * (a + c) + math.sqrt(max(0.25 * (a - c) * (a - c) + b * b, _TINY))
+        raw = 0.5 * math.log2(max(lam, _TINY))
+    if has_bias:
+        raw += bias[p]
+    return min(max(raw, 0.0), top), raw, lam
+
+
+@njit(cache=True)
+def _bilinear_add(table, base, h, w, u, v, boundary, weight, out, p):
+    """``out[p] += weight * bilinear(level at base)``."""
+    c0, c1, r0, r1, fx, fy = _corners(u, v, h, w, boundary)
+    for ch in range(table.shape[1]):
+        top = _texel(table, base, w, r0, c0, ch) * (1 - fx) + _texel(table, base, w, r0, c1, ch) * fx
+        bottom = _texel(table, base, w, r1, c0, ch) * (1 - fx) + _texel(table, base, w, r1, c1, ch) * fx
+        out[p, ch] += weight * (top + fy * (bottom - top))
+
+
+@njit(cache=True)
+def _bilinear_backward(table, base, h, w, u, v, boundary, weight, grad_out, p, grad_table):
+    """Accumulate ``weight * d bilinear`` into ``grad_table``; return ``(g_u, g_v, g_value)``:
+    gradients to ``u``, ``v`` and ``sum_ch grad_out * bilinear`` (for the level blend)."""
+    c0, c1, r0, r1, fx, fy = _corners(u, v, h, w, boundary)
+    g_x = 0.0
+    g_y = 0.0
+    g_value = 0.0
+    for ch in range(table.shape[1]):
+        g = grad_out[p, ch]
+        t00 = _texel(table, base, w, r0, c0, ch)
+        t01 = _texel(table, base, w, r0, c1, ch)
+        t10 = _texel(table, base, w, r1, c0, ch)
+        t11 = _texel(table, base, w, r1, c1, ch)
+        top = t00 + fx * (t01 - t00)
+        bottom = t10 + fx * (t11 - t10)
+        g_value += g * (top + fy * (bottom - top))
+        g_x += g * ((1 - fy) * (t01 - t00) + fy * (t11 - t10))
+        g_y += g * (bottom - top)
+        gw = g * weight
+        if r0 >= 0 and c0 >= 0:
+            grad_table[base + r0 * w + c0, ch] += gw * (1 - fx) * (1 - fy)
+        if r0 >= 0 and c1 >= 0:
+            grad_table[base + r0 * w + c1, ch] += gw * fx * (1 - fy)
+        if r1 >= 0 and c0 >= 0:
+            grad_table[base + r1 * w + c0, ch] += gw * (1 - fx) * fy
+        if r1 >= 0 and c1 >= 0:
+            grad_table[base + r1 * w + c1, ch] += gw * fx * fy
+    return weight * g_x * w, weight * g_y * h, g_value
+
+
+@njit(cache=True, parallel=True)
+def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary, out):
+    """``out [P, C]`` (zeroed) = filtered lookups at ``uv [P, 2]``.  ``uv_da [P, 4]`` and
+    ``bias [P]`` may have 0 rows (absent); ``per_view``: the table holds one texture per
+    view, pixel ``p`` belongs to view ``p // pixels_per_view``."""
+    n_pixels = uv.shape[0]
+    top = heights.shape[0] - 1
+    has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
+    for p in prange(n_pixels):
+        view = p // pixels_per_view if per_view else 0
+        u, v = uv[p, 0], uv[p, 1]
+        if mode == NEAREST:
+            h, w = heights[0], widths[0]
+            base = offsets[0] + view * h * w
+            col = _resolve(int(math.floor(u * w)), w, boundary)
+            row = _resolve(int(math.floor(v * h)), h, boundary)
+            for ch in range(table.shape[1]):
+                out[p, ch] = _texel(table, base, w, row, col, ch)
+            continue
+        level = 0
+        frac = 0.0
+        if mode != LINEAR:
+            lvl, _, _ = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
+            if mode == MIP_NEAREST:
+                level = int(math.floor(lvl + 0.5))
+            elif top > 0:
+                level = min(int(math.floor(lvl)), top - 1)
+                frac = lvl - level
+        h, w = heights[level], widths[level]
+        _bilinear_add(table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, out, p)
+        if frac != 0.0:
+            h, w = heights[level + 1], widths[level + 1]
+            _bilinear_add(table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, out, p)
+
+
+@njit(cache=True, parallel=True)
+def texture_backward(
+    table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
+    grad_out, grad_table, grad_uv, grad_uv_da, grad_bias,
+):
+    """Gradients of :func:`texture_forward`: accumulate into ``grad_table [N, C]`` (zeroed;
+    each thread sums into its own copy, added at the end) and write ``grad_uv [P, 2]``,
+    ``grad_uv_da [P, 4]`` and ``grad_bias [P]`` (zeroed; the last two when present)."""
+    n_pixels = uv.shape[0]
+    top = heights.shape[0] - 1
+    has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
+    n_chunks = numba.get_num_threads()
+    private = np.zeros((n_chunks - 1, table.shape[0], table.shape[1]), table.dtype)
+    for chunk in prange(n_chunks):
+        target = grad_table if chunk == 0 else private[chunk - 1]
+        for p in range(chunk * n_pixels // n_chunks, (chunk + 1) * n_pixels // n_chunks):
+            view = p // pixels_per_view if per_view else 0
+            u, v = uv[p, 0], uv[p, 1]
+            if mode == NEAREST:
+                h, w = heights[0], widths[0]
+                col = _resolve(int(math.floor(u * w)), w, boundary)
+                row = _resolve(int(math.floor(v * h)), h, boundary)
+                if row >= 0 and col >= 0:
+                    for ch in range(table.shape[1]):
+                        target[offsets[0] + view * h * w + row * w + col, ch] += grad_out[p, ch]
+                continue
+            level = 0
+            frac = 0.0
+            lvl, raw, lam = 0.0, 0.0, 0.0
+            if mode != LINEAR:
+                lvl, raw, lam = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
+                if mode == MIP_NEAREST:
+                    level = int(math.floor(lvl + 0.5))
+                elif top > 0:
+                    level = min(int(math.floor(lvl)), top - 1)
+                    frac = lvl - level
+            h, w = heights[level], widths[level]
+            g_u, g_v, fine = _bilinear_backward(
+                table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, grad_out, p, target
+            )
+            if mode == MIP_LINEAR and top > 0:
+                h, w = heights[level + 1], widths[level + 1]
+                g_u1, g_v1, coarse = _bilinear_backward(
+                    table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, grad_out, p, target
+                )
+                g_u += g_u1
+                g_v += g_v1
+                if 0.0 <= raw <= top:
+                    g_raw = coarse - fine
+                    if has_bias:
+                        grad_bias[p] = g_raw
+                    if has_da and lam >= _TINY:
+                        _level_backward(uv_da, p, heights[0], widths[0], lam, g_raw, grad_uv_da)
+            grad_uv[p, 0] = g_u
+            grad_uv[p, 1] = g_v
+    for k in range(n_chunks - 1):
+        grad_table += private[k]
+
+
+@njit(cache=True)
+def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
+    """``grad_uv_da[p] = g_raw * d(0.5 log2 lambda_max)/d uv_da``."""
+    dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
+    dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
+    a = dsx * dsx + dsy * dsy
+    c = dtx * dtx + dty * dty
+    b = dsx * dtx + dsy * dty
+    q = 0.25 * (a - c) * (a - c) + b * b
+    g_lam = g_raw * 0.5 / (lam * math.log(2.0))
+    g_a, g_c, g_b = 0.5 * g_lam, 0.5 * g_lam, 0.0
+    if q >= _TINY:
+        r = math.sqrt(q)
+        g_a += g_lam * 0.25 * (a - c) / r
+        g_c -= g_lam * 0.25 * (a - c) / r
+        g_b = g_lam * b / r
+    grad_uv_da[p, 0] = (2 * g_a * dsx + g_b * dtx) * w0
+    grad_uv_da[p, 1] = (2 * g_a * dsy + g_b * dty) * w0
+    grad_uv_da[p, 2] = (2 * g_c * dtx + g_b * dsx) * h0
+    grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0

@@ -1,0 +1,426 @@
+"""glTF reading (accessors, primitives, materials, skins, animations, errors) and GLB writing
+(round trips, the Khronos validator)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import struct
+import subprocess
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from io_factory import npm_package, plane, two_material_asset
+from lookalike import io
+from lookalike.asset import Animation, Asset, Channel, Material, Node, Skin, Texture
+from lookalike.errors import AssetError
+from lookalike.io.images import encode_png
+
+VALIDATOR = Path(__file__).with_name("gltf_validate.js")
+
+
+# ----------------------------------------------------------------------------------------------
+# A tiny glTF document builder for hand-made test files.
+
+class Doc:
+    """Builds a glTF JSON document with one binary buffer (embedded as a data: URI or a .bin)."""
+
+    def __init__(self):
+        self.json = {"asset": {"version": "2.0"}, "buffers": [], "bufferViews": [], "accessors": [],
+                     "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0}
+        self.blob = bytearray()
+
+    def view(self, data: bytes, stride: int | None = None) -> int:
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        view = {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)}
+        if stride:
+            view["byteStride"] = stride
+        self.blob += data
+        self.json["bufferViews"].append(view)
+        return len(self.json["bufferViews"]) - 1
+
+    def accessor(self, values, component: int = 5126, kind: str | None = None, **extra) -> int:
+        dtype = {5126: np.float32, 5125: np.uint32, 5123: np.uint16, 5121: np.uint8, 5120: np.int8}[component]
+        values = np.asarray(values, dtype=dtype)
+        rows = values.reshape(len(values), -1)
+        kind = kind or {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4", 16: "MAT4"}[rows.shape[1]]
+        acc = {"bufferView": self.view(values.tobytes()), "componentType": component, "count": len(values),
+               "type": kind, **extra}
+        if kind == "VEC3" and component == 5126:
+            acc["min"], acc["max"] = rows.min(0).tolist(), rows.max(0).tolist()
+        self.json["accessors"].append(acc)
+        return len(self.json["accessors"]) - 1
+
+    def mesh_node(self, primitives: list[dict], **node) -> int:
+        self.json["meshes"].append({"primitives": primitives})
+        self.json["nodes"].append({"mesh": len(self.json["meshes"]) - 1, **node})
+        self.json["scenes"][0]["nodes"].append(len(self.json["nodes"]) - 1)
+        return len(self.json["nodes"]) - 1
+
+    def write(self, path: Path, bin_file: bool = False) -> Path:
+        if bin_file:
+            (path.parent / "data.bin").write_bytes(bytes(self.blob))
+            self.json["buffers"] = [{"uri": "data.bin", "byteLength": len(self.blob)}]
+        else:
+            uri = "data:application/octet-stream;base64," + base64.b64encode(bytes(self.blob)).decode()
+            self.json["buffers"] = [{"uri": uri, "byteLength": len(self.blob)}]
+        path.write_text(json.dumps(self.json))
+        return path
+
+
+QUAD = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+
+
+def quad_doc() -> tuple[Doc, dict]:
+    doc = Doc()
+    prim = {"attributes": {"POSITION": doc.accessor(QUAD)}, "indices": doc.accessor([0, 1, 2, 0, 2, 3], 5123)}
+    return doc, prim
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading.
+
+def test_accessors_strided_normalized_and_sparse(tmp_path):
+    doc = Doc()
+    # Interleaved POSITION (12 bytes) + normalized uint8 TEXCOORD_0 (2 bytes, padded to 4): stride 16.
+    uv8 = np.array([[0, 255], [255, 255], [255, 0], [0, 0]], np.uint8)
+    inter = b"".join(QUAD[i].tobytes() + uv8[i].tobytes() + b"\0\0" for i in range(4))
+    view = doc.view(inter, stride=16)
+    doc.json["accessors"] += [
+        {"bufferView": view, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+        {"bufferView": view, "byteOffset": 12, "componentType": 5121, "normalized": True, "count": 4, "type": "VEC2"},
+    ]
+    # A sparse accessor without bufferView: zeros with two substituted colours.
+    colour = {"componentType": 5126, "count": 4, "type": "VEC3", "sparse": {
+        "count": 2, "indices": {"bufferView": doc.view(np.array([1, 3], np.uint16).tobytes()), "componentType": 5123},
+        "values": {"bufferView": doc.view(np.array([[1, 0, 0], [0, 0, 1]], np.float32).tobytes())}}}
+    doc.json["accessors"].append(colour)
+    doc.mesh_node([{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "COLOR_0": 2},
+                    "indices": doc.accessor([0, 1, 2, 0, 2, 3], 5125)}])
+    asset = io.load(doc.write(tmp_path / "a.gltf"))
+    uv = asset.mesh.uv[0][0][asset.mesh.uv[0][1]]
+    assert torch.allclose(uv[0], torch.tensor([[0.0, 1], [1, 1], [1, 0]]))
+    colours = asset.mesh.v_color[asset.mesh.t_pos_idx]
+    assert torch.equal(colours[0, :, :3], torch.tensor([[0.0, 0, 0], [1, 0, 0], [0, 0, 0]]))
+    assert torch.equal(colours[1, 2, :3], torch.tensor([0.0, 0, 1]))
+
+
+def test_strips_fans_and_skipped_lines(tmp_path):
+    doc = Doc()
+    pos = doc.accessor(QUAD)
+    doc.mesh_node([{"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1, 3, 2], 5123), "mode": 5},
+                   {"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1, 2, 3], 5123), "mode": 6},
+                   {"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1], 5123), "mode": 1}])
+    with pytest.warns(UserWarning, match="points or lines"):
+        asset = io.load(doc.write(tmp_path / "s.gltf"))
+    corners = asset.mesh.v_pos[asset.mesh.t_pos_idx]
+    normals = torch.linalg.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0], dim=-1)
+    assert asset.mesh.num_triangles == 4
+    assert (normals[:, 2] > 0).all()  # strip and fan keep counter-clockwise winding
+    assert asset.mesh.num_vertices == 4  # equal positions of the primitives are welded
+
+
+def test_node_transforms_and_mirroring(tmp_path):
+    doc, prim = quad_doc()
+    doc.mesh_node([prim], translation=[0, 0, 5], scale=[2, 2, 2])
+    doc.mesh_node([dict(prim)], matrix=[-1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+    asset = io.load(doc.write(tmp_path / "n.gltf"))
+    corners = asset.mesh.v_pos[asset.mesh.t_pos_idx]
+    assert torch.allclose(corners[:2].reshape(-1, 3).max(0).values, torch.tensor([2.0, 2, 5]))
+    assert corners[2:, :, 0].max() <= 0
+    normals = torch.linalg.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0], dim=-1)
+    assert (normals[:, 2] > 0).all()  # the mirrored copy's winding was flipped back
+
+
+def test_materials_factors_textures_and_extensions(tmp_path):
+    doc, prim = quad_doc()
+    doc.json["accessors"].append(doc.json["accessors"][0] | {})  # unused copy: harmless
+    uv = doc.accessor(np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32))
+    prim["attributes"]["TEXCOORD_1"] = uv
+    prim["attributes"]["TEXCOORD_0"] = uv
+    prim["material"] = 0
+    second = dict(prim, material=None)
+    doc.mesh_node([prim, second])
+    srgb_half = 0.5
+    mr = np.zeros((2, 2, 3), np.float32)
+    mr[..., 1], mr[..., 2] = 0.5, 1.0
+    (tmp_path / "base.png").write_bytes(encode_png(np.full((2, 2, 4), srgb_half, np.float32)))
+    (tmp_path / "mr.png").write_bytes(encode_png(mr))
+    doc.json["images"] = [{"uri": "base.png"}, {"uri": "mr.png"}]
+    doc.json["samplers"] = [{"wrapS": 33071, "wrapT": 33071}]
+    doc.json["textures"] = [{"source": 0, "sampler": 0}, {"source": 1}]
+    doc.json["materials"] = [{
+        "name": "m",
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [1, 0.5, 1, 1],
+            "baseColorTexture": {"index": 0, "texCoord": 1, "extensions": {"KHR_texture_transform": {
+                "offset": [0.5, 0], "rotation": math.pi / 2, "scale": [2, 3]}}},
+            "metallicRoughnessTexture": {"index": 1}, "roughnessFactor": 0.8, "metallicFactor": 0.5},
+        "alphaMode": "MASK", "alphaCutoff": 0.3, "doubleSided": True, "emissiveFactor": [1, 0, 0],
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.25}, "KHR_materials_emissive_strength": {
+            "emissiveStrength": 3.0}}}]
+    doc.json["extensionsUsed"] = ["KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength"]
+    asset = io.load(doc.write(tmp_path / "m.gltf"))
+    m, default = asset.materials
+    assert default.name == "default" and asset.mesh.t_mat_idx.tolist() == [0, 0, 1, 1]
+    linear_half = ((0.5 + 0.055) / 1.055) ** 2.4
+    assert m.kd.data.shape == (2, 2, 4) and m.kd.uv_set == 1 and m.kd.wrap == "clamp"
+    assert torch.allclose(m.kd.data[0, 0], torch.tensor([linear_half, 0.5 * linear_half, linear_half, 0.5]),
+                          atol=3e-3)
+    # T(offset) R(pi/2) S(2, 3) applied to (u, v, 1) = (1, 0, 1): R S (1, 0) = (0, -2) -> (0.5, -2).
+    assert torch.allclose(m.kd.transform @ torch.tensor([1.0, 0, 1]), torch.tensor([0.5, -2, 1]), atol=1e-6)
+    assert torch.allclose(m.ks.data[0, 0], torch.tensor([0.75, 0.8 * 128 / 255, 0.5]), atol=1e-6)
+    assert (m.alpha_mode, m.alpha_cutoff, m.double_sided) == ("MASK", pytest.approx(0.3), True)
+    assert torch.allclose(m.emissive.data.reshape(-1), torch.tensor([3.0, 0, 0]))
+
+
+def test_skin_and_animations(tmp_path):
+    doc, prim = quad_doc()
+    prim["attributes"]["JOINTS_0"] = doc.accessor(np.array([[0, 1, 0, 0]] * 4, np.uint8), 5121)
+    prim["attributes"]["WEIGHTS_0"] = doc.accessor(np.array([[0.25, 0.75, 0, 0]] * 4, np.float32))
+    doc.json["nodes"] = [{"name": "root", "children": [1], "translation": [1, 0, 0]},
+                         {"name": "tip", "rotation": [0, 0, math.sin(0.3), math.cos(0.3)]}]
+    doc.json["scenes"][0]["nodes"] = [0]
+    ibm = np.tile(np.eye(4, dtype=np.float32), (2, 1, 1))
+    ibm[1, 3, 0] = -1.0  # column-major: translation x of joint 1
+    doc.json["skins"] = [{"joints": [0, 1], "inverseBindMatrices": doc.accessor(ibm.reshape(2, 16), kind="MAT4")}]
+    doc.mesh_node([prim], skin=0, translation=[0, 0, 2])
+    times = doc.accessor(np.array([0, 1], np.float32))
+    cubic = np.array([[0, 0, 0], [1, 2, 3], [0, 0, 0], [0, 0, 0], [4, 5, 6], [0, 0, 0]], np.float32)
+    doc.json["animations"] = [{"name": "walk", "samplers": [
+        {"input": times, "output": doc.accessor(np.array([[0, 0, 0, 1], [0, 0, 1, 0]], np.float32)),
+         "interpolation": "STEP"},
+        {"input": times, "output": doc.accessor(cubic), "interpolation": "CUBICSPLINE"}],
+        "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}},
+                     {"sampler": 1, "target": {"node": 0, "path": "translation"}}]}]
+    with pytest.warns(UserWarning, match="CUBICSPLINE"):
+        asset = io.load(doc.write(tmp_path / "skin.gltf"))
+    skin = asset.skin
+    assert [n.name for n in skin.nodes[:2]] == ["root", "tip"] and skin.nodes[1].parent == 0
+    assert skin.joints.tolist() == [0, 1]
+    assert torch.allclose(skin.inverse_bind[1, 0, 3], torch.tensor(-1.0))
+    assert torch.allclose(skin.mesh_to_world[:3, 3], torch.tensor([0.0, 0, 2]))
+    assert asset.mesh.v_joints.shape == (4, 4) and torch.allclose(asset.mesh.v_weights[:, 1], torch.tensor(0.75))
+    (rot, trans), = [asset.animations[0].channels]
+    assert rot.interpolation == "STEP" and rot.values.shape == (2, 4)
+    assert trans.interpolation == "LINEAR" and torch.equal(trans.values, torch.tensor([[1.0, 2, 3], [4, 5, 6]]))
+
+
+def _single_triangle_doc(positions, indices) -> Doc:
+    doc = Doc()
+    acc = {"bufferView": doc.view(np.asarray(positions, np.float32).tobytes()), "componentType": 5126,
+           "count": len(positions), "type": "VEC3"}
+    doc.json["accessors"].append(acc)
+    doc.mesh_node([{"attributes": {"POSITION": 0}, "indices": doc.accessor(indices, 5123)}])
+    return doc
+
+
+def test_bad_inputs_raise_asset_errors_naming_the_file(tmp_path):
+    def fails(path, match):
+        with pytest.raises(AssetError, match=match) as info:
+            io.load(path)
+        assert str(path) in str(info.value)
+
+    fails(tmp_path / "absent.glb", "no such file")
+    (tmp_path / "garbage.gltf").write_text("{not json")
+    fails(tmp_path / "garbage.gltf", "not a valid glTF")
+
+    doc, prim = quad_doc()
+    prim["material"] = 0
+    doc.mesh_node([prim])
+    doc.json["images"] = [{"uri": "missing.png"}]
+    doc.json["textures"] = [{"source": 0}]
+    doc.json["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    fails(doc.write(tmp_path / "tex.gltf"), "texture 'missing.png' is missing")
+
+    doc, prim = quad_doc()
+    doc.mesh_node([prim])
+    doc.json["extensionsRequired"] = doc.json["extensionsUsed"] = ["KHR_draco_mesh_compression"]
+    fails(doc.write(tmp_path / "ext.gltf"), "unsupported glTF extension.*KHR_draco_mesh_compression")
+
+    doc = Doc()
+    doc.json["buffers"] = []
+    (tmp_path / "empty.gltf").write_text(json.dumps(doc.json))
+    fails(tmp_path / "empty.gltf", "no triangles")
+
+    fails(_single_triangle_doc([[0, 0, 0], [1, 0, np.nan], [0, 1, 0]], [0, 1, 2]).write(tmp_path / "nan.gltf"),
+          "NaN or infinite")
+    fails(_single_triangle_doc([[0, 0, 0], [1, 0, np.inf], [0, 1, 0]], [0, 1, 2]).write(tmp_path / "inf.gltf"),
+          "NaN or infinite")
+    fails(_single_triangle_doc(QUAD, [0, 1, 7]).write(tmp_path / "range.gltf"), "out of range")
+
+    doc, prim = quad_doc()
+    doc.mesh_node([prim])
+    path = doc.write(tmp_path / "trunc.gltf", bin_file=True)
+    (tmp_path / "data.bin").write_bytes(bytes(doc.blob[:20]))
+    fails(path, "truncated")
+    (tmp_path / "data.bin").unlink()
+    fails(path, "missing or unreadable")
+
+
+def test_degenerate_and_non_manifold_geometry_loads(tmp_path):
+    positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [2, 0, 0]]
+    # A zero-area triangle, and three triangles sharing edge (0, 1).
+    doc = _single_triangle_doc(positions, [0, 1, 5, 0, 1, 2, 1, 0, 3, 0, 1, 4])
+    asset = io.load(doc.write(tmp_path / "nm.gltf"))
+    assert asset.mesh.num_triangles == 4
+
+
+# ----------------------------------------------------------------------------------------------
+# Writing.
+
+def _by_material(mesh):
+    return torch.argsort(mesh.t_mat_idx, stable=True)
+
+
+def test_glb_round_trip_keeps_geometry_uvs_and_materials(tmp_path):
+    asset = two_material_asset(normal_map=True)
+    asset.materials[0].ks.data[..., 0] = torch.linspace(0, 0.5, 16)[None, :]  # varying gamma
+    asset.materials[1].ks.data[..., 0] = 0.25
+    io.save(asset, tmp_path / "rt.glb")
+    back = io.load(tmp_path / "rt.glb")
+    order = _by_material(asset.mesh)
+    src, dst = asset.mesh, back.mesh
+    assert torch.equal(src.v_pos[src.t_pos_idx][order], dst.v_pos[dst.t_pos_idx])
+    assert torch.equal(src.uv[0][0][src.uv[0][1]][order], dst.uv[0][0][dst.uv[0][1]])
+    assert torch.equal(src.t_mat_idx[order], dst.t_mat_idx)
+    assert dst.num_vertices == src.num_vertices  # positions welded again on load
+    a, b = asset.materials, back.materials
+    assert [m.name for m in b] == ["textured", "blended"]
+    assert b[1].alpha_mode == "BLEND" and b[1].double_sided and b[0].alpha_mode == "OPAQUE"
+    assert torch.allclose(b[1].kd.data, a[1].kd.data) and torch.allclose(b[1].ks.data, a[1].ks.data, atol=1e-6)
+    assert torch.allclose(b[0].kd.data, a[0].kd.data, atol=0.01)  # 8-bit sRGB quantisation
+    assert torch.allclose(b[0].ks.data, a[0].ks.data, atol=0.5 / 255 + 1e-6)
+    assert (b[0].normal.data - a[0].normal.data).norm(dim=-1).max() < 0.03  # ours -> MikkTSpace -> ours
+
+
+def test_glb_writes_constants_as_factors_and_unwelds_per_corner(tmp_path):
+    mesh = plane(3)
+    io.save(Asset(mesh=mesh, materials=[Material(name="flat")]), tmp_path / "c.glb")
+    gltf = json.loads(_glb_json(tmp_path / "c.glb"))
+    assert "images" not in gltf and "TANGENT" not in gltf["meshes"][0]["primitives"][0]["attributes"]
+    assert gltf["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx([0.75, 0.72, 0.68, 1.0])
+    position = gltf["accessors"][gltf["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    assert position["min"] == [0, 0, 0] and position["max"] == [1, 1, 0] and position["count"] == 9
+
+
+def _glb_json(path: Path) -> str:
+    data = path.read_bytes()
+    length, = struct.unpack_from("<I", data, 12)
+    return data[20:20 + length].decode()
+
+
+def validate(path: Path) -> dict:
+    """The Khronos glTF validator's report on ``path`` (npm ``gltf-validator``)."""
+    modules = npm_package("gltf-validator")
+    result = subprocess.run(["node", str(VALIDATOR), str(path), str(modules)], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+def assert_valid(path: Path):
+    report = validate(path)
+    errors = [m for m in report["issues"]["messages"] if m["severity"] == 0]
+    assert report["issues"]["numErrors"] == 0, errors
+
+
+def test_validator_accepts_normal_mapped_multi_material_glb(tmp_path):
+    asset = two_material_asset(normal_map=True)
+    asset.materials[0].ks.data[..., 0] = torch.linspace(0, 0.5, 16)[None, :]
+    asset.materials[0].kd.transform = torch.tensor([[0.0, 2, 0.5], [-2, 0, 0.25], [0, 0, 1]])
+    io.save(asset, tmp_path / "v.glb")
+    report = validate(tmp_path / "v.glb")
+    assert report["issues"]["numErrors"] == 0, report["issues"]["messages"]
+    info = report["info"]
+    assert info["materialCount"] == 2 and info["hasTextures"] and info["totalTriangleCount"] == asset.mesh.num_triangles
+    assert set(report["info"]["extensionsUsed"]) == {"KHR_materials_specular", "KHR_texture_transform"}
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+
+
+def test_validator_sees_a_broken_file(tmp_path):
+    """The validator check can fail: a GLB with a bad accessor reference has errors."""
+    io.save(Asset(mesh=plane(3)), tmp_path / "ok.glb")
+    data = bytearray((tmp_path / "ok.glb").read_bytes())
+    text = _glb_json(tmp_path / "ok.glb")
+    broken = text.replace('"indices":', '"indices":9', 1)
+    assert len(broken) != len(text)
+    doc = json.loads(broken)
+    blob = data[20 + len(text) :]
+    body = json.dumps(doc, separators=(",", ":")).encode()
+    body += b" " * (-len(body) % 4)
+    out = struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(body) + len(blob)) + struct.pack("<I4s", len(body), b"JSON")
+    (tmp_path / "bad.glb").write_bytes(out + body + blob)
+    assert validate(tmp_path / "bad.glb")["issues"]["numErrors"] > 0
+
+
+def test_skinned_asset_round_trip_keeps_skin_and_animations(tmp_path):
+    mesh = plane(3)
+    mesh.v_joints = torch.tensor([[0, 1, 0, 0]] * mesh.num_vertices)
+    mesh.v_weights = torch.tensor([[0.5, 0.5, 0, 0]] * mesh.num_vertices)
+    nodes = [Node("root", -1, torch.tensor([1.0, 0, 0]), torch.tensor([0.0, 0, 0, 1]), torch.ones(3)),
+             Node("tip", 0, torch.zeros(3), torch.tensor([0.0, 0, 0.6, 0.8]), torch.ones(3))]
+    mesh_to_world = torch.eye(4)
+    mesh_to_world[:3, 3] = torch.tensor([0.0, 0, 2])
+    skin = Skin(nodes=nodes, joints=torch.tensor([0, 1]), inverse_bind=torch.eye(4).repeat(2, 1, 1),
+                mesh_to_world=mesh_to_world)
+    anim = Animation("wave", [Channel(1, "rotation", torch.tensor([0.0, 1.0]),
+                                      torch.tensor([[0.0, 0, 0, 1], [0, 0, 0.6, 0.8]]), "STEP")])
+    io.save(Asset(mesh=mesh, skin=skin, animations=[anim]), tmp_path / "s.glb")
+    assert_valid(tmp_path / "s.glb")
+    back = io.load(tmp_path / "s.glb")
+    assert back.skin.joints.tolist() == [0, 1] and len(back.animations) == 1
+    ch = back.animations[0].channels[0]
+    assert (ch.node, ch.path, ch.interpolation) == (1, "rotation", "STEP")
+    # Skinning matrices world(joint) @ IBM applied to loaded positions reproduce the originals:
+    # the written IBM absorbs the baked mesh transform.
+    assert torch.allclose(back.skin.inverse_bind[:, :3, 3], torch.tensor([[0.0, 0, -2]] * 2), atol=1e-6)
+    assert torch.allclose(back.mesh.v_weights[:, :2], torch.tensor(0.5))
+
+
+# ----------------------------------------------------------------------------------------------
+# Real assets.
+
+@pytest.mark.parametrize("name, triangles", [
+    ("flight-helmet/FlightHelmet.gltf", 94722), ("cesium-man/CesiumMan.glb", 4672), ("fox/Fox.glb", 576),
+    ("alpha-blend-mode-test/AlphaBlendModeTest.glb", 61)])
+def test_real_gltf_assets_load(shared_assets, name, triangles):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        asset = io.load(shared_assets / name)
+    mesh = asset.mesh
+    assert mesh.num_triangles == triangles
+    assert torch.isfinite(mesh.v_pos).all() and mesh.t_pos_idx.max() < mesh.num_vertices
+    assert int(mesh.t_mat_idx.max()) < len(asset.materials)
+    for m in asset.materials:
+        for tex in (m.kd, m.ks):
+            assert torch.isfinite(tex.data).all() and tex.data.min() >= 0 and tex.data.max() <= 1
+        if m.normal is not None:
+            assert torch.allclose(m.normal.data.norm(dim=-1), torch.tensor(1.0), atol=1e-4)
+    if name.startswith("flight"):
+        # Six glTF materials; HoseMat reuses RubberWood's textures: five distinct texture sets.
+        assert len(asset.materials) == 6
+        assert len({tuple(m.kd.data.flatten()[:64].tolist()) for m in asset.materials}) == 5
+        assert sum(m.normal is not None for m in asset.materials) == 6
+        assert asset.materials[5].alpha_mode == "BLEND"
+    if name.startswith("cesium"):
+        assert len(asset.skin.joints) == 19 and len(asset.animations) == 1
+    if name.startswith("fox"):
+        assert len(asset.skin.joints) == 24 and sorted(a.name for a in asset.animations) == ["Run", "Survey", "Walk"]
+    if name.startswith("alpha"):
+        assert {m.alpha_mode for m in asset.materials} == {"OPAQUE", "MASK", "BLEND"}
+
+
+@pytest.mark.parametrize("name", ["fox/Fox.glb", "flight-helmet/FlightHelmet.gltf"])
+def test_real_assets_written_as_glb_validate(shared_assets, tmp_path, name):
+    asset = io.load(shared_assets / name)
+    io.save(asset, tmp_path / "out.glb")
+    assert_valid(tmp_path / "out.glb")
+    back = io.load(tmp_path / "out.glb")
+    assert back.mesh.num_triangles == asset.mesh.num_triangles
+    assert (back.skin is None) == (asset.skin is None) and len(back.animations) == len(asset.animations)

@@ -1,0 +1,62 @@
+"""Depth peeling returns layers nearest-first."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+import lookalike.render as dr
+
+
+def stacked_quads(n_quads: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Overlapping, slightly tilted quads at different depths, listed in random depth order.
+
+    Returns ``pos [1, 4n, 4]``, ``tri [2n, 3]`` and the quads' corners in NDC ``[n, 4]``
+    ``(x0, y0, x1, y1)`` with their depth planes ``[n, 3]`` ``(a, b, c)``: z/w = a x + b y + c.
+    """
+    corners = torch.rand(n_quads, 2) * 0.8 - 0.9
+    corners = torch.cat([corners, corners + 0.7 + torch.rand(n_quads, 2) * 0.3], 1)
+    planes = torch.cat([torch.randn(n_quads, 2) * 0.05, torch.randperm(n_quads)[:, None] * 0.15 - 0.5], 1)
+    x0, y0, x1, y1 = corners.T
+    xs = torch.stack([x0, x1, x0, x1], 1)
+    ys = torch.stack([y0, y0, y1, y1], 1)
+    zs = planes[:, 0:1] * xs + planes[:, 1:2] * ys + planes[:, 2:3]
+    pos = torch.stack([xs, ys, zs, torch.ones_like(xs)], -1).reshape(1, -1, 4)
+    base = torch.arange(n_quads)[:, None] * 4
+    tri = torch.cat([base + torch.tensor([0, 1, 2]), base + torch.tensor([2, 1, 3])]).reshape(2, n_quads, 3)
+    return pos, tri.transpose(0, 1).reshape(-1, 3).int(), torch.cat([corners, planes], 1)
+
+
+@pytest.mark.parametrize("pass_ranges", [False, True])
+def test_layers_come_nearest_first_and_match_sorted_depths(pass_ranges):
+    n_quads, size = 5, 32
+    pos, tri, quads = stacked_quads(n_quads)
+    px = (2 * torch.arange(size) + 1) / size - 1
+    x, y = px[None, :], px[:, None]
+    inside = [(x >= q[0]) & (x <= q[2]) & (y >= q[1]) & (y <= q[3]) for q in quads]
+    depth = torch.stack([torch.where(m, q[4] * x + q[5] * y + q[6], torch.inf) for q, m in zip(quads, inside)])
+    expected_depth, expected_quad = depth.sort(0)
+    if pass_ranges:
+        args = (pos[0], tri, (size, size), torch.tensor([[0, tri.shape[0]]]))
+    else:
+        args = (pos, tri, (size, size))
+    with dr.DepthPeeler(dr.RasterizeContext(), *args) as peeler:
+        for layer in range(n_quads + 1):
+            rast, _ = peeler.rasterize_next_layer()
+            shown = rast[0, ..., 3] > 0
+            if layer == n_quads:
+                assert not shown.any()
+                break
+            expected_shown = expected_depth[layer].isfinite()
+            assert (shown == expected_shown).float().mean() > 0.99
+            both = shown & expected_shown
+            quad = (rast[0, ..., 3][both].long() - 1) // 2
+            assert (quad == expected_quad[layer][both]).float().mean() > 0.99
+            torch.testing.assert_close(rast[0, ..., 2][both], expected_depth[layer][both], atol=1e-5, rtol=0)
+
+
+def test_peeler_needs_its_with_block():
+    pos, tri, _ = stacked_quads(2)
+    peeler = dr.DepthPeeler(None, pos, tri, (8, 8))
+    with pytest.raises(RuntimeError, match="with"):
+        peeler.rasterize_next_layer()
