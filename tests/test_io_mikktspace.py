@@ -104,3 +104,19 @@ def test_compiled_conversion_matches_numpy_twin():
     slow = reexpress_normal_map_reference(pixels, uvs, src, dst)
     assert np.abs(fast - pixels).max() > 0.1
     assert np.abs(fast - slow).max() < 1e-5
+
+
+def test_authored_gltf_tangents_agree_with_ours(shared_assets):
+    """FlightHelmet ships MikkTSpace TANGENTs (glTF convention): ours agree, handedness included."""
+    from lookalike.io.gltf_data import GltfData, parse_gltf
+
+    path = shared_assets / "flight-helmet" / "FlightHelmet.gltf"
+    data = GltfData(parse_gltf(path), path)
+    prim = data.gltf.meshes[0].primitives[0]
+    attrs = vars(prim.attributes)
+    tri = data.accessor(prim.indices).reshape(-1, 3)
+    corners = [data.accessor(attrs[k])[tri] for k in ("POSITION", "NORMAL", "TEXCOORD_0", "TANGENT")]
+    ours = mikktspace_tangents(*corners[:3])
+    assert np.array_equal(ours[..., 3], np.sign(corners[3][..., 3]))
+    cosine = (ours[..., :3] * corners[3][..., :3]).sum(-1)
+    assert np.median(cosine) > 0.9995 and (cosine > 0.99).mean() > 0.99  # the exporter's float noise

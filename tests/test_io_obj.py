@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from io_factory import bumpy_normal_map, gradient_texture, two_material_asset
+from io_factory import two_material_asset
 from lookalike import io
-from lookalike.asset import Asset, Material, Texture
+from lookalike.asset import Texture
 from lookalike.errors import AssetError
 from lookalike.io.images import srgb_to_linear, write_png
 
@@ -175,3 +175,16 @@ def test_real_obj_assets_load_fast(shared_assets, name, triangles, seconds):
         assert asset.materials[0].kd.data.shape[:2] == (1024, 1024) or asset.materials[0].kd.data.shape[0] > 1
         assert torch.allclose(asset.materials[0].ks.data.reshape(-1), torch.tensor([0.0, 0.25, 0.0]))
         assert len(asset.mesh.uv) == 1
+
+
+def test_alpha_metalness_and_emission_maps(tmp_path):
+    (tmp_path / "a.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                    "usemtl m\nf 1/1 2/2 3/3\n")
+    (tmp_path / "a.mtl").write_text("newmtl m\nd 0.8\nmap_d alpha.png\nmap_Pm metal.png\nKe 2 2 2\nmap_Ke glow.png\n")
+    write_png(np.full((2, 2, 1), 0.5, np.float32), tmp_path / "alpha.png")
+    write_png(np.full((2, 2, 1), 1.0, np.float32), tmp_path / "metal.png")
+    write_png(np.full((2, 2, 3), 1.0, np.float32), tmp_path / "glow.png")
+    m = io.load(tmp_path / "a.obj").materials[0]
+    assert m.alpha_mode == "BLEND" and torch.allclose(m.kd.data[..., 3], torch.tensor(0.8 * 128 / 255))
+    assert torch.allclose(m.ks.data[..., 2], torch.tensor(1.0)) and torch.allclose(m.ks.data[..., 1], torch.tensor(0.45))
+    assert torch.allclose(m.emissive.data, torch.tensor(2.0))

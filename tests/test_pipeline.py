@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.shading import Camera, PointLight, look_at, perspective, render
+from lookalike.shading.texturing import TextureSampler, sample_texture
 
 NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
 
@@ -208,6 +210,54 @@ def test_flat_normal_map_renders_like_no_normal_map():
     assert (bumped - plain).abs().max() > 0.05  # a tilted map does change the picture
 
 
+@pytest.mark.parametrize("axis", [0, 1], ids=["x-right", "y-up"])
+def test_normal_map_tilts_along_tangent_and_bitangent(axis):
+    """Tangent-space x tilts the normal towards +u (right in the image), y towards -v (up in
+    the image): a light on that side brightens the quad, a light on the other side darkens it."""
+    tilt = torch.tensor([0.0, 0.0, 1.0])
+    tilt[axis] = 0.6
+    maps = {"flat": None, "tilted": Texture(torch.nn.functional.normalize(tilt, dim=0).expand(4, 4, 3).clone())}
+    camera = front_camera()
+    side = [0.0, 0.0, 1.0]
+    side[axis] = 3.0
+    brightness = {}
+    for name, normal in maps.items():
+        material = Material(kd=Texture.constant([0.5, 0.5, 0.5, 1.0]), ks=Texture.constant(NO_SPECULAR), normal=normal)
+        for sign in (1, -1):
+            position = [sign * c if i == axis else c for i, c in enumerate(side)]
+            image = render(Asset(quad(), [material]), camera, light_at(position, 9.0), 16)
+            brightness[name, sign] = image[0, 8, 8, 0].item()
+    assert brightness["tilted", 1] > 1.2 * brightness["flat", 1]
+    assert brightness["tilted", -1] < 0.8 * brightness["flat", -1]
+
+
+def test_vertex_colours_multiply_base_colour():
+    mesh = quad()
+    mesh.v_color = torch.tensor([[1.0, 0.0, 0.0, 1.0]]).expand(4, 4).clone()
+    material = Material(kd=Texture.constant([0.5, 0.5, 0.5, 1.0]), ks=Texture.constant(NO_SPECULAR))
+    centre = render(Asset(mesh, [material]), front_camera(), light_at([0.0, 0.0, 3.0], 9.0), 16)[0, 8, 8]
+    assert centre[0] > 0.1 and centre[1] == 0 and centre[2] == 0
+
+
+def test_texture_transform_and_stacked_lookups_match_single_lookups():
+    """Stacking same-size textures into one lookup (the fast path) gives what separate
+    lookups give; a KHR_texture_transform equals sampling at the transformed coordinates."""
+    generator = torch.Generator().manual_seed(1)
+    uv = torch.rand(50, 2, generator=generator) * 1.5 - 0.25
+    uv_da = torch.rand(50, 4, generator=generator) * 0.05
+    transform = torch.tensor([[0.5, 0.2, 0.1], [-0.1, 2.0, 0.3], [0.0, 0.0, 1.0]])
+    textures = [Texture(torch.rand(16, 16, c, generator=generator), transform=transform, wrap=w)
+                for c, w in ((4, "wrap"), (3, "wrap"), (3, "clamp"))]
+    textures.append(Texture.constant([0.1, 0.2]))
+    stacked = TextureSampler().sample(textures, lambda _: (uv, uv_da), 50)
+    moved = uv @ transform[:2, :2].T + transform[:2, 2]
+    moved_da = (transform[:2, :2] @ uv_da.reshape(-1, 2, 2)).reshape(-1, 4)
+    for texture, values in zip(textures, stacked):
+        plain = Texture(texture.data, wrap=texture.wrap)
+        assert torch.allclose(values, sample_texture(plain, moved, moved_da), atol=1e-6)
+    assert torch.equal(stacked[3], torch.tensor([[0.1, 0.2]]).expand(50, 2))
+
+
 def test_msaa_shades_once_but_covers_like_supersampling():
     asset = Asset(uv_sphere(1.0, 16, 32), [Material()])
     camera, light = front_camera(), light_at([0.0, 0.0, 3.0], 9.0)
@@ -242,3 +292,37 @@ def test_no_nans_at_grazing_views(spp):
     camera, light = front_camera(), light_at([3.0, 0.0, 0.1], 9.0)  # light grazing from the side
     image = render(asset, camera, light, 32, spp=spp)
     assert torch.isfinite(image).all() and (image >= 0).all()
+
+
+SHARED_ASSETS = [
+    "spot/spot.obj",
+    "stanford-bunny/stanford-bunny.obj",
+    "nefertiti/nefertiti.obj",
+    "flight-helmet/FlightHelmet.gltf",
+    "cesium-man/CesiumMan.glb",
+    "fox/Fox.glb",
+    "alpha-blend-mode-test/AlphaBlendModeTest.glb",
+]
+
+
+@pytest.mark.assets
+@pytest.mark.parametrize("relative", SHARED_ASSETS, ids=lambda p: p.split("/")[0])
+def test_renders_shared_asset(shared_assets, relative):
+    from lookalike import io
+    from lookalike.shading.views import random_lights, random_views
+
+    asset = io.load(shared_assets / relative)
+    centre, radius = asset.mesh.bounding_sphere()
+    rng = np.random.default_rng(0)
+    camera = random_views(centre, radius, 2, rng)
+    with torch.no_grad():
+        image = render(asset, camera, random_lights(camera, centre, rng), 64, layers=2)
+    assert torch.isfinite(image).all() and (image >= 0).all()
+    alpha = image[..., 3]
+    assert ((alpha >= 0) & (alpha <= 1 + 1e-6)).all()
+    coverage = alpha.mean(dim=(1, 2))
+    assert ((coverage > 0.03) & (coverage < 0.8)).all(), coverage  # in the picture, framed
+    covered = alpha > 0.99
+    mean_colour = image[..., :3][covered].mean().item()
+    assert 0.01 < mean_colour < 1.5  # lit, neither black nor blown out
+    assert image[0, 0, 0, 3] == 0 and image[0, -1, -1, 3] == 0  # corners are background

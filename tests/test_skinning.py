@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 import torch
 
 from lookalike.asset import Animation, Channel, Node, Skin
@@ -112,3 +113,25 @@ def test_mesh_to_world_is_undone():
     loaded = 2.0 * local
     skinned = skin_vertices(loaded, torch.tensor([[1.0, 0.0]]), joint_matrices(skin))
     assert torch.allclose(skinned[0], local, atol=1e-6)
+
+
+@pytest.mark.assets
+@pytest.mark.parametrize("relative", ["cesium-man/CesiumMan.glb", "fox/Fox.glb"], ids=["cesium-man", "fox"])
+def test_skins_the_shared_characters(shared_assets, relative):
+    from lookalike import io
+
+    asset = io.load(shared_assets / relative)
+    skin, mesh = asset.skin, asset.mesh
+    weights = dense_weights(mesh.v_joints, mesh.v_weights, skin.joints.shape[0])
+    extent = (mesh.v_pos.max(0).values - mesh.v_pos.min(0).values).max()
+    # The rest pose reproduces the loaded bind pose.
+    rest = skin_vertices(mesh.v_pos, weights, joint_matrices(skin))[0]
+    assert (rest - mesh.v_pos).abs().max() < 1e-4 * extent
+    # Every clip moves the character without tearing it apart.
+    for animation in asset.animations:
+        times = torch.linspace(0, animation.duration, 5)
+        frames = skin_vertices(mesh.v_pos, weights, joint_matrices(skin, animation, times))
+        assert torch.isfinite(frames).all()
+        assert (frames - mesh.v_pos).abs().max() > 0.01 * extent
+        frame_extent = (frames.max(1).values - frames.min(1).values).max(-1).values
+        assert (frame_extent < 1.5 * extent).all() and (frame_extent > 0.5 * extent).all()

@@ -23,7 +23,7 @@ from ..io.normal_frames import our_corner_frame, texel_frames
 from .asset import Asset
 from .material import Material, Texture
 from .mesh import Mesh
-from .uv_raster import dilate, rasterize_uv, sample_bilinear
+from .uv_raster import apply_uv_transform, dilate, rasterize_uv, sample_bilinear
 
 _FLAT_NORMAL = (0.0, 0.0, 1.0)
 
@@ -34,11 +34,7 @@ def _old_uv(mesh: Mesh, texture: Texture, tri: np.ndarray, bary: np.ndarray) -> 
         return np.zeros((len(tri), 2))
     v_tex, t_tex_idx = mesh.uv[texture.uv_set]
     corners = v_tex.detach().double()[t_tex_idx].numpy()[tri]
-    uv = np.einsum("kc,kcd->kd", bary, corners)
-    if texture.transform is not None:
-        m = texture.transform.detach().double().numpy()
-        uv = uv @ m[:2, :2].T + m[:2, 2]
-    return uv
+    return apply_uv_transform(np.einsum("kc,kcd->kd", bary, corners), texture.transform)
 
 
 def _sample(mesh: Mesh, texture: Texture, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
@@ -50,6 +46,7 @@ def _bake_channel(mesh: Mesh, atlas_mesh: Mesh, materials: list[Material], name:
                   default, size: int, raster) -> np.ndarray:
     """``[size, size, channels]`` atlas texels of channel ``name`` (NaN where uncovered)."""
     rows, cols, tri, bary = raster
+    frames = {"atlas": our_corner_frame(atlas_mesh, 0)} if name == "normal" else {}
     out = np.full((size, size, channels), np.nan, np.float32)
     owner = mesh.t_mat_idx.numpy()[tri]
     for index, material in enumerate(materials):
@@ -62,18 +59,19 @@ def _bake_channel(mesh: Mesh, atlas_mesh: Mesh, materials: list[Material], name:
         else:
             values = _sample(mesh, texture, tri[pick], bary[pick])[:, :channels]
         if name == "normal":
-            values = _reframe(mesh, atlas_mesh, texture, values, tri[pick], bary[pick])
+            old_set = texture.uv_set if texture is not None and texture.uv_set < len(mesh.uv) else None
+            if old_set not in frames:
+                frames[old_set] = our_corner_frame(mesh, old_set) if old_set is not None else frames["atlas"]
+            values = _reframe(frames[old_set], frames["atlas"], values, tri[pick], bary[pick])
         out[rows[pick], cols[pick]] = values
     return out
 
 
-def _reframe(mesh: Mesh, atlas_mesh: Mesh, texture: Texture | None, values: np.ndarray, tri: np.ndarray,
-             bary: np.ndarray) -> np.ndarray:
-    """Normal-map values in our frame of the old UVs -> our frame of the atlas UVs."""
-    old = our_corner_frame(mesh, texture.uv_set) if texture is not None and texture.uv_set < len(mesh.uv) \
-        else our_corner_frame(atlas_mesh, 0)
-    t1, b1, n1 = texel_frames(*old, tri, bary)
-    t2, b2, n2 = texel_frames(*our_corner_frame(atlas_mesh, 0), tri, bary)
+def _reframe(old_frame, atlas_frame, values: np.ndarray, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """Normal-map ``values [K, 3]`` in corner frame ``old_frame`` (our frame of the old UVs) ->
+    ``atlas_frame`` (ours of the atlas UVs), at triangles ``tri`` with barycentrics ``bary``."""
+    t1, b1, n1 = texel_frames(*old_frame, tri, bary)
+    t2, b2, n2 = texel_frames(*atlas_frame, tri, bary)
     surface = values[:, :1] * t1 + values[:, 1:2] * b1 + values[:, 2:] * n1
     out = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
     return (out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-30)).astype(np.float32)

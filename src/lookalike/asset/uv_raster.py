@@ -119,3 +119,12 @@ def sample_bilinear(texture: np.ndarray, uv: np.ndarray, wrap: str = "wrap") -> 
     top = texture[ys[0], xs[0]] * (1 - fx) + texture[ys[0], xs[1]] * fx
     bottom = texture[ys[1], xs[0]] * (1 - fx) + texture[ys[1], xs[1]] * fx
     return (top * (1 - fy) + bottom * fy).astype(np.float32)
+
+
+def apply_uv_transform(uv: np.ndarray, transform) -> np.ndarray:
+    """UVs ``[..., 2]`` mapped by a texture's ``[3, 3]`` affine ``transform`` (``M @ (u, v, 1)``,
+    KHR_texture_transform), or returned unchanged for ``None``."""
+    if transform is None:
+        return uv
+    m = np.asarray(transform.detach().cpu().double() if hasattr(transform, "detach") else transform, np.float64)
+    return uv @ m[:2, :2].T + m[:2, 2]

@@ -23,12 +23,14 @@ import numpy as np
 import torch
 
 from ..asset import Animation, Asset, Channel, Material, Mesh, Node, Skin, Texture
+from ..asset.skinning import trs_matrix
 from ..errors import AssetError
+from .arrays import unique_rows
 from .gltf_data import GltfData, parse_gltf
 from .images import resize, srgb_to_linear
 from .normal_frames import import_normal_maps
 from .registry import reader
-from .transforms import matrix_to_trs, trs_to_matrix
+from .transforms import matrix_to_trs
 
 SUPPORTED_EXTENSIONS = frozenset({
     "KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
@@ -85,7 +87,8 @@ def _node_world_matrices(gltf) -> tuple[list[int], np.ndarray, np.ndarray]:
 def _local_matrix(node) -> np.ndarray:
     if node.matrix is not None:
         return np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T  # glTF stores column-major
-    return trs_to_matrix(node.translation or [0, 0, 0], node.rotation or [0, 0, 0, 1], node.scale or [1, 1, 1])
+    trs = (node.translation or [0, 0, 0], node.rotation or [0, 0, 0, 1], node.scale or [1, 1, 1])
+    return trs_matrix(*(torch.tensor(v, dtype=torch.float64) for v in trs)).numpy()
 
 
 def _triangles(mode: int, indices: np.ndarray) -> np.ndarray | None:
@@ -146,15 +149,6 @@ def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin
                       material, skin)
 
 
-def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the first occurrence of each distinct row of ``rows [n, k]`` and the inverse
-    map ``[n]`` (row i equals row ``first[inverse[i]]``)."""
-    rows = np.ascontiguousarray(rows)
-    keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    return first, inverse.reshape(-1)
-
-
 def _stack(parts: list[_Primitive], name: str, width: int, dtype) -> np.ndarray | None:
     """Concatenate one per-vertex attribute over primitives, zero-filled where a primitive lacks
     it (or is narrower); ``None`` when no primitive has it."""
@@ -190,10 +184,11 @@ def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
     colors = _stack(parts, "colors", 4, np.float32)
     joints = _stack(parts, "joints", 4, np.int64)
     weights = _stack(parts, "weights", 4, np.float32)
-    # Weld vertices whose position and per-position attributes are bitwise equal.
-    weld_key = [a.view(np.int32) if a.dtype == np.float32 else a.astype(np.int32)
+    # Weld vertices whose position and per-position attributes are equal (bitwise, after + 0.0
+    # has turned -0.0 into 0.0).
+    weld_key = [(a + np.float32(0.0)).view(np.int32) if a.dtype == np.float32 else a.astype(np.int32)
                 for a in (positions, colors, joints, weights) if a is not None]
-    first, inverse = _unique_rows(np.concatenate(weld_key, axis=1))
+    first, inverse = unique_rows(np.concatenate(weld_key, axis=1))
     t_pos_idx = torch.from_numpy(inverse[corners])
     n_sets = max(len(p.uvs) for p in parts)
     corner_idx = torch.from_numpy(corners)

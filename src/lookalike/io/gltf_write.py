@@ -28,6 +28,7 @@ import numpy as np
 from ..asset import Asset, Material, Texture
 from ..asset.normals import vertex_normals
 from ..errors import AssetError
+from .arrays import constant_texel, unique_rows
 from .images import encode_png, linear_to_srgb
 from .mikktspace import mikktspace_tangents
 from .normal_frames import export_normal_maps
@@ -108,13 +109,6 @@ class _GlbBuilder:
                 + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
 
 
-def _constant(texture: Texture) -> np.ndarray | None:
-    """The ``[C]`` value of a texture whose texels are all equal, else ``None``."""
-    data = texture.data.detach().cpu().numpy()
-    first = data.reshape(-1, data.shape[-1])[0]
-    return first.astype(np.float64) if np.all(data == first) else None
-
-
 def _texture_info(builder: _GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
     """A glTF textureInfo for ``texture`` encoded as ``pixels``, with KHR_texture_transform."""
     info = {"index": builder.texture(pixels, texture.wrap, (id(texture.data), channel))}
@@ -135,7 +129,7 @@ def _texture_info(builder: _GlbBuilder, texture: Texture, pixels: np.ndarray, ch
 def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
     """glTF material JSON for ``material`` (textures written to ``builder``)."""
     def constant_or_mean(texture: Texture) -> np.ndarray | None:
-        value = _constant(texture)
+        value = constant_texel(texture)
         if value is None and not has_uv:  # a texture without UVs to map it: its mean colour
             value = texture.data.detach().reshape(-1, texture.channels).mean(0).double().numpy()
         return value
@@ -170,7 +164,7 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
                 "specularFactor": float(np.clip(1 - gamma.flat[0], 0, 1))}
     if "KHR_materials_specular" in out.get("extensions", {}):
         builder.extensions.add("KHR_materials_specular")
-    if material.normal is not None and has_uv and _constant(material.normal) is None:
+    if material.normal is not None and has_uv and constant_texel(material.normal) is None:
         pixels = material.normal.data.detach().numpy() * 0.5 + 0.5
         out["normalTexture"] = _texture_info(builder, material.normal, pixels, "normal")
     if material.emissive is not None:
@@ -192,14 +186,6 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
     if material.double_sided:
         out["doubleSided"] = True
     return out
-
-
-def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First index of each distinct row of ``rows [n, k]`` and the inverse map ``[n]``."""
-    rows = np.ascontiguousarray(rows)
-    keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    return first, inverse.reshape(-1)
 
 
 def _skin(builder: _GlbBuilder, asset: Asset) -> tuple[list[dict], int]:
@@ -257,7 +243,7 @@ def write_glb(asset: Asset, path: Path) -> None:
             tangents[zero, :3] = fallback / np.linalg.norm(fallback, axis=-1, keepdims=True)
         corner_keys.append(tangents.view(np.int32).astype(np.int64))
         materials = export_normal_maps(mesh, materials)
-    first, inverse = _unique_rows(np.concatenate(corner_keys, axis=1))
+    first, inverse = unique_rows(np.concatenate(corner_keys, axis=1))
     indices = inverse.reshape(n_tris, 3)
 
     builder = _GlbBuilder()

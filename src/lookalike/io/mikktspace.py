@@ -35,6 +35,8 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.csgraph
 
+from .arrays import unique_rows
+
 _FLT_MIN = 1.17549435e-38  # the reference's "NotZero" threshold
 
 
@@ -47,9 +49,7 @@ def _unit(x: np.ndarray) -> np.ndarray:
 def _welded_vertices(positions, normals, uvs) -> np.ndarray:
     """``[T, 3]`` vertex id per corner: equal ids for bitwise-equal (position, normal, uv)."""
     keys = np.concatenate([positions, normals, uvs], axis=-1).astype(np.float32).reshape(-1, 8)
-    keys = np.ascontiguousarray(keys + 0.0)  # +0.0 turns -0.0 into 0.0, as float == does
-    rows = keys.view(np.dtype((np.void, keys.dtype.itemsize * 8))).ravel()
-    _, inverse = np.unique(rows, return_inverse=True)
+    _, inverse = unique_rows(keys + np.float32(0.0))  # + 0.0 turns -0.0 into 0.0, as float == does
     return inverse.reshape(-1, 3)
 
 

@@ -20,6 +20,7 @@ import torch
 
 from ..asset import Material, Texture
 from ..errors import AssetError
+from .arrays import constant_texel
 from .images import linear_to_srgb, read_image, resize, srgb_to_linear, write_png
 
 # Number of arguments of each map option (-o, -s and -t take up to three numbers).
@@ -183,13 +184,6 @@ def read_mtl(path: Path) -> dict[str, Material]:
     return {block.name: material_from_statements(block, path) for block in parse_mtl(path)}
 
 
-def _constant(texture: Texture) -> np.ndarray | None:
-    """The ``[C]`` value of a texture whose texels are all equal, else ``None``."""
-    data = texture.data.detach().cpu().numpy()
-    first = data.reshape(-1, data.shape[-1])[0]
-    return first if np.all(data == first) else None
-
-
 def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
     """Write ``materials`` (with unique ``names``) to the MTL file ``path``, textures as PNGs next to
     it named ``<stem>_<material>_<channel>.png``. Constant channels become ``Kd``/``d``/``Pr``/
@@ -204,7 +198,7 @@ def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
             write_png(pixels, path.parent / file)
             return file
 
-        kd = _constant(material.kd)
+        kd = constant_texel(material.kd)
         if kd is not None:
             lines += [f"Kd {kd[0]:.6g} {kd[1]:.6g} {kd[2]:.6g}", f"d {kd[3]:.6g}"]
         else:
@@ -213,7 +207,7 @@ def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
             lines.append(f"map_Kd {image('basecolor', linear_to_srgb(data[..., :3]))}")
             if not np.all(data[..., 3] == 1.0):
                 lines.append(f"map_d {image('alpha', data[..., 3:4])}")
-        ks = _constant(material.ks)
+        ks = constant_texel(material.ks)
         if ks is not None:
             lines += [f"Pr {ks[1]:.6g}", f"Pm {ks[2]:.6g}"]
         else:
@@ -222,7 +216,7 @@ def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
         if material.normal is not None:
             lines.append(f"map_Bump {image('normal', material.normal.data.detach().cpu().numpy() * 0.5 + 0.5)}")
         if material.emissive is not None:
-            ke = _constant(material.emissive)
+            ke = constant_texel(material.emissive)
             if ke is not None:
                 lines.append(f"Ke {ke[0]:.6g} {ke[1]:.6g} {ke[2]:.6g}")
             else:

@@ -11,7 +11,9 @@ At a texel covered by triangle ``f`` with barycentrics ``l``, a renderer interpo
 ``n = normalize(sum l_k n_k)``, ``t = normalize(T - n (n . T))`` with ``T = sum l_k t_k``,
 ``b = sign(w) cross(n, t)``; the texel value ``m`` means ``m.x t + m.y b + m.z n``. Conversion maps
 ``m_src`` to ``m_dst = (s . t_dst, s . b_dst, s . n_dst)`` with ``s`` that surface normal in the
-source frame, then normalises. Texels no triangle covers keep their value.
+source frame, then normalises. Texels no triangle covers keep their value. A texture transform
+(KHR_texture_transform) moves where the triangles land in the texture; both frames are built
+from the untransformed UVs.
 """
 
 from __future__ import annotations
@@ -22,10 +24,10 @@ import numpy as np
 import torch
 from numba import njit
 
-from ..asset import Material, Mesh, Texture
+from ..asset import Material, Mesh
 from ..asset.normals import vertex_normals
 from ..asset.tangents import vertex_tangents
-from ..asset.uv_raster import rasterize_uv
+from ..asset.uv_raster import apply_uv_transform, rasterize_uv
 from .mikktspace import mikktspace_tangents
 
 
@@ -175,7 +177,8 @@ def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> li
             cache[normal.uv_set] = (our_corner_frame(mesh, normal.uv_set), frames(normal.uv_set))
         ours, theirs = cache[normal.uv_set]
         src, dst = (theirs, ours) if to_ours else (ours, theirs)
-        pixels = reexpress_normal_map(normal.data.detach().numpy(), corner_uvs(mesh, normal.uv_set)[used],
+        uv = apply_uv_transform(corner_uvs(mesh, normal.uv_set)[used], normal.transform)
+        pixels = reexpress_normal_map(normal.data.detach().numpy(), uv,
                                       tuple(a[used] for a in src), tuple(a[used] for a in dst))
         out.append(replace(material, normal=replace(normal, data=torch.from_numpy(pixels), mips=None)))
     return out

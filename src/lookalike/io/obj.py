@@ -31,7 +31,7 @@ def _number_rows(rows: list[str], path: Path, what: str) -> np.ndarray:
     """``[n, k]`` float64 from whitespace-separated number rows (shorter rows padded with 0)."""
     if not rows:
         return np.zeros((0, 0))
-    counts = np.array([r.count(" ") + 1 for r in rows]) if rows else np.zeros(0, int)
+    counts = np.char.count(np.array(rows), " ") + 1
     try:
         flat = np.array(" ".join(rows).split(), dtype=np.float64)
     except ValueError:
@@ -87,11 +87,15 @@ def read_obj(path: Path) -> Asset:
         text = path.read_text(errors="replace")
     except OSError as e:
         raise AssetError(path, f"cannot read file: {e.strerror or e}") from None
-    text = text.replace("\r\n", "\n").replace("\\\n", " ")
+    # Whole-text clean-up: line continuations, comments, runs of blanks become one space.
+    text = re.sub(r"[ \t]+", " ", re.sub(r"#[^\n]*", "", text.replace("\r\n", "\n").replace("\\\n", " ")))
     statements = _STATEMENT.findall(text)
-    keywords = np.array([k for k, _ in statements])
-    rests = [re.sub(r"[ \t]+", " ", r.split("#", 1)[0].strip()) for _, r in statements]
-    rows = {k: [r for r, kw in zip(rests, keywords) if kw == k] for k in ("v", "vt", "vn", "f")}
+    if not statements:
+        raise AssetError(path, "no vertices ('v' lines)")
+    keywords_and_rests = np.array(statements, dtype=object)
+    keywords = keywords_and_rests[:, 0].astype(str)
+    rests = keywords_and_rests[:, 1]
+    rows = {k: rests[keywords == k].tolist() for k in ("v", "vt", "vn", "f")}
     v = _number_rows(rows["v"], path, "v")
     if len(v) == 0:
         raise AssetError(path, "no vertices ('v' lines)")
@@ -103,7 +107,7 @@ def read_obj(path: Path) -> Asset:
     faces = rows["f"]
     if not faces:
         raise AssetError(path, "no faces ('f' lines): the mesh is empty")
-    corners_per_face = np.array([f.count(" ") + 1 for f in faces])
+    corners_per_face = np.char.count(np.array(faces), " ") + 1
     if corners_per_face.min() < 3:
         raise AssetError(path, "a face has fewer than three corners")
     fields = _corner_fields(" ".join(faces).split(" "), path)
@@ -162,7 +166,7 @@ def _materials(path: Path, statements, keywords: np.ndarray, is_face: np.ndarray
     """Materials in order of first ``usemtl`` and the ``[T]`` int64 material index per triangle;
     faces before any ``usemtl`` (or naming an unknown material) get the default material."""
     library: dict[str, Material] = {}
-    for (kw, rest) in statements:
+    for kw, rest in statements:
         if kw == "mtllib":
             mtl = path.parent / rest.strip()
             if mtl.is_file():

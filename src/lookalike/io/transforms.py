@@ -1,19 +1,10 @@
-"""Node transforms as glTF stores them: translation ``[3]``, rotation quaternion ``[4]`` (x, y, z, w),
-scale ``[3]``, and 4x4 column-vector matrices ``M = T @ R @ S``. NumPy float64."""
+"""Decomposing glTF node matrices (4x4, column vectors, ``M = T @ R @ S``) into translation
+``[3]``, rotation quaternion ``[4]`` (x, y, z, w) and scale ``[3]``; NumPy float64. The forward
+direction is ``lookalike.asset.skinning.trs_matrix``."""
 
 from __future__ import annotations
 
 import numpy as np
-
-
-def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
-    """``[3, 3]`` rotation matrix of a quaternion ``(x, y, z, w)`` (normalised first)."""
-    x, y, z, w = np.asarray(q, dtype=np.float64) / max(np.linalg.norm(q), 1e-30)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def matrix_to_quaternion(r: np.ndarray) -> np.ndarray:
@@ -35,14 +26,6 @@ def matrix_to_quaternion(r: np.ndarray) -> np.ndarray:
         q[l] = (r[l, i] + r[i, l]) / (4 * s)
         q[3] = (r[l, j] - r[j, l]) / (4 * s)
     return q if q[3] >= 0 else -q
-
-
-def trs_to_matrix(translation, rotation, scale) -> np.ndarray:
-    """``[4, 4]`` matrix ``T @ R @ S``."""
-    m = np.eye(4)
-    m[:3, :3] = quaternion_to_matrix(rotation) * np.asarray(scale, dtype=np.float64)[None, :]
-    m[:3, 3] = translation
-    return m
 
 
 def matrix_to_trs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import torch
 
+from .pair_kernels import silhouette_pair_candidates
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .topology import antialias_construct_topology_hash
 from .views import check_triangles
@@ -44,8 +45,8 @@ def silhouette_edges(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tenso
     return (opposite < 0) | ((other > 0) == (own[..., None] > 0))
 
 
-def _neighbour_pairs(ids: torch.Tensor, depth: torch.Tensor, has_silhouette: torch.Tensor):
-    """Horizontally and vertically adjacent pixel pairs that may straddle a silhouette.
+def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhouette: torch.Tensor):
+    """Plain-torch twin of :func:`.pair_kernels.silhouette_pair_candidates`: horizontally and vertically adjacent pixel pairs that may straddle a silhouette.
 
     ``ids [B, H, W]`` int64 (triangle + 1), ``depth [B, H, W]`` (z/w), ``has_silhouette
     [B, T + 1]`` bool (column 0 = background, False).  A pair qualifies when the ids differ
@@ -125,8 +126,9 @@ def antialias(
 
     silhouette = silhouette_edges(views, tri, opposite)  # [B, T, 3]
     has_silhouette = torch.cat([silhouette.new_zeros(n_views, 1), silhouette.any(-1)], 1)
-    ids = rast[..., 3].detach().long()
-    front, other, front_tri, horizontal = _neighbour_pairs(ids, rast[..., 2].detach(), has_silhouette)
+    pairs = silhouette_pair_candidates(rast.detach().contiguous().numpy(), has_silhouette.numpy())
+    front, other, horizontal = (torch.from_numpy(a) for a in pairs)
+    front_tri = rast[..., 3].detach().reshape(-1)[front].long() - 1
 
     view = front // (height * width)
     verts = triangle_vertices_xyw(views, tri, view, front_tri)

@@ -35,8 +35,8 @@ class _Interpolate(torch.autograd.Function):
         if grad_da is None or channels.numel() == 0:
             grad_da, channels = grad_out[..., :0], channels[:0]
         grad_attr = attr.new_zeros(n_views, *attr.shape[1:])
-        grad_rast = torch.zeros_like(rast)
-        grad_db = torch.zeros_like(rast)
+        grad_rast = torch.empty_like(rast)
+        grad_db = torch.empty_like(rast) if ctx.has_db else rast.new_empty(0, 0, 0, 0)
         pixel_kernels.interpolate_backward(
             attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(),
             grad_out.to(attr.dtype).contiguous().numpy(), grad_da.to(attr.dtype).contiguous().numpy(),

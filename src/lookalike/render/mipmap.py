@@ -5,6 +5,9 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
+from . import mip_kernels
+from .sampling import Pyramid
+
 
 def mip_sizes(height: int, width: int, max_mip_level: int | None = None) -> list[tuple[int, int]]:
     """Sizes of levels 1, 2, ...: each halves both sides (rounding down, never below 1)
@@ -50,3 +53,45 @@ def footprint_level(uv_da: torch.Tensor, height: int, width: int) -> torch.Tenso
     tiny = torch.finfo(uv_da.dtype).tiny
     root = torch.sqrt((0.25 * (a - c) ** 2 + b * b).clamp_min(tiny))
     return 0.5 * torch.log2((0.5 * (a + c) + root).clamp_min(tiny))
+
+
+class _BuildPyramid(torch.autograd.Function):
+    """``tex [B, H, W, C]`` -> flat table ``[N, C]`` of all levels (see :class:`Pyramid`),
+    each level the area average of the previous; backward folds the gradients of the
+    coarser levels down to ``tex``."""
+
+    @staticmethod
+    def forward(ctx, tex, sizes):
+        n_views, height, width, channels = tex.shape
+        layout = Pyramid(None, sizes, n_views)
+        table = tex.new_empty(int((layout.heights * layout.widths).sum()) * n_views, channels)
+        table[: n_views * height * width] = tex.detach().reshape(-1, channels)
+        table_np = table.numpy()
+        for level in range(1, len(sizes)):
+            mip_kernels.downsample(
+                table_np, int(layout.offsets[level - 1]), *sizes[level - 1], int(layout.offsets[level]), *sizes[level], n_views
+            )
+        ctx.layout, ctx.sizes, ctx.tex_shape = layout, sizes, tex.shape
+        return table
+
+    @staticmethod
+    def backward(ctx, grad_table):
+        grad = grad_table.contiguous().clone()
+        grad_np = grad.numpy()
+        layout, sizes = ctx.layout, ctx.sizes
+        for level in range(len(sizes) - 1, 0, -1):
+            mip_kernels.downsample_adjoint(
+                grad_np, int(layout.offsets[level - 1]), *sizes[level - 1], int(layout.offsets[level]), *sizes[level],
+                ctx.tex_shape[0],
+            )
+        n_base = ctx.tex_shape[0] * ctx.tex_shape[1] * ctx.tex_shape[2]
+        return grad[:n_base].reshape(ctx.tex_shape), None
+
+
+def build_pyramid(tex: torch.Tensor, max_mip_level: int | None = None) -> Pyramid:
+    """:class:`Pyramid` of ``tex [B, H, W, C]`` and the levels :func:`texture_construct_mip`
+    would build, computed by compiled loops straight into one table (gradients reach
+    ``tex``)."""
+    sizes = [tuple(tex.shape[1:3])] + mip_sizes(tex.shape[1], tex.shape[2], max_mip_level)
+    table = _BuildPyramid.apply(tex.contiguous(), sizes)
+    return Pyramid(table, sizes, tex.shape[0])

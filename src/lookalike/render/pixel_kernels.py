@@ -141,15 +141,21 @@ def interpolate_forward(attr, tri, rast, rast_db, diff, out, out_da):
 @njit(cache=True, parallel=True)
 def interpolate_backward(attr, tri, rast, rast_db, diff, grad_out, grad_da, grad_attr, grad_rast, grad_db):
     """Gradients of :func:`interpolate_forward`: accumulate into ``grad_attr [B, V, C]``
-    (zeroed; one slice per view, summed by the caller for a shared ``attr``) and write
-    ``grad_rast [B,H,W,4]`` (channels 0, 1) and ``grad_db [B,H,W,4]`` (zeroed)."""
+    (zeroed; one slice per view, summed by the caller for a shared ``attr``) and overwrite
+    every element of ``grad_rast [B,H,W,4]`` (channels 2, 3 get 0) and, when it has pixels,
+    of ``grad_db [B,H,W,4]`` (a 0-size array skips it)."""
     n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     attr_stride = 0 if attr.shape[0] == 1 else 1  # attr view of view b is b * attr_stride
     n_channels = attr.shape[2]
+    write_db = grad_db.size > 0
     for b in prange(n_views):
         ab = b * attr_stride
         for iy in range(height):
             for ix in range(width):
+                for k in range(4):
+                    grad_rast[b, iy, ix, k] = 0.0
+                    if write_db:
+                        grad_db[b, iy, ix, k] = 0.0
                 t = int(rast[b, iy, ix, 3]) - 1
                 if t < 0:
                     continue
@@ -184,4 +190,3 @@ def interpolate_backward(attr, tri, rast, rast_db, diff, grad_out, grad_da, grad
                     grad_attr[b, i0, ch] += g0
                     grad_attr[b, i1, ch] += g1
                     grad_attr[b, i2, ch] -= g0 + g1
-

@@ -17,22 +17,25 @@ class Pyramid:
         heights, widths, offsets: ``[L]`` int64 per-level size and first row in ``table``.
     """
 
-    def __init__(self, levels: list[torch.Tensor]):
+    def __init__(self, table: torch.Tensor, sizes: list[tuple[int, int]], n_views: int):
+        self.table = table
+        self.heights = torch.tensor([h for h, _ in sizes], dtype=torch.int64)
+        self.widths = torch.tensor([w for _, w in sizes], dtype=torch.int64)
+        counts = self.heights * self.widths * n_views
+        self.offsets = torch.cumsum(counts, 0) - counts
+
+    @classmethod
+    def from_levels(cls, levels: list[torch.Tensor]) -> Pyramid:
+        """Concatenate given levels (gradients flow back to each)."""
         channels = levels[0].shape[-1]
         n_views = levels[0].shape[0]
         for level in levels:
             if level.dim() != 4 or level.shape[0] != n_views or level.shape[-1] != channels:
-                raise ValueError(
-                    f"mip levels must all be [{n_views}, h, w, {channels}], got {tuple(level.shape)}"
-                )
-        self.table = levels[0].reshape(-1, channels) if len(levels) == 1 else torch.cat(
+                raise ValueError(f"mip levels must all be [{n_views}, h, w, {channels}], got {tuple(level.shape)}")
+        table = levels[0].reshape(-1, channels) if len(levels) == 1 else torch.cat(
             [level.reshape(-1, channels) for level in levels]
         )
-        device = levels[0].device
-        self.heights = torch.tensor([level.shape[1] for level in levels], device=device)
-        self.widths = torch.tensor([level.shape[2] for level in levels], device=device)
-        sizes = torch.tensor([level[0, ..., 0].numel() * n_views for level in levels], device=device)
-        self.offsets = torch.cumsum(sizes, 0) - sizes
+        return cls(table, [tuple(level.shape[1:3]) for level in levels], n_views)
 
     def geometry(self, level: torch.Tensor | None, view: torch.Tensor | None):
         """``(height, width, base)`` per pixel (``[P]`` int64 each, or 0-d for one level and

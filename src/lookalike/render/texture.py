@@ -3,10 +3,11 @@ texels, texture coordinates and their derivatives."""
 
 from __future__ import annotations
 
+import numba
 import torch
 
 from . import texture_kernels as kernels
-from .mipmap import footprint_level, texture_construct_mip
+from .mipmap import build_pyramid, footprint_level, texture_construct_mip
 from .sampling import Pyramid, sample_bilinear, sample_nearest
 
 FILTER_MODES = {
@@ -45,7 +46,7 @@ class _Texture(torch.autograd.Function):
         grads = [torch.zeros_like(t) for t in (table, uv, uv_da, bias)]
         kernels.texture_backward(
             table.numpy(), *ctx.geometry, uv.numpy(), uv_da.numpy(), bias.numpy(), ctx.mode, ctx.boundary,
-            grad_out.to(table.dtype).contiguous().numpy(), *(g.numpy() for g in grads),
+            grad_out.to(table.dtype).contiguous().numpy(), *(g.numpy() for g in grads), numba.get_num_threads(),
         )
         grad_table, grad_uv, grad_uv_da, grad_bias = grads
         return (
@@ -99,7 +100,7 @@ def texture(
     filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
     n_views, height, width = uv.shape[:3]
     mipmapped = filter_mode in ("linear-mipmap-nearest", "linear-mipmap-linear")
-    pyramid = Pyramid(levels)
+    pyramid = build_pyramid(tex, max_mip_level) if levels is None else Pyramid.from_levels(levels)
     out = _Texture.apply(
         pyramid.table,
         uv.reshape(-1, 2),
@@ -116,7 +117,8 @@ def texture(
 
 def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level):
     """Validate the arguments of :func:`texture`; returns the concrete filter mode and the
-    list of levels to sample (``[tex]`` without mipmapping)."""
+    list of levels to sample: ``[tex]`` without mipmapping, ``[tex, *mip]`` with user mips,
+    None when the mips are to be built from ``tex``."""
     if filter_mode != "auto" and filter_mode not in FILTER_MODES:
         raise ValueError(f"filter_mode must be 'auto' or one of {tuple(FILTER_MODES)}, got {filter_mode!r}")
     if boundary_mode not in BOUNDARY_MODES:
@@ -134,10 +136,10 @@ def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, ma
         return filter_mode, [tex]
     if uv_da is None and mip_level_bias is None:
         raise ValueError(f"filter_mode {filter_mode!r} needs uv_da or mip_level_bias")
-    levels = [tex] + (texture_construct_mip(tex, max_mip_level) if mip is None else list(mip))
-    if max_mip_level is not None:
-        levels = levels[: max_mip_level + 1]
-    return filter_mode, levels
+    if mip is None:
+        return filter_mode, None
+    levels = [tex, *mip]
+    return filter_mode, levels if max_mip_level is None else levels[: max_mip_level + 1]
 
 
 def texture_reference(
@@ -155,7 +157,9 @@ def texture_reference(
     n_views, height, width = uv.shape[:3]
     flat_uv = uv.reshape(-1, 2)
     view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
-    pyramid = Pyramid(levels)
+    if levels is None:
+        levels = [tex, *texture_construct_mip(tex, max_mip_level)]
+    pyramid = Pyramid.from_levels(levels)
     if filter_mode in ("nearest", "linear"):
         sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
         out = sample(pyramid, None, view, flat_uv, boundary_mode)

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numba import njit, prange
 
@@ -30,40 +29,40 @@ _TINY = 1e-30  # footprints below this give level -inf (clamped to 0), with zero
 
 @njit(cache=True, inline="always")
 def _resolve(i, n, boundary):
-    """Texel index along one axis after the boundary rule; -1 for an outside texel in
-    ``ZERO`` mode."""
+    """``(index, inside)`` along one axis after the boundary rule; in ``ZERO`` mode an
+    outside texel gets index 0 and ``inside = 0.0`` (it reads as 0)."""
+    if 0 <= i < n:
+        return i, 1.0
     if boundary == WRAP:
-        return i % n
+        return i % n, 1.0
     if boundary == CLAMP:
-        return min(max(i, 0), n - 1)
-    return i if 0 <= i < n else -1
+        return min(max(i, 0), n - 1), 1.0
+    return 0, 0.0
 
 
 @njit(cache=True, inline="always")
-def _corners(u, v, h, w, boundary):
-    """Bilinear setup: ``(c0, c1, r0, r1, fx, fy)``, the resolved columns and rows (-1 =
-    zero texel) and the fractions."""
+def _bilinear_taps(table_base, u, v, h, w, boundary):
+    """Table rows of the four bilinear taps ``(i00, i01, i10, i11)`` (row, column offsets
+    ``(0,0), (0,1), (1,0), (1,1)``), their inside masks ``(m00, m01, m10, m11)`` and the
+    fractions ``(fx, fy)``."""
     x = u * w - 0.5
     y = v * h - 0.5
     x0 = math.floor(x)
     y0 = math.floor(y)
-    ix0 = int(x0)
-    iy0 = int(y0)
+    c0, mc0 = _resolve(int(x0), w, boundary)
+    c1, mc1 = _resolve(int(x0) + 1, w, boundary)
+    r0, mr0 = _resolve(int(y0), h, boundary)
+    r1, mr1 = _resolve(int(y0) + 1, h, boundary)
+    row0 = table_base + r0 * w
+    row1 = table_base + r1 * w
     return (
-        _resolve(ix0, w, boundary), _resolve(ix0 + 1, w, boundary),
-        _resolve(iy0, h, boundary), _resolve(iy0 + 1, h, boundary),
+        row0 + c0, row0 + c1, row1 + c0, row1 + c1,
+        mr0 * mc0, mr0 * mc1, mr1 * mc0, mr1 * mc1,
         x - x0, y - y0,
     )
 
 
 @njit(cache=True, inline="always")
-def _texel(table, base, w, row, col, ch):
-    if row < 0 or col < 0:
-        return 0.0
-    return table[base + row * w + col, ch]
-
-
-@njit(cache=True)
 def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
     """``(L, raw, lam)``: the clamped level, the unclamped one and ``lambda_max``."""
     raw = 0.0
@@ -81,45 +80,70 @@ def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
     return min(max(raw, 0.0), top), raw, lam
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bilinear_add(table, base, h, w, u, v, boundary, weight, out, p):
-    """``out[p] += weight * bilinear(level at base)``."""
-    c0, c1, r0, r1, fx, fy = _corners(u, v, h, w, boundary)
+    """``out[p] += weight * bilinear(level starting at table row base)``."""
+    i00, i01, i10, i11, m00, m01, m10, m11, fx, fy = _bilinear_taps(base, u, v, h, w, boundary)
+    w00 = weight * m00 * (1 - fx) * (1 - fy)
+    w01 = weight * m01 * fx * (1 - fy)
+    w10 = weight * m10 * (1 - fx) * fy
+    w11 = weight * m11 * fx * fy
     for ch in range(table.shape[1]):
-        top = _texel(table, base, w, r0, c0, ch) * (1 - fx) + _texel(table, base, w, r0, c1, ch) * fx
-        bottom = _texel(table, base, w, r1, c0, ch) * (1 - fx) + _texel(table, base, w, r1, c1, ch) * fx
-        out[p, ch] += weight * (top + fy * (bottom - top))
+        out[p, ch] += w00 * table[i00, ch] + w01 * table[i01, ch] + w10 * table[i10, ch] + w11 * table[i11, ch]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bilinear_backward(table, base, h, w, u, v, boundary, weight, grad_out, p, grad_table):
-    """Accumulate ``weight * d bilinear`` into ``grad_table``; return ``(g_u, g_v, g_value)``:
-    gradients to ``u``, ``v`` and ``sum_ch grad_out * bilinear`` (for the level blend)."""
-    c0, c1, r0, r1, fx, fy = _corners(u, v, h, w, boundary)
+    """Accumulate ``weight * d bilinear / d texels`` into ``grad_table``; return ``(g_u,
+    g_v, g_value)``: gradients of ``weight * bilinear`` to ``u`` and ``v``, and ``sum_ch
+    grad_out * bilinear`` (for the level blend).  Outside texels read as 0."""
+    i00, i01, i10, i11, m00, m01, m10, m11, fx, fy = _bilinear_taps(base, u, v, h, w, boundary)
+    w00 = m00 * (1 - fx) * (1 - fy)
+    w01 = m01 * fx * (1 - fy)
+    w10 = m10 * (1 - fx) * fy
+    w11 = m11 * fx * fy
     g_x = 0.0
     g_y = 0.0
     g_value = 0.0
     for ch in range(table.shape[1]):
         g = grad_out[p, ch]
-        t00 = _texel(table, base, w, r0, c0, ch)
-        t01 = _texel(table, base, w, r0, c1, ch)
-        t10 = _texel(table, base, w, r1, c0, ch)
-        t11 = _texel(table, base, w, r1, c1, ch)
+        t00 = m00 * table[i00, ch]
+        t01 = m01 * table[i01, ch]
+        t10 = m10 * table[i10, ch]
+        t11 = m11 * table[i11, ch]
         top = t00 + fx * (t01 - t00)
         bottom = t10 + fx * (t11 - t10)
         g_value += g * (top + fy * (bottom - top))
         g_x += g * ((1 - fy) * (t01 - t00) + fy * (t11 - t10))
         g_y += g * (bottom - top)
         gw = g * weight
-        if r0 >= 0 and c0 >= 0:
-            grad_table[base + r0 * w + c0, ch] += gw * (1 - fx) * (1 - fy)
-        if r0 >= 0 and c1 >= 0:
-            grad_table[base + r0 * w + c1, ch] += gw * fx * (1 - fy)
-        if r1 >= 0 and c0 >= 0:
-            grad_table[base + r1 * w + c0, ch] += gw * (1 - fx) * fy
-        if r1 >= 0 and c1 >= 0:
-            grad_table[base + r1 * w + c1, ch] += gw * fx * fy
+        grad_table[i00, ch] += gw * w00
+        grad_table[i01, ch] += gw * w01
+        grad_table[i10, ch] += gw * w10
+        grad_table[i11, ch] += gw * w11
     return weight * g_x * w, weight * g_y * h, g_value
+
+
+@njit(cache=True)
+def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
+    """``grad_uv_da[p] = g_raw * d(0.5 log2 lambda_max)/d uv_da``."""
+    dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
+    dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
+    a = dsx * dsx + dsy * dsy
+    c = dtx * dtx + dty * dty
+    b = dsx * dtx + dsy * dty
+    q = 0.25 * (a - c) * (a - c) + b * b
+    g_lam = g_raw * 0.5 / (lam * math.log(2.0))
+    g_a, g_c, g_b = 0.5 * g_lam, 0.5 * g_lam, 0.0
+    if q >= _TINY:
+        r = math.sqrt(q)
+        g_a += g_lam * 0.25 * (a - c) / r
+        g_c -= g_lam * 0.25 * (a - c) / r
+        g_b = g_lam * b / r
+    grad_uv_da[p, 0] = (2 * g_a * dsx + g_b * dtx) * w0
+    grad_uv_da[p, 1] = (2 * g_a * dsy + g_b * dty) * w0
+    grad_uv_da[p, 2] = (2 * g_c * dtx + g_b * dsx) * h0
+    grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0
 
 
 @njit(cache=True, parallel=True)
@@ -136,10 +160,10 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
         if mode == NEAREST:
             h, w = heights[0], widths[0]
             base = offsets[0] + view * h * w
-            col = _resolve(int(math.floor(u * w)), w, boundary)
-            row = _resolve(int(math.floor(v * h)), h, boundary)
+            col, col_in = _resolve(int(math.floor(u * w)), w, boundary)
+            row, row_in = _resolve(int(math.floor(v * h)), h, boundary)
             for ch in range(table.shape[1]):
-                out[p, ch] = _texel(table, base, w, row, col, ch)
+                out[p, ch] = col_in * row_in * table[base + row * w + col, ch]
             continue
         level = 0
         frac = 0.0
@@ -160,15 +184,15 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
 @njit(cache=True, parallel=True)
 def texture_backward(
     table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
-    grad_out, grad_table, grad_uv, grad_uv_da, grad_bias,
+    grad_out, grad_table, grad_uv, grad_uv_da, grad_bias, n_chunks,
 ):
     """Gradients of :func:`texture_forward`: accumulate into ``grad_table [N, C]`` (zeroed;
     each thread sums into its own copy, added at the end) and write ``grad_uv [P, 2]``,
-    ``grad_uv_da [P, 4]`` and ``grad_bias [P]`` (zeroed; the last two when present)."""
+    ``grad_uv_da [P, 4]`` and ``grad_bias [P]`` (zeroed; the last two when present).
+    Pixels are split into ``n_chunks`` parallel chunks."""
     n_pixels = uv.shape[0]
     top = heights.shape[0] - 1
     has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
-    n_chunks = numba.get_num_threads()
     private = np.zeros((n_chunks - 1, table.shape[0], table.shape[1]), table.dtype)
     for chunk in prange(n_chunks):
         target = grad_table if chunk == 0 else private[chunk - 1]
@@ -177,11 +201,10 @@ def texture_backward(
             u, v = uv[p, 0], uv[p, 1]
             if mode == NEAREST:
                 h, w = heights[0], widths[0]
-                col = _resolve(int(math.floor(u * w)), w, boundary)
-                row = _resolve(int(math.floor(v * h)), h, boundary)
-                if row >= 0 and col >= 0:
-                    for ch in range(table.shape[1]):
-                        target[offsets[0] + view * h * w + row * w + col, ch] += grad_out[p, ch]
+                col, col_in = _resolve(int(math.floor(u * w)), w, boundary)
+                row, row_in = _resolve(int(math.floor(v * h)), h, boundary)
+                for ch in range(table.shape[1]):
+                    target[offsets[0] + view * h * w + row * w + col, ch] += col_in * row_in * grad_out[p, ch]
                 continue
             level = 0
             frac = 0.0
@@ -214,25 +237,3 @@ def texture_backward(
             grad_uv[p, 1] = g_v
     for k in range(n_chunks - 1):
         grad_table += private[k]
-
-
-@njit(cache=True)
-def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
-    """``grad_uv_da[p] = g_raw * d(0.5 log2 lambda_max)/d uv_da``."""
-    dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
-    dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
-    a = dsx * dsx + dsy * dsy
-    c = dtx * dtx + dty * dty
-    b = dsx * dtx + dsy * dty
-    q = 0.25 * (a - c) * (a - c) + b * b
-    g_lam = g_raw * 0.5 / (lam * math.log(2.0))
-    g_a, g_c, g_b = 0.5 * g_lam, 0.5 * g_lam, 0.0
-    if q >= _TINY:
-        r = math.sqrt(q)
-        g_a += g_lam * 0.25 * (a - c) / r
-        g_c -= g_lam * 0.25 * (a - c) / r
-        g_b = g_lam * b / r
-    grad_uv_da[p, 0] = (2 * g_a * dsx + g_b * dtx) * w0
-    grad_uv_da[p, 1] = (2 * g_a * dsy + g_b * dty) * w0
-    grad_uv_da[p, 2] = (2 * g_c * dtx + g_b * dsx) * h0
-    grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0

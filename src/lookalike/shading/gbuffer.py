@@ -15,6 +15,7 @@ import lookalike.render as dr
 
 from ..asset.mesh import Mesh
 from ..asset.normals import face_normals, safe_normalize, vertex_normals
+from ..asset.tangents import vertex_tangents
 from .camera import Camera
 
 
@@ -45,8 +46,6 @@ class MeshBuffers:
     def build(mesh: Mesh, camera: Camera, tangent_uv_sets: set[int]) -> "MeshBuffers":
         """Smooth normals, face normals, clip positions, and tangent frames
         (``lookalike.asset.tangents.vertex_tangents``) for ``tangent_uv_sets``."""
-        from ..asset.tangents import vertex_tangents
-
         v_nrm = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
         tangents = {}
         for k in sorted(tangent_uv_sets):

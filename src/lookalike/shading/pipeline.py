@@ -178,7 +178,9 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
             ``[B, H, W, 3]`` (row 0 at the top); opaque.
         msaa: shade once per pixel while sampling visibility ``spp x spp`` times.
     Returns:
-        ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture.
+        ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture. RGB is
+        composited over the background; with none, over black (so RGB is premultiplied by
+        alpha).
     """
     height, width = _resolution(resolution)
     full = (height * spp, width * spp)

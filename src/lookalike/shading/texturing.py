@@ -4,6 +4,7 @@ supplied mip levels."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import torch
@@ -41,6 +42,16 @@ def _stack_key(texture: Texture) -> tuple:
     return tuple(texture.data.shape[:2]), texture.uv_set, texture.wrap, transform, own_mips
 
 
+@dataclass
+class _Stack:
+    """Textures looked up together: their channel-wise concatenated texels and mip pyramid.
+    Holding ``textures`` keeps their ids (the cache key) from being reused."""
+
+    textures: list[Texture]
+    data: torch.Tensor
+    mips: list[torch.Tensor] | None = None
+
+
 class TextureSampler:
     """Samples material textures at lists of points.
 
@@ -52,17 +63,19 @@ class TextureSampler:
     """
 
     def __init__(self):
-        self._stacks: dict[tuple[int, ...], tuple[list[Texture], torch.Tensor, list[torch.Tensor]]] = {}
+        self._stacks: dict[tuple[int, ...], _Stack] = {}
 
-    def _stack(self, textures: list[Texture]) -> tuple[torch.Tensor, list[torch.Tensor]]:
-        """``([1, H, W, sum C] texels, mip levels 1.. [1, h, w, sum C])`` of ``textures``."""
+    def _stack(self, textures: list[Texture], mipmapped: bool) -> tuple[torch.Tensor, list[torch.Tensor] | None]:
+        """``([1, H, W, sum C] texels, mip levels 1.. [1, h, w, sum C] or None)`` of
+        ``textures``; the pyramid is built on the first mipmapped request."""
         key = tuple(id(t) for t in textures)
         if key not in self._stacks:
-            data = torch.cat([t.data for t in textures], dim=-1)[None]
+            self._stacks[key] = _Stack(textures, torch.cat([t.data for t in textures], dim=-1)[None])
+        stack = self._stacks[key]
+        if mipmapped and stack.mips is None:
             own = textures[0].mips
-            mips = [level[None] for level in own] if own is not None else dr.texture_construct_mip(data)
-            self._stacks[key] = (textures, data, mips)  # the textures are kept so their ids stay unique
-        return self._stacks[key][1], self._stacks[key][2]
+            stack.mips = [level[None] for level in own] if own is not None else dr.texture_construct_mip(stack.data)
+        return stack.data, stack.mips if mipmapped else None
 
     def sample(self, textures: list[Texture], uv_of: UVLookup, count: int) -> list[torch.Tensor]:
         """Values ``[N, C_i]`` of each texture at the ``count`` points described by ``uv_of``.
@@ -81,14 +94,14 @@ class TextureSampler:
                 groups.setdefault(_stack_key(texture), []).append(i)
         for members in groups.values():
             first = textures[members[0]]
-            data, mips = self._stack([textures[i] for i in members])
             uv, uv_da = transform_uv(first, *uv_of(first.uv_set))
             mipmapped = uv_da is not None
+            data, mips = self._stack([textures[i] for i in members], mipmapped)
             out = dr.texture(
                 data,
                 uv.reshape(1, -1, 1, 2).contiguous(),
                 uv_da=uv_da.reshape(1, -1, 1, 4).contiguous() if mipmapped else None,
-                mip=mips if mipmapped else None,
+                mip=mips,
                 filter_mode="linear-mipmap-linear" if mipmapped else "linear",
                 boundary_mode=first.wrap,
             ).reshape(count, -1)

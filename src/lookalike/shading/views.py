@@ -62,7 +62,7 @@ def random_views(centre, radius: float, n: int, generator: np.random.Generator, 
     the bounding sphere of ``radius``. Float32."""
     radius = max(float(radius), 1e-12)
     distance = framing_distance(radius, fovy) if distance is None else float(distance)
-    centre = np.asarray(torch.as_tensor(centre, dtype=torch.float64).cpu(), dtype=np.float64)
+    centre = torch.as_tensor(centre).detach().double().cpu().numpy()
     eye = torch.from_numpy(centre + distance * unit_vectors(generator, n)).float()
     target = torch.from_numpy(np.broadcast_to(centre, (n, 3)).copy()).float()
     return Camera.looking_at(eye, target, up=UP, fovy=fovy, aspect=aspect,
@@ -74,7 +74,7 @@ def random_lights(camera: Camera, centre, generator: np.random.Generator, distan
     """One white point light per camera, at ``distance`` (default: the camera's) from
     ``centre [3]``, in a direction cosine-distributed around the direction to the camera;
     intensity ``irradiance * distance^2`` so the irradiance at the centre is ``irradiance``."""
-    centre = np.asarray(torch.as_tensor(centre, dtype=torch.float64).cpu(), dtype=np.float64)
+    centre = torch.as_tensor(centre).detach().double().cpu().numpy()
     offset = camera.position.detach().double().cpu().numpy() - centre
     camera_distance = np.linalg.norm(offset, axis=1, keepdims=True).clip(min=1e-12)
     distance = camera_distance if distance is None else np.full_like(camera_distance, float(distance))

@@ -1,0 +1,56 @@
+"""Compiled area downsampling between mip levels, forward and adjoint.
+
+The rule is that of ``torch.nn.functional.interpolate(mode="area")`` (adaptive average
+pooling): output texel ``i`` of ``n_out`` averages input texels
+``floor(i n_in / n_out) .. ceil((i + 1) n_in / n_out) - 1`` along each axis, so a 2x2 box
+filter when the input side is even.  Levels live in a flat ``[N, C]`` table, level
+blocks in ``[B, h, w]`` order starting at a row offset.
+"""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+
+@njit(cache=True, inline="always")
+def _span(i, n_in, n_out):
+    return (i * n_in) // n_out, ((i + 1) * n_in + n_out - 1) // n_out
+
+
+@njit(cache=True, parallel=True)
+def downsample(table, src, h, w, dst, h2, w2, n_views):
+    """Write level ``dst`` (``h2 x w2``, starting at row ``dst``) as the area average of
+    level ``src`` (``h x w``) of the same ``table [N, C]``."""
+    n_channels = table.shape[1]
+    for row in prange(n_views * h2):
+        b, oy = row // h2, row % h2
+        y0, y1 = _span(oy, h, h2)
+        for ox in range(w2):
+            x0, x1 = _span(ox, w, w2)
+            scale = 1.0 / ((y1 - y0) * (x1 - x0))
+            out = dst + (b * h2 + oy) * w2 + ox
+            for ch in range(n_channels):
+                acc = 0.0
+                for y in range(y0, y1):
+                    for x in range(x0, x1):
+                        acc += table[src + (b * h + y) * w + x, ch]
+                table[out, ch] = acc * scale
+
+
+@njit(cache=True, parallel=True)
+def downsample_adjoint(grad, src, h, w, dst, h2, w2, n_views):
+    """Add to level ``src`` of ``grad [N, C]`` the adjoint of :func:`downsample` applied to
+    level ``dst``: each input texel receives ``g / area`` from every output covering it."""
+    n_channels = grad.shape[1]
+    for b in prange(n_views):
+        for oy in range(h2):
+            y0, y1 = _span(oy, h, h2)
+            for ox in range(w2):
+                x0, x1 = _span(ox, w, w2)
+                scale = 1.0 / ((y1 - y0) * (x1 - x0))
+                out = dst + (b * h2 + oy) * w2 + ox
+                for ch in range(n_channels):
+                    g = grad[out, ch] * scale
+                    for y in range(y0, y1):
+                        for x in range(x0, x1):
+                            grad[src + (b * h + y) * w + x, ch] += g

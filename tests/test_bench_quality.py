@@ -1,0 +1,76 @@
+"""``lookalike bench quality``: its plumbing and its table, with ``simplify`` stubbed out (the
+real benchmark takes forty minutes and is run by hand)."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import pytest
+
+import lookalike.fit.simplify as simplify_module
+from lookalike.bench import quality
+from lookalike.errors import ConfigError
+
+
+def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
+    heldout = {"decimated": {"psnr": psnr_decimated, "flip": 0.12}, "ours": {"psnr": psnr_ours, "flip": 0.07}}
+    if baked is not None:
+        heldout["baked"] = {"psnr": baked, "flip": 0.1}
+    return {"triangles": {"input": 10 * triangles, "output": triangles}, "iterations": 700,
+            "seconds": {"total": seconds, "per_iteration": 0.5}, "heldout": heldout}
+
+
+@pytest.fixture
+def stub_simplify(monkeypatch, tmp_path):
+    calls = []
+
+    def fake(input, outdir, *, triangles, time_budget, force, progress, material_override):
+        calls.append(SimpleNamespace(input=input, outdir=outdir, triangles=triangles, time_budget=time_budget,
+                                     material=material_override))
+        gain = 2.0 if "spot" in str(input) else 4.0
+        return SimpleNamespace(metrics=_metrics(triangles, 27.0, 27.0 + gain))
+
+    monkeypatch.setattr(simplify_module, "simplify", fake)
+    assets = tmp_path / "assets"
+    assets.mkdir()
+    return calls, assets
+
+
+def test_runs_every_asset_with_its_budget_and_material(stub_simplify, tmp_path):
+    calls, assets = stub_simplify
+    result = quality.run(out=tmp_path / "out", assets_dir=assets, time_budget=30.0)
+    assert [c.triangles for c in calls] == [1500, 2000, 5000, 1000]
+    assert all(c.time_budget == 30.0 for c in calls)
+    assert [c.outdir.name for c in calls] == ["stanford-bunny", "nefertiti", "flight-helmet", "spot"]
+    scans = [c.material for c in calls[:2]]
+    assert all(m is not None and m.kd.data.flatten()[:3].tolist() == pytest.approx([0.75, 0.72, 0.68]) for m in scans)
+    assert all(m.ks.data.flatten().tolist() == pytest.approx([0.0, 0.45, 0.0]) for m in scans)
+    assert calls[2].material is None and calls[3].material is None
+    rows = {r["asset"]: r for r in result["runs"]}
+    assert rows["spot"]["gain_db"] == pytest.approx(2.0) and not rows["spot"]["meets_bar"]
+    assert rows["nefertiti"]["meets_bar"] and not result["all_meet_bar"]
+    json.dumps(result)
+
+
+def test_table_lists_runs_and_the_bar(stub_simplify, tmp_path):
+    _, assets = stub_simplify
+    table = quality.format_table(quality.run(out=tmp_path, assets_dir=assets))
+    lines = table.splitlines()
+    assert lines[0].split()[:3] == ["asset", "triangles", "minutes"]
+    assert any(line.startswith("spot") and line.rstrip().endswith("MISSED") for line in lines)
+    assert any(line.startswith("flight-helmet") and "+4.00" in line and "5,000" in line for line in lines)
+    assert "NOT met" in lines[-2]
+
+
+def test_baked_columns_appear_when_a_bake_ran():
+    row = quality._row(quality.ASSETS[0], _metrics(1500, 27.0, 31.5, baked=30.0))
+    assert row["gain_over_baked_db"] == pytest.approx(1.5)
+    table = quality.format_table({"runs": [row], "bar": {"minutes": 10, "gain_db": 3}, "all_meet_bar": True,
+                                  "time_budget_s": 600})
+    assert "PSNR baked" in table and "+1.50" in table
+
+
+def test_missing_assets_are_a_clear_error(tmp_path):
+    with pytest.raises(ConfigError, match="benchmark assets are missing"):
+        quality.run(assets_dir=tmp_path / "nowhere")

@@ -1,0 +1,189 @@
+"""Quadric decimation: the count, no cracks, attributes carried over, awkward inputs, bad targets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from lookalike.asset import Mesh
+from lookalike.errors import ConfigError
+from lookalike.init import decimate, icosphere
+from lookalike.init.decimate import clean_triangles
+from lookalike.init.weld import weld_vertices
+
+
+def _edge_uses(t_pos_idx: np.ndarray) -> np.ndarray:
+    """How many triangles use each undirected edge."""
+    edges = np.sort(t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(edges, axis=0, return_counts=True)[1]
+
+
+def _is_watertight_and_oriented(t_pos_idx: np.ndarray) -> bool:
+    """Every edge shared by exactly two triangles that traverse it in opposite directions."""
+    directed = t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    unique_directed = len(np.unique(directed, axis=0)) == len(directed)
+    return bool(np.all(_edge_uses(t_pos_idx) == 2) and unique_directed)
+
+
+def _components(t_pos_idx: np.ndarray) -> int:
+    n = int(t_pos_idx.max()) + 1
+    rows = np.repeat(t_pos_idx[:, :1], 2, axis=1).reshape(-1)
+    graph = coo_matrix((np.ones(len(rows)), (rows, t_pos_idx[:, 1:].reshape(-1))), shape=(n, n))
+    return connected_components(graph, directed=False)[0]
+
+
+def _grid(n: int, size: float = 1.0):
+    """A flat ``n x n``-quad square in the z = 0 plane: positions ``[(n+1)^2, 3]``, triangles."""
+    x, y = np.meshgrid(np.linspace(0, size, n + 1), np.linspace(0, size, n + 1), indexing="ij")
+    v = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    f = np.concatenate([np.stack([a, a + n + 1, a + 1], 1), np.stack([a + 1, a + n + 1, a + n + 2], 1)])
+    return v, f
+
+
+def _unweld(mesh: Mesh, split: np.ndarray) -> Mesh:
+    """The same surface with the triangles in ``split`` given their own copies of their vertices
+    (as a glTF file stores a UV seam)."""
+    f = mesh.t_pos_idx.numpy().copy()
+    copies = mesh.v_pos[torch.as_tensor(np.unique(f[split]))]
+    remap = np.full(mesh.num_vertices, -1)
+    remap[np.unique(f[split])] = mesh.num_vertices + np.arange(len(copies))
+    f[split] = remap[f[split]]
+    return Mesh(torch.cat([mesh.v_pos, copies]), torch.as_tensor(f))
+
+
+def test_hits_the_count_and_stays_watertight():
+    sphere = icosphere(4)                                             # 5120 triangles, closed
+    for target in (1000, 301, 64):
+        out = decimate(sphere, target)
+        assert abs(out.num_triangles - target) <= 2
+        assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
+        radius = out.v_pos.norm(dim=1)
+        assert torch.all((radius > 0.9) & (radius < 1.1))
+    assert decimate(sphere, 1000).num_triangles == 1000
+
+
+def test_seam_duplicates_are_welded_so_no_crack_opens():
+    sphere = icosphere(3)
+    split = sphere.v_pos[sphere.t_pos_idx].mean(dim=1)[:, 0].numpy() > 0.1
+    seamed = _unweld(sphere, split)
+    assert not np.all(_edge_uses(seamed.t_pos_idx.numpy()) == 2)        # the seam is open as given
+    out = decimate(seamed, 300)
+    assert out.num_triangles == 300
+    assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
+
+
+def test_planar_uvs_are_preserved():
+    v, f = _grid(20, size=2.0)
+    v[:, 2] = 0.3 * v[:, 0] - 0.2 * v[:, 1]                              # a tilted plane
+    v_tex = np.stack([v[:, 0] / 2, 1 - v[:, 1] / 2], axis=1)
+    mesh = Mesh(torch.as_tensor(v, dtype=torch.float32), torch.as_tensor(f),
+                uv=[(torch.as_tensor(v_tex, dtype=torch.float32), torch.as_tensor(f))])
+    out = decimate(mesh, 50)
+    pos = out.v_pos.double().numpy()[out.t_pos_idx.numpy()]
+    uv = out.v_tex.double().numpy()[out.t_tex_idx.numpy()]
+    np.testing.assert_allclose(uv, np.stack([pos[..., 0] / 2, 1 - pos[..., 1] / 2], axis=-1), atol=1e-5)
+
+
+def test_planar_uvs_are_preserved_and_never_straddle_a_seam():
+    v, f = _grid(24)
+    # Two charts: the left half (x < 0.5) maps to u in [0, 0.4], the right half to u in [0.6, 1.0].
+    centroid_x = v[f].mean(axis=1)[:, 0]
+    right = centroid_x > 0.5
+    v_tex = np.concatenate([np.stack([0.8 * v[:, 0], v[:, 1]], 1), np.stack([0.2 + 0.8 * v[:, 0], v[:, 1]], 1)])
+    t_tex_idx = np.where(right[:, None], f + len(v), f)
+    mesh = Mesh(torch.as_tensor(v, dtype=torch.float32), torch.as_tensor(f),
+                uv=[(torch.as_tensor(v_tex, dtype=torch.float32), torch.as_tensor(t_tex_idx))],
+                t_mat_idx=torch.as_tensor(right.astype(np.int64)))
+    out = decimate(mesh, 120)
+    assert abs(out.num_triangles - 120) <= 2
+    pos = out.v_pos.double().numpy()[out.t_pos_idx.numpy()]                # [T, 3, 3]
+    uv = out.v_tex.double().numpy()[out.t_tex_idx.numpy()]                  # [T, 3, 2]
+    on_right = out.t_mat_idx.numpy() == 1
+    # A corner that lies across the seam from its triangle's chart takes the chart's nearest
+    # point, on the seam; every other corner has exactly the planar UV.
+    x_on_chart = np.where(on_right[:, None], np.maximum(pos[..., 0], 0.5), np.minimum(pos[..., 0], 0.5))
+    expected_u = np.where(on_right[:, None], 0.2 + 0.8 * x_on_chart, 0.8 * x_on_chart)
+    np.testing.assert_allclose(uv[..., 0], expected_u, atol=1e-5)
+    np.testing.assert_allclose(uv[..., 1], pos[..., 1], atol=1e-5)
+    # materials follow the side each triangle mostly lies on
+    out_centroid_x = pos.mean(axis=1)[:, 0]
+    assert np.all(on_right[out_centroid_x > 0.55]) and not np.any(on_right[out_centroid_x < 0.45])
+
+
+def test_vertex_colours_and_skin_weights_follow_the_surface():
+    sphere = icosphere(3)
+    colour = torch.cat([0.5 + 0.5 * sphere.v_pos, torch.ones(sphere.num_vertices, 1)], dim=1)
+    joints = (sphere.v_pos[:, :1] > 0).long().repeat(1, 4)
+    weights = torch.tensor([[1.0, 0.0, 0.0, 0.0]]).repeat(sphere.num_vertices, 1)
+    mesh = Mesh(sphere.v_pos, sphere.t_pos_idx, v_color=colour, v_joints=joints, v_weights=weights)
+    out = decimate(mesh, 200)
+    expected = 0.5 + 0.5 * out.v_pos / out.v_pos.norm(dim=1, keepdim=True)
+    assert (out.v_color[:, :3] - expected).abs().max() < 0.06
+    far_from_cut = out.v_pos[:, 0].abs() > 0.2
+    assert torch.equal(out.v_joints[far_from_cut, 0], (out.v_pos[far_from_cut, 0] > 0).long())
+    assert torch.equal(out.v_weights, weights[: out.num_vertices])
+
+
+def test_multi_part_input_keeps_every_part():
+    a, b = icosphere(3), icosphere(3, center=(3.0, 0.0, 0.0), radius=0.5)
+    mesh = Mesh(torch.cat([a.v_pos, b.v_pos]), torch.cat([a.t_pos_idx, b.t_pos_idx + a.num_vertices]))
+    out = decimate(mesh, 400)
+    assert abs(out.num_triangles - 400) <= 2
+    assert _components(out.t_pos_idx.numpy()) == 2
+    assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
+
+
+def test_non_manifold_input_is_handled():
+    # Three flat sheets meeting along one shared line (the x axis): a "book" with three pages.
+    v, f = _grid(12)
+    pages_v, pages_f = [], []
+    for k, angle in enumerate((0.0, 2.0, 4.0)):
+        rot = np.array([[1, 0, 0], [0, np.cos(angle), -np.sin(angle)], [0, np.sin(angle), np.cos(angle)]])
+        pages_v.append(v @ rot.T)
+        pages_f.append(f + k * len(v))
+    mesh = Mesh(torch.as_tensor(np.concatenate(pages_v), dtype=torch.float32), torch.as_tensor(np.concatenate(pages_f)))
+    welded = weld_vertices(mesh.v_pos.numpy(), mesh.t_pos_idx.numpy(), 1e-6)[1]
+    assert _edge_uses(welded).max() == 3                               # the spine is non-manifold
+    out = decimate(mesh, 200)
+    assert abs(out.num_triangles - 200) <= 2
+    assert torch.isfinite(out.v_pos).all()
+
+
+@pytest.mark.parametrize("target, message", [
+    (0, "must be positive"), (-5, "must be positive"), (5120, "not below"), (9999, "not below"),
+    (2.5, "whole number"), (True, "whole number"),
+])
+def test_bad_targets_are_refused_clearly(target, message):
+    with pytest.raises(ConfigError, match=message):
+        decimate(icosphere(4), target)
+
+
+def test_clean_triangles_removes_degenerates_and_fins():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 2, 0]], dtype=np.float64)
+    f = np.array([
+        [0, 1, 2],            # kept
+        [1, 3, 2],            # kept
+        [1, 3, 2],            # a repeat: dropped
+        [0, 0, 1],            # repeated index
+        [0, 3, 4],            # zero area (collinear)
+        [1, 2, 4], [4, 2, 1], # a fin: both orientations of one triple
+    ])
+    out_v, out_f = clean_triangles(v, f)
+    assert len(out_f) == 2 and len(out_v) == 4
+    np.testing.assert_array_equal(out_v[out_f], v[f[:2]])
+
+
+def test_real_textured_asset(shared_assets):
+    from lookalike import io
+
+    asset = io.load(shared_assets / "spot" / "spot.obj")
+    out = decimate(asset.mesh, 1000)
+    assert out.num_triangles == 1000
+    assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
+    lo, hi = asset.mesh.v_tex.min(dim=0).values, asset.mesh.v_tex.max(dim=0).values
+    assert len(out.uv) == 1 and torch.all(out.v_tex >= lo - 1e-6) and torch.all(out.v_tex <= hi + 1e-6)

@@ -1,0 +1,125 @@
+"""``simplify`` end to end on a tiny generated asset, and its refusals."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+from lookalike import io
+from lookalike.asset import Asset, Material, Texture
+from lookalike.cli import main
+from lookalike.errors import ConfigError
+from lookalike.fit.config import config_from_dict, load_config
+from lookalike.fit.optimize import Fitter
+from lookalike.fit.simplify import simplify
+from lookalike.init import icosphere
+
+TINY = {"views": {"pool_size": 16, "heldout": 16, "batch_size": 2},
+        "render": {"resolution": 64}, "latent": {"texture_size": 64},
+        "optim": {"checkpoint_seconds": 1e9}}
+
+
+def bumpy_sphere() -> Asset:
+    """A 5,120-triangle sphere with bumps of 8 % of its radius, one plain material."""
+    mesh = icosphere(4)
+    p = mesh.v_pos
+    mesh.v_pos = p * (1 + 0.08 * torch.sin(6 * p[:, 0]) * torch.sin(6 * p[:, 1]) * torch.sin(6 * p[:, 2]))[:, None]
+    material = Material(kd=Texture.constant([0.6, 0.5, 0.4, 1.0]), ks=Texture.constant([0.0, 0.4, 0.0]))
+    return Asset(mesh=mesh, materials=[material])
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    outdir = tmp_path_factory.mktemp("run") / "out"
+    result = simplify(bumpy_sphere(), outdir, triangles=300, iterations=60, config=config_from_dict(TINY),
+                      progress=False)
+    return outdir, result
+
+
+def test_the_optimised_model_beats_plain_decimation_on_held_out_views(tiny_run):
+    _, result = tiny_run
+    heldout = result.metrics["heldout"]
+    assert heldout["views"] == 16
+    assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 0.5
+    assert heldout["ours"]["flip"] < heldout["decimated"]["flip"]
+
+
+def test_outputs_are_complete_and_nothing_temporary_is_left(tiny_run):
+    outdir, result = tiny_run
+    names = sorted(p.name for p in outdir.iterdir())
+    assert names == ["config.toml", "metrics.json", "model.glb", "report.html", "report_files"]
+    model = io.load(outdir / "model.glb")
+    assert model.mesh.num_triangles == 300
+    assert model.materials[0].kd.data.shape[:2] == (64, 64) and model.materials[0].normal is not None
+    assert json.loads((outdir / "metrics.json").read_text()) == result.metrics
+    config = load_config(outdir / "config.toml")
+    assert config.latent.triangles == 300 and config.optim.iterations == 60 and config.render.resolution == 64
+    assert not result.interrupted and result.metrics["iterations"] == 60
+
+
+def test_the_model_keeps_the_inputs_frame(tmp_path):
+    asset = bumpy_sphere()
+    asset.mesh.v_pos = asset.mesh.v_pos * 250.0 + torch.tensor([1000.0, -40.0, 7.0])
+    cfg = config_from_dict({**TINY, "views": {"pool_size": 2, "heldout": 1, "batch_size": 1}})
+    simplify(asset, tmp_path / "out", triangles=100, iterations=2, config=cfg, progress=False)
+    model = io.load(tmp_path / "out" / "model.glb")
+    lo, hi = model.mesh.bounds()
+    want_lo, want_hi = asset.mesh.bounds()
+    assert torch.allclose(lo, want_lo, atol=15.0) and torch.allclose(hi, want_hi, atol=15.0)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"triangles": 0}, "must be positive"),
+    ({"triangles": -3}, "must be positive"),
+    ({"triangles": 5120}, "not below the input's 5,120 triangles"),
+    ({"triangles": 9000}, "not below"),
+    ({"ratio": 1.5}, "latent.ratio must lie in (0, 1)"),
+    ({"ratio": 1e-6}, "leaves no triangles"),
+])
+def test_bad_triangle_counts_are_refused_before_anything_is_written(tmp_path, kwargs, words):
+    with pytest.raises(ConfigError) as info:
+        simplify(bumpy_sphere(), tmp_path / "out", progress=False, **kwargs)
+    assert words in str(info.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_existing_outdir_is_never_overwritten_without_force(tmp_path):
+    (tmp_path / "keep.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="--force"):
+        simplify(bumpy_sphere(), tmp_path, triangles=100, progress=False)
+    with pytest.raises(ConfigError, match="nothing to resume"):
+        simplify(bumpy_sphere(), tmp_path, triangles=100, resume=True, progress=False)
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_ctrl_c_leaves_the_best_result_and_a_checkpoint_that_resume_finishes(tmp_path, monkeypatch):
+    outdir = tmp_path / "out"
+    cfg = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 2, "batch_size": 1}})
+    step = Fitter.step
+
+    def interrupted_step(self):
+        if self.progress.iteration == 5:
+            raise KeyboardInterrupt
+        return step(self)
+
+    monkeypatch.setattr(Fitter, "step", interrupted_step)
+    first = simplify(bumpy_sphere(), outdir, triangles=100, iterations=8, config=cfg, progress=False)
+    assert first.interrupted and first.metrics["iterations"] == 5
+    assert (outdir / "checkpoint.pt").exists() and (outdir / "model.glb").exists()
+    monkeypatch.setattr(Fitter, "step", step)
+    with pytest.raises(ConfigError, match="--force"):
+        simplify(bumpy_sphere(), outdir, triangles=100, progress=False)
+    second = simplify(bumpy_sphere(), outdir, resume=True, progress=False)
+    assert not second.interrupted and second.metrics["iterations"] == 8
+    assert not (outdir / "checkpoint.pt").exists()
+
+
+def test_the_command_line_reports_bad_input_without_a_traceback(tmp_path, capsys):
+    path = tmp_path / "ball.obj"
+    io.save(bumpy_sphere(), path)
+    assert main(["simplify", str(path), "-o", str(tmp_path / "out"), "--triangles", "0"]) == 2
+    assert "target triangle count must be positive" in capsys.readouterr().err
+    assert main(["simplify", str(path), "--time-budget", "soon"]) == 2
+    assert "cannot read the duration" in capsys.readouterr().err

@@ -1,0 +1,83 @@
+"""PSNR and FLIP on tone-mapped images."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from lookalike.report.metrics import PSNR_CAP_DB, flip, flip_views, psnr, psnr_views, srgb_encode, tonemap
+
+
+def _linear_for_display(value: float) -> float:
+    """The linear radiance x whose tone-mapped value srgb(log(x + 1)) is ``value``."""
+    log_value = ((value + 0.055) / 1.055) ** 2.4 if value > 0.04045 else value / 12.92
+    return float(np.expm1(log_value))
+
+
+def _scene(rng, n=2, size=48):
+    """Smooth linear HDR images with values up to about 3."""
+    y, x = np.mgrid[0:size, 0:size] / size
+    base = np.stack([np.sin(6 * x + k) * np.cos(4 * y) for k in range(3)], axis=-1)
+    return np.stack([(1.5 + 1.4 * base * (i + 1) / n) for i in range(n)]).astype(np.float32)
+
+
+def test_tonemap_follows_the_paper():
+    x = torch.tensor([0.0, np.e - 1, 1e-4, 5.0], dtype=torch.float64)
+    expected = torch.tensor([0.0, 1.0, 12.92 * np.log1p(1e-4), 1.055 * np.log(6.0) ** (1 / 2.4) - 0.055], dtype=torch.float64)
+    torch.testing.assert_close(tonemap(x), expected)
+    assert tonemap(torch.tensor([-1.0])).item() == 0.0
+    torch.testing.assert_close(srgb_encode(torch.tensor([0.0031308])), torch.tensor([12.92 * 0.0031308]))
+
+
+def test_identical_images_give_the_cap():
+    img = _scene(np.random.default_rng(0))
+    np.testing.assert_array_equal(psnr_views(img, img), [PSNR_CAP_DB, PSNR_CAP_DB])
+    assert psnr(torch.as_tensor(img), img) == PSNR_CAP_DB
+
+
+def test_known_mse_gives_known_psnr():
+    reference = np.zeros((1, 8, 8, 3), dtype=np.float32)                      # tone-maps to 0
+    test = np.full((1, 8, 8, 3), _linear_for_display(0.1), dtype=np.float32)  # tone-maps to 0.1
+    assert psnr(reference, test) == pytest.approx(20.0, abs=1e-4)              # MSE 0.01
+    half = test.copy()
+    half[:, :4] = 0                                                            # MSE 0.005
+    assert psnr(reference, half) == pytest.approx(10 * np.log10(200), abs=1e-4)
+
+
+def test_psnr_averages_views_and_ignores_alpha():
+    reference = np.zeros((2, 4, 4, 4), dtype=np.float32)
+    test = reference.copy()
+    test[0, ..., :3] = _linear_for_display(0.1)
+    test[..., 3] = 1.0                                                         # alpha differs: ignored
+    views = psnr_views(reference, test)
+    np.testing.assert_allclose(views, [20.0, PSNR_CAP_DB], atol=1e-4)
+    assert psnr(reference, test) == pytest.approx(views.mean())
+
+
+def test_flip_is_zero_for_identical_images_and_grows_with_noise():
+    rng = np.random.default_rng(1)
+    img = _scene(rng)
+    assert flip(img, img) == 0.0
+    errors = []
+    for sigma in (0.02, 0.1, 0.4):
+        noisy = np.clip(img * (1 + sigma * rng.normal(size=img.shape)), 0, None).astype(np.float32)
+        errors.append(flip(img, noisy))
+    assert 0 < errors[0] < errors[1] < errors[2] < 1
+
+
+def test_flip_maps_are_coloured_per_view():
+    rng = np.random.default_rng(2)
+    img = _scene(rng, n=3, size=32)
+    noisy = img * 1.3
+    means, maps = flip_views(img, noisy, with_maps=True)
+    assert means.shape == (3,) and maps.shape == (3, 32, 32, 3) and maps.dtype == np.uint8
+    assert flip_views(img, noisy)[1] is None
+    assert flip(img, noisy) == pytest.approx(means.mean())
+
+
+def test_shape_mismatch_is_an_error():
+    with pytest.raises(ValueError, match="differ in shape"):
+        psnr(np.zeros((1, 4, 4, 3)), np.zeros((1, 4, 5, 3)))
+    with pytest.raises(ValueError, match="differ in shape"):
+        flip(np.zeros((1, 4, 4, 3)), np.zeros((2, 4, 4, 3)))

@@ -1,0 +1,106 @@
+"""The HTML report and its pictures, from synthetic data."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from lookalike.report import ReportData, score_method, write_report
+from lookalike.report.images import image_grid, signed_difference, to_srgb_uint8
+from lookalike.report.plot import plot_loss, smooth
+
+
+def _views(rng, n=3, size=24, blur=0.0):
+    y, x = np.mgrid[0:size, 0:size] / size
+    images = np.stack([np.stack([0.5 + 0.4 * np.sin(7 * x + i + c) * np.cos(5 * y) for c in range(3)], -1)
+                       for i in range(n)])
+    return (images + blur * rng.normal(size=images.shape)).clip(0).astype(np.float32)
+
+
+def _data(asset_name="bunny", baked=False) -> ReportData:
+    rng = np.random.default_rng(0)
+    reference = _views(rng)
+    methods = [score_method("decimated", "Plain decimation", reference, _views(rng, blur=0.3), 1500)]
+    if baked:
+        methods.append(score_method("baked", "Classic bake", reference, _views(rng, blur=0.2), 1500, 512))
+    methods.append(score_method("ours", "Ours", reference, _views(rng, blur=0.05), 1500, 1024))
+    return ReportData(
+        asset_name=asset_name, reference=reference, methods=methods, input_triangles=69451,
+        loss_history=np.exp(-np.arange(300) / 80) + 0.01 * rng.random(300), wall_time=432.0,
+        iterations=300, seconds_per_iteration=1.25,
+        config={"seed": 7, "optim": {"lr_positions": 0.002, "batch": 4}},
+        timings={"reference views": 12.5, "optimisation": 375.0}, notes=["the input has no UVs"],
+    )
+
+
+@pytest.mark.parametrize("baked", [False, True])
+def test_report_shows_the_numbers_and_every_picture_exists(tmp_path, baked):
+    data = _data(baked=baked)
+    path = write_report(tmp_path, data)
+    assert path == tmp_path / "report.html"
+    page = path.read_text(encoding="utf-8")
+    assert "<title>bunny" in page and "<h1>bunny</h1>" in page
+    for method in data.methods:
+        assert f"{method.psnr:.2f}" in page and f"{method.flip:.4f}" in page
+        assert method.label in page
+    gain = data.ours.psnr - data.baseline.psnr
+    assert f"+{gain:.2f} dB" in page
+    assert "69,451" in page and "1,500" in page and "1024²" in page
+    assert "7.2 min" in page and "1.25 s/iteration" in page
+    assert "optim.lr_positions" in page and "0.002" in page
+    assert "the input has no UVs" in page
+    sources = re.findall(r'src="([^"]+)"', page)
+    assert len(sources) == 1 + 2 * (1 + len(data.methods)) * data.num_views      # loss + views
+    for source in sources + ["report_files/comparison.png"]:
+        assert (tmp_path / source).is_file(), source
+    assert "http://" not in page and "https://" not in page and "<script" not in page
+
+
+def test_report_escapes_text(tmp_path):
+    page = write_report(tmp_path, _data(asset_name="<b>&model")).read_text(encoding="utf-8")
+    assert "<b>&model" not in page and "&lt;b&gt;&amp;model" in page
+
+
+def test_report_overwrites_an_earlier_one(tmp_path):
+    write_report(tmp_path, _data())
+    write_report(tmp_path, _data(asset_name="second"))
+    assert "<h1>second</h1>" in (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert not list(tmp_path.glob("*.partial"))
+
+
+def test_display_images_use_the_tone_map():
+    linear = np.array([[[0.0, np.e - 1, 100.0]]], dtype=np.float32)
+    np.testing.assert_array_equal(to_srgb_uint8(linear), [[[0, 255, 255]]])
+
+
+def test_signed_difference_colours():
+    reference = np.full((1, 1, 3, 3), 0.5, dtype=np.float32)
+    test = reference.copy()
+    test[0, 0, 0] = 2.0                      # too bright
+    test[0, 0, 1] = 0.0                      # too dim
+    picture = signed_difference(reference, test)[0, 0].astype(int)
+    red, blue, same = picture
+    assert red[0] > red[2] + 100 and blue[2] > blue[0] + 100
+    np.testing.assert_array_equal(same, [255, 255, 255])
+
+
+def test_image_grid_lays_out_cells():
+    cells = [[np.full((20, 30, 3), 40 * (r + c), np.uint8) for c in range(3)] for r in range(2)]
+    grid = image_grid(cells, ["a", "b", "c"], ["row 1", "row 2"])
+    assert grid.width > 3 * 30 and grid.height > 2 * 20
+    assert np.asarray(grid).reshape(-1, 3).tolist().count([120, 120, 120]) >= 20 * 30
+
+
+def test_smoothing_keeps_constants_and_follows_steps():
+    np.testing.assert_allclose(smooth(np.full(50, 3.0)), 3.0)
+    step = smooth(np.r_[np.ones(100), np.zeros(100)])
+    assert np.all(np.diff(step[100:]) <= 0) and step[-1] < 0.2 and step[99] == pytest.approx(1.0)
+
+
+def test_loss_plot_is_written(tmp_path):
+    path = plot_loss(np.exp(-np.arange(200) / 50) + 0.01, tmp_path / "loss.png")
+    with Image.open(path) as image:
+        assert image.width > 600 and image.height > 300
