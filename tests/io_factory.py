@@ -127,3 +127,14 @@ def npm_package(name: str) -> Path:
         if result.returncode != 0 or not (modules / name / "package.json").is_file():
             pytest.skip(f"cannot install npm package {name!r} (registry unreachable?): {result.stderr.strip()[-300:]}")
     return modules
+
+
+def covered_texels(mesh: Mesh, material: int, height: int, width: int) -> torch.Tensor:
+    """``[H, W]`` bool: texels whose centres the triangles of ``material`` cover in UV set 0."""
+    from lookalike.asset.uv_raster import rasterize_uv
+
+    uv = mesh.uv[0][0][mesh.uv[0][1]][mesh.t_mat_idx == material].numpy()
+    rows, cols, _, _ = rasterize_uv(uv, height, width)
+    mask = torch.zeros(height, width, dtype=torch.bool)
+    mask[torch.from_numpy(rows), torch.from_numpy(cols)] = True
+    return mask

@@ -3,12 +3,12 @@ real benchmark takes forty minutes and is run by hand)."""
 
 from __future__ import annotations
 
+import importlib
 import json
 from types import SimpleNamespace
 
 import pytest
 
-import lookalike.fit.simplify as simplify_module
 from lookalike.bench import quality
 from lookalike.errors import ConfigError
 
@@ -31,7 +31,7 @@ def stub_simplify(monkeypatch, tmp_path):
         gain = 2.0 if "spot" in str(input) else 4.0
         return SimpleNamespace(metrics=_metrics(triangles, 27.0, 27.0 + gain))
 
-    monkeypatch.setattr(simplify_module, "simplify", fake)
+    monkeypatch.setattr(importlib.import_module("lookalike.fit.simplify"), "simplify", fake)
     assets = tmp_path / "assets"
     assets.mkdir()
     return calls, assets

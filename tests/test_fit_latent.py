@@ -10,7 +10,7 @@ import torch
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.fit.config import ClampConfig
-from lookalike.fit.latent import Latent
+from lookalike.fit.latent import Latent, normal_to_slopes, slopes_to_normal
 from lookalike.fit.outdir import CHECKPOINT_NAME, atomic_path, prepare_outdir, write_text_atomic
 
 
@@ -46,16 +46,20 @@ def test_clamp_projects_every_texture_into_its_range():
     with torch.no_grad():
         latent.kd.uniform_(-1, 2)
         latent.ks.uniform_(-1, 2)
-        latent.normal.copy_(torch.randn_like(latent.normal))
-        latent.normal[0, 0] = torch.tensor([1.0, 0.0, 0.0])
-    limits = ClampConfig(roughness=(0.1, 0.9), normal_z_min=0.2)
-    latent.clamp_(limits)
+        latent.normal.copy_(10 * torch.randn_like(latent.normal))
+    latent.clamp_(ClampConfig(roughness=(0.1, 0.9), normal_max_slope=2.0))
     assert latent.kd.min() >= 0 and latent.kd.max() <= 1
     assert latent.ks[..., 1].min() >= 0.1 and latent.ks[..., 1].max() <= 0.9
-    assert latent.ks[..., 0].min() >= 0 and latent.ks[..., 2].max() <= 1
-    assert torch.allclose(latent.normal.norm(dim=-1), torch.ones(4, 4))
-    assert latent.normal[..., 2].min() >= 0.2 - 1e-6
-    assert latent.normal[0, 0].tolist() == pytest.approx([(1 - 0.04) ** 0.5, 0.0, 0.2])  # azimuth kept
+    assert latent.ks[..., 0].min() >= 0 and latent.ks[..., 2].max() <= 1 and latent.ks.min() >= 0
+    assert latent.normal.abs().max() <= 2.0 and latent.normal.abs().max() == 2.0
+
+
+def test_normals_are_unit_slopes_and_round_trip():
+    normal = torch.nn.functional.normalize(torch.tensor([[0.3, -0.4, 0.8], [0.0, 0.0, 1.0]]), dim=-1)
+    assert torch.allclose(slopes_to_normal(normal_to_slopes(normal)), normal, atol=1e-6)
+    assert normal_to_slopes(normal)[0].tolist() == pytest.approx([0.375, -0.5])
+    latent = make_latent()
+    assert torch.equal(latent.unit_normal(), torch.tensor([0.0, 0.0, 1.0]).expand(4, 4, 3))
 
 
 def test_state_dict_round_trip_rebuilds_the_same_model():

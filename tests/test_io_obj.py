@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from io_factory import two_material_asset
+from io_factory import covered_texels, two_material_asset
 from lookalike import io
 from lookalike.asset import Texture
 from lookalike.errors import AssetError
@@ -158,7 +158,8 @@ def test_obj_round_trip_keeps_geometry_uvs_and_materials(tmp_path):
     assert torch.allclose(b[0].ks.data[..., 1:], a[0].ks.data[..., 1:], atol=0.5 / 255 + 1e-6)
     assert torch.allclose(b[1].kd.data, a[1].kd.data, atol=1e-6)
     assert torch.allclose(b[1].ks.data[..., 1:], a[1].ks.data[..., 1:], atol=1e-6)
-    assert (b[0].normal.data - a[0].normal.data).norm(dim=-1).max() < 0.03
+    inside = covered_texels(asset.mesh, 0, *a[0].normal.data.shape[:2])
+    assert (b[0].normal.data - a[0].normal.data).norm(dim=-1)[inside].max() < 0.03
 
 
 @pytest.mark.parametrize("name, triangles, seconds", [

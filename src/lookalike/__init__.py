@@ -17,3 +17,11 @@ optimisation, ``fit`` composes them):
 """
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    """``lookalike.simplify`` is imported on first use, so that ``import lookalike`` stays light."""
+    if name == "simplify":
+        from .fit.simplify import simplify
+        return simplify
+    raise AttributeError(f"module 'lookalike' has no attribute {name!r}")

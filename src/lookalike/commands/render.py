@@ -27,7 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", type=int, default=512, help="picture size in pixels (default 512)")
     parser.add_argument("--spp", type=int, default=2, help="supersampling factor per axis (default 2)")
     parser.add_argument("--layers", type=int, default=None,
-                        help="depth-peeled layers (default: 4 when a material blends, else 1)")
+                        help="depth-peeled layers (default: 4 when a material blends, else 2, so that "
+                             "culled back faces and alpha cut-outs show what lies behind them)")
     parser.add_argument("--seed", type=int, default=0, help="random seed of the views (default 0)")
     parser.add_argument("--force", action="store_true", help="overwrite existing pictures")
 
@@ -86,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if existing and not args.force:
         raise ConfigError(f"{existing[0]} exists ({len(existing)} of the pictures do); use --force to overwrite")
     asset = io.load(args.input)
-    layers = args.layers or (4 if any(m.alpha_mode == "BLEND" for m in asset.materials) else 1)
+    layers = args.layers or (4 if any(m.alpha_mode == "BLEND" for m in asset.materials) else 2)
     centre, radius = asset.mesh.bounding_sphere()
     generator = np.random.default_rng(args.seed)
     cameras = random_views(centre, radius, args.views, generator)

@@ -155,14 +155,15 @@ class ClampConfig:
     Attributes:
         kd: range of base colour and alpha.
         gamma, roughness, metalness: ranges of the three specular channels.
-        normal_z_min: smallest z of a tangent-space normal (keeps it facing outwards).
+        normal_max_slope: largest |x / z| and |y / z| of a tangent-space normal (3 allows
+            tilts of about 72 degrees along each tangent axis).
     """
 
     kd: tuple[float, float] = (0.0, 1.0)
     gamma: tuple[float, float] = (0.0, 1.0)
     roughness: tuple[float, float] = (0.08, 1.0)
     metalness: tuple[float, float] = (0.0, 1.0)
-    normal_z_min: float = 0.1
+    normal_max_slope: float = 3.0
 
 
 @dataclass
@@ -198,6 +199,7 @@ class Config:
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
             (opt.lr_positions >= 0 and opt.lr_textures >= 0, "learning rates must not be negative"),
+            (self.clamp.normal_max_slope > 0, "clamp.normal_max_slope must be positive"),
             (opt.laplacian_weight is None or opt.laplacian_weight >= 0,
              "optim.laplacian_weight must not be negative"),
             (0 <= opt.laplacian_min_fraction <= 1, "optim.laplacian_min_fraction must lie in [0, 1]"),

@@ -22,14 +22,17 @@ class Latent(torch.nn.Module):
         kd: ``[S, S, 4]`` base colour + alpha when alpha is trained, else ``[S, S, 3]``
             (alpha is then 1).
         ks: ``[S, S, 3]`` (gamma, roughness, metalness).
-        normal: ``[S, S, 3]`` tangent-space normal, unnormalised; used as n / |n|.
+        normal: ``[S, S, 2]`` slopes (x, y) of the tangent-space normal, which is
+            normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and two
+            parameters per texel instead of three with a unit-length constraint.
 
     Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``v_tex [VT, 2]`` float32 and
     ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32.
 
     Args:
         mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0.
-        kd, ks, normal: initial textures as above.
+        kd, ks: initial textures as above.
+        normal: initial ``[S, S, 3]`` tangent-space normals (z > 0), converted to slopes.
         centre, radius: the unit frame.
         alpha_mode: the material's glTF alpha mode (``"OPAQUE"`` unless alpha is trained).
         double_sided: whether the material renders back faces.
@@ -49,7 +52,7 @@ class Latent(torch.nn.Module):
         self.v_pos = torch.nn.Parameter((mesh.v_pos.float() - centre) / radius)
         self.kd = torch.nn.Parameter(kd.float().clone())
         self.ks = torch.nn.Parameter(ks.float().clone())
-        self.normal = torch.nn.Parameter(normal.float().clone())
+        self.normal = torch.nn.Parameter(normal_to_slopes(normal.float()))
         self.alpha_mode = alpha_mode
         self.double_sided = double_sided
 
@@ -58,7 +61,7 @@ class Latent(torch.nn.Module):
         """Rebuild a latent model from ``state_dict()`` (as stored in a checkpoint)."""
         mesh = Mesh(v_pos=state["centre"] + state["radius"] * state["v_pos"], t_pos_idx=state["t_pos_idx"],
                     uv=[(state["v_tex"], state["t_tex_idx"])])
-        latent = cls(mesh, state["kd"], state["ks"], state["normal"], state["centre"], state["radius"])
+        latent = cls(mesh, state["kd"], state["ks"], slopes_to_normal(state["normal"]), state["centre"], state["radius"])
         latent.load_state_dict(state)
         return latent
 
@@ -90,8 +93,8 @@ class Latent(torch.nn.Module):
         return torch.cat([self.kd, torch.ones_like(self.kd[..., :1])], dim=-1)
 
     def unit_normal(self) -> torch.Tensor:
-        """``[S, S, 3]`` normal map normalised to unit length."""
-        return torch.nn.functional.normalize(self.normal, dim=-1)
+        """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
+        return slopes_to_normal(self.normal)
 
     def as_asset(self) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
@@ -109,17 +112,20 @@ class Latent(torch.nn.Module):
 
     @torch.no_grad()
     def clamp_(self, limits: ClampConfig) -> None:
-        """Project the textures onto their valid ranges in place: kd into ``limits.kd``, the
-        specular channels into their ranges, the normal onto the unit hemisphere with
-        z >= ``limits.normal_z_min`` (normals tilted further keep their azimuth and get
-        z = normal_z_min exactly)."""
+        """Project the textures onto their valid ranges in place: kd into ``limits.kd``, each
+        specular channel into its range, each normal slope into
+        [-limits.normal_max_slope, limits.normal_max_slope]."""
         self.kd.clamp_(*limits.kd)
-        for channel, (lo, hi) in enumerate((limits.gamma, limits.roughness, limits.metalness)):
-            self.ks[..., channel].clamp_(lo, hi)
-        n = torch.nn.functional.normalize(self.normal, dim=-1)
-        z_min = limits.normal_z_min
-        tilted = n[..., 2:] < z_min
-        xy_scale = (1 - z_min ** 2) ** 0.5 / n[..., :2].norm(dim=-1, keepdim=True).clamp(min=1e-12)
-        n[..., :2] = torch.where(tilted, n[..., :2] * xy_scale, n[..., :2])
-        n[..., 2:] = torch.where(tilted, torch.full_like(n[..., 2:], z_min), n[..., 2:])
-        self.normal.copy_(n)
+        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=self.ks.dtype)
+        self.ks.clamp_(min=ranges[:, 0], max=ranges[:, 1])
+        self.normal.clamp_(-limits.normal_max_slope, limits.normal_max_slope)
+
+
+def normal_to_slopes(normal: torch.Tensor) -> torch.Tensor:
+    """``[..., 2]`` slopes (x / z, y / z) of tangent-space normals ``[..., 3]`` (z > 0)."""
+    return normal[..., :2] / normal[..., 2:].clamp(min=1e-6)
+
+
+def slopes_to_normal(slopes: torch.Tensor) -> torch.Tensor:
+    """``[..., 3]`` unit normals normalize(x, y, 1) of slopes ``[..., 2]`` (differentiable)."""
+    return torch.nn.functional.normalize(torch.cat([slopes, torch.ones_like(slopes[..., :1])], dim=-1), dim=-1)

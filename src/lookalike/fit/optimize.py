@@ -42,7 +42,7 @@ from .losses import composite, image_loss
 from .outdir import atomic_path
 from .schedule import laplacian_decay_rate, laplacian_weight, learning_rate
 
-SNAPSHOT_EVERY = 10
+SNAPSHOT_EVERY = 20
 """Steps between snapshots of the last good state (the rollback target)."""
 
 CALIBRATION_STEPS = 4
@@ -142,7 +142,7 @@ class Fitter:
         self.optimizer = torch.optim.Adam([
             {"params": latent.position_parameters(), "lr": opt.lr_positions, "lr_0": opt.lr_positions},
             {"params": latent.texture_parameters(), "lr": opt.lr_textures, "lr_0": opt.lr_textures},
-        ])
+        ], fused=True)
         self.progress = _Progress(total=opt.iterations)
         self.best_state = copy.deepcopy(latent.state_dict())
         self._snapshot()
@@ -213,7 +213,9 @@ class Fitter:
         return value
 
     def _gradients_finite(self) -> bool:
-        return all(bool(torch.isfinite(q.grad).all()) for q in self.latent.parameters() if q.grad is not None)
+        """Whether every gradient is finite (a NaN or infinity anywhere makes its sum non-finite)."""
+        sums = [q.grad.sum() for q in self.latent.parameters() if q.grad is not None]
+        return bool(torch.stack(sums).isfinite().all()) if sums else True
 
     def _snapshot(self) -> None:
         """Remember the current state as the last good one, and as the best if it is."""

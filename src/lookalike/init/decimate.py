@@ -7,9 +7,11 @@ vertex colours and skin weights are carried over from the input (``transfer``).
 
 fast-simplification's ``agg`` sets how fast its error threshold grows; low values keep the
 shape better (about 1 to 1.7 dB PSNR over its default 7 on our benchmark assets) but may stop
-above the requested count. So the mesh is scaled to a unit bounding-box diagonal (making the
-threshold independent of units) and the lowest ``agg`` of ``AGGRESSIVENESS`` that reaches the
-count is used.
+above the requested count. Its quadrics do not guard open borders, so small flat parts (a quad
+of two triangles) and the rims of open sheets collapse first unless border vertices are frozen
+(``preserve_border``), which in turn stalls on meshes that are mostly border. So the mesh is
+scaled to a unit bounding-box diagonal (making the threshold independent of units) and the
+first setting of ``SCHEDULE`` that reaches the count is used.
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ from ..errors import ConfigError
 from .transfer import transfer_attributes
 from .weld import weld_tolerance, weld_vertices
 
-AGGRESSIVENESS = (3.0, 4.0, 5.0, 7.0, 10.0)   # fast-simplification ``agg`` values, tried in order
-_ATTEMPTS = 4                      # runs per ``agg`` with a corrected request to land on the exact count
+SCHEDULE = tuple((frozen, agg) for frozen in (True, False) for agg in (3.0, 5.0, 7.0, 10.0))
+"""``(preserve_border, agg)`` settings of fast-simplification, tried in order."""
+_ATTEMPTS = 4                      # runs per setting with a corrected request to land on the exact count
 _NEARLY = 2                        # a result this close to the count is accepted; a run this far above its request stalled
 _ZERO_AREA = 1e-12                 # triangle area below this times the squared bbox diagonal is degenerate
 
@@ -84,18 +87,19 @@ def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarra
 
 def _simplify_to_count(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int):
     """Quadric decimation of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` to ``triangles`` cleaned
-    triangles: for each ``agg`` of ``AGGRESSIVENESS`` in turn, run with a request corrected by
-    the shortfall until the count is exact; move to the next ``agg`` when one stops above its
+    triangles: for each setting of ``SCHEDULE`` in turn, run with a request corrected by the
+    shortfall until the count is exact; move to the next setting when one stops above its
     request. Returns the closest result found ``(v_pos, t_pos_idx)``, in the input's units."""
     lo, hi = v_pos.min(axis=0), v_pos.max(axis=0)
     centre, scale = 0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)), 1e-30)
     unit = (v_pos - centre) / scale
     best = None
-    for agg in AGGRESSIVENESS:
+    for frozen, agg in SCHEDULE:
         request = triangles
         for _ in range(_ATTEMPTS):
             request = int(np.clip(request, 1, len(t_pos_idx)))
-            out_pos, out_idx = fast_simplification.simplify(unit, t_pos_idx, target_count=request, agg=agg)
+            out_pos, out_idx = fast_simplification.simplify(unit, t_pos_idx, target_count=request, agg=agg,
+                                                             preserve_border=frozen)
             result = clean_triangles(np.asarray(out_pos, np.float64), np.asarray(out_idx, np.int64))
             got = len(result[1])
             if best is None or abs(got - triangles) < abs(len(best[1]) - triangles):

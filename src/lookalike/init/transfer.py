@@ -100,14 +100,13 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) 
     t_patch = _vote(voted)
     t_mat_idx = src_mat[np.unique(patch, return_index=True)[1]][t_patch]
 
-    pairs, t_corner = np.unique(np.stack([t_pos_idx, np.repeat(t_patch[:, None], 3, 1)], -1).reshape(-1, 2),
-                                axis=0, return_inverse=True)
-    t_corner = t_corner.reshape(-1, 3)
-    on_patch = query.closest(v_pos[pairs[:, 0]], labels=pairs[:, 1])
-    uv = [
-        (_interpolate(tex, idx[on_patch.triangle], on_patch.barycentric), t_corner)
-        for tex, idx in src_uv
-    ]
+    uv = []
+    if src_uv:
+        pairs, t_corner = np.unique(np.stack([t_pos_idx, np.repeat(t_patch[:, None], 3, 1)], -1).reshape(-1, 2),
+                                    axis=0, return_inverse=True)
+        on_patch = query.closest(v_pos[pairs[:, 0]], labels=pairs[:, 1])
+        uv = [(_interpolate(tex, idx[on_patch.triangle], on_patch.barycentric), t_corner.reshape(-1, 3))
+              for tex, idx in src_uv]
 
     v_color = v_joints = v_weights = None
     if source.v_color is not None or source.v_joints is not None:

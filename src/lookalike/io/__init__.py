@@ -1,5 +1,11 @@
 """Reading and writing assets. ``load(path)`` and ``save(asset, path)`` pick the format by
-file extension; each format lives in its own module and registers itself on import."""
+file extension; each format lives in its own module and registers itself on import.
+
+Formats: ``gltf_read`` (.gltf, .glb), ``gltf_write`` (.glb), ``obj`` (+ ``mtl``; .obj read and
+write), ``ply`` (.ply read). Shared pieces: ``gltf_data`` (buffers, accessors, images of a glTF),
+``images`` (PNG/JPEG, sRGB), ``mikktspace`` (reference tangent frames), ``normal_frames``
+(normal maps between tangent frames), ``transforms``, ``arrays``.
+"""
 
 from . import gltf_read, gltf_write, obj, ply  # noqa: F401  (register their readers and writers)
 from .registry import load, readable_extensions, save, writable_extensions

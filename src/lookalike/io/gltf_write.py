@@ -188,9 +188,9 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
     return out
 
 
-def _skin(builder: _GlbBuilder, asset: Asset) -> tuple[list[dict], int]:
-    """Joint nodes, the skin and animations written to ``builder``; returns the node list and
-    the skin index (the mesh node is appended by the caller)."""
+def _skin(builder: _GlbBuilder, asset: Asset) -> list[dict]:
+    """Write skin 0 and the animations to ``builder``; returns the JSON of the skeleton's nodes
+    (the caller appends the mesh node)."""
     skin = asset.skin
     nodes = [{"name": n.name, "translation": n.translation.tolist(), "rotation": n.rotation.tolist(),
               "scale": n.scale.tolist()} for n in skin.nodes]
@@ -214,7 +214,7 @@ def _skin(builder: _GlbBuilder, asset: Asset) -> tuple[list[dict], int]:
             animations.append({"name": anim.name, "samplers": samplers, "channels": channels})
     if animations:
         builder.doc["animations"] = animations
-    return nodes, 0
+    return nodes
 
 
 @writer(".glb")
@@ -235,12 +235,6 @@ def write_glb(asset: Asset, path: Path) -> None:
         tangent_set = next(m.normal.uv_set for m in materials if m.normal is not None)
         corner_uv = mesh.uv[tangent_set][0].float()[mesh.uv[tangent_set][1]].numpy()
         tangents = mikktspace_tangents(corner_pos, corner_nrm, corner_uv).reshape(-1, 4)
-        zero = np.linalg.norm(tangents[:, :3], axis=-1) < 0.5  # groups MikkTSpace leaves without a tangent
-        if zero.any():
-            n = corner_nrm.reshape(-1, 3)[zero]
-            axis = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-            fallback = np.cross(axis, n)
-            tangents[zero, :3] = fallback / np.linalg.norm(fallback, axis=-1, keepdims=True)
         corner_keys.append(tangents.view(np.int32).astype(np.int64))
         materials = export_normal_maps(mesh, materials)
     first, inverse = unique_rows(np.concatenate(corner_keys, axis=1))
@@ -276,8 +270,8 @@ def write_glb(asset: Asset, path: Path) -> None:
     builder.doc["materials"] = [_material(builder, materials[i], has_uv) for i in used_materials]
     builder.doc["meshes"] = [{"name": asset.name, "primitives": primitives}]
     if asset.skin is not None and mesh.v_joints is not None:
-        nodes, skin_index = _skin(builder, asset)
-        nodes.append({"name": asset.name, "mesh": 0, "skin": skin_index})
+        nodes = _skin(builder, asset)
+        nodes.append({"name": asset.name, "mesh": 0, "skin": 0})
         roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0] + [len(nodes) - 1]
     else:
         nodes, roots = [{"name": asset.name, "mesh": 0}], [0]

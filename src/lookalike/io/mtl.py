@@ -23,23 +23,30 @@ from ..errors import AssetError
 from .arrays import constant_texel
 from .images import linear_to_srgb, read_image, resize, srgb_to_linear, write_png
 
-# Number of arguments of each map option (-o, -s and -t take up to three numbers).
-_OPTION_ARITY = {"-bm": 1, "-blendu": 1, "-blendv": 1, "-boost": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3,
-                 "-texres": 1, "-clamp": 1, "-imfchan": 1, "-type": 1, "-cc": 1}
+# Map options taking up to this many numbers, and options taking one word.
+_NUMERIC_OPTIONS = {"-bm": 1, "-boost": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1}
+_WORD_OPTIONS = frozenset({"-blendu", "-blendv", "-clamp", "-imfchan", "-type", "-cc"})
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
 
 
 def _split_map(args: list[str]) -> tuple[str, dict[str, list[str]]]:
-    """``(file name, {option: arguments})`` of a map statement's arguments."""
+    """``(file name, {option: arguments})`` of a map statement's arguments; the file name is
+    whatever follows the options (it may contain spaces)."""
     options, i = {}, 0
-    while i < len(args) and args[i].startswith("-") and args[i] in _OPTION_ARITY:
+    while i < len(args) - 1 and (args[i] in _NUMERIC_OPTIONS or args[i] in _WORD_OPTIONS):
         name, i = args[i], i + 1
+        if name in _WORD_OPTIONS:
+            options[name], i = [args[i]], i + 1
+            continue
         values = []
-        while i < len(args) - 1 and len(values) < _OPTION_ARITY[name]:
-            try:
-                float(args[i])
-            except ValueError:
-                if name not in ("-blendu", "-blendv", "-clamp", "-imfchan", "-type", "-cc"):
-                    break
+        while i < len(args) - 1 and len(values) < _NUMERIC_OPTIONS[name] and _is_number(args[i]):
             values.append(args[i])
             i += 1
         options[name] = values

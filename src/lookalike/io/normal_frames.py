@@ -11,7 +11,8 @@ At a texel covered by triangle ``f`` with barycentrics ``l``, a renderer interpo
 ``n = normalize(sum l_k n_k)``, ``t = normalize(T - n (n . T))`` with ``T = sum l_k t_k``,
 ``b = sign(w) cross(n, t)``; the texel value ``m`` means ``m.x t + m.y b + m.z n``. Conversion maps
 ``m_src`` to ``m_dst = (s . t_dst, s . b_dst, s . n_dst)`` with ``s`` that surface normal in the
-source frame, then normalises. Texels no triangle covers keep their value. A texture transform
+source frame, then normalises. Texels no triangle covers take the mean of converted neighbours up
+to ``GUTTER_TEXELS`` deep (dilation) and keep their value further out. A texture transform
 (KHR_texture_transform) moves where the triangles land in the texture; both frames are built
 from the untransformed UVs.
 """
@@ -27,8 +28,12 @@ from numba import njit
 from ..asset import Material, Mesh
 from ..asset.normals import vertex_normals
 from ..asset.tangents import vertex_tangents
-from ..asset.uv_raster import apply_uv_transform, rasterize_uv
+from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
 from .mikktspace import mikktspace_tangents
+
+
+GUTTER_TEXELS = 2
+"""Texels past the triangles' coverage that file-format conversions also convert (by dilation)."""
 
 
 def _unit(x: np.ndarray) -> np.ndarray:
@@ -50,7 +55,7 @@ def texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bar
 
 
 def reexpress_normal_map_reference(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
-                                   dst: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+                                   dst: tuple[np.ndarray, np.ndarray], gutter: int = 0) -> np.ndarray:
     """Plain NumPy twin of ``reexpress_normal_map`` (same arguments and result), built on
     ``rasterize_uv``; slow on large textures, kept to test the compiled kernel against."""
     height, width = pixels.shape[:2]
@@ -60,9 +65,21 @@ def reexpress_normal_map_reference(pixels: np.ndarray, uv: np.ndarray, src: tupl
     surface = m[:, :1] * t1 + m[:, 1:2] * b1 + m[:, 2:] * n1
     t2, b2, n2 = texel_frames(*dst, tri, bary)
     converted = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
-    out = pixels.astype(np.float32, copy=True)
+    out = pixels.astype(np.float64, copy=True)
     out[rows, cols] = _unit(converted)
-    return out
+    covered = np.zeros((height, width), bool)
+    covered[rows, cols] = True
+    return _extend_into_gutter(out, covered, gutter)
+
+
+def _extend_into_gutter(out: np.ndarray, covered: np.ndarray, gutter: int) -> np.ndarray:
+    """``[H, W, 3]`` float32: converted texels dilated ``gutter`` texels into uncovered ones (so
+    bilinear lookups at chart borders see converted values), renormalised; texels further out
+    keep their value."""
+    grown_values, grown = dilate(out, covered, gutter)
+    ring = grown & ~covered
+    out[ring] = _unit(grown_values[ring].astype(np.float64))
+    return out.astype(np.float32)
 
 
 @njit(cache=True, inline="always")
@@ -94,10 +111,10 @@ def _frame_at(normals, tangents, f, l0, l1, l2):
 
 
 @njit(cache=True)
-def _reexpress_kernel(pixels, out, xy, src_n, src_t, dst_n, dst_t):
+def _reexpress_kernel(pixels, out, covered, xy, src_n, src_t, dst_n, dst_t):
     """Write ``out [H, W, 3]`` at texels covered by triangles ``xy [T, 3, 2]`` (texel-index space,
-    ``uv * (W, H) - 0.5``) with ``pixels [H, W, 3]`` converted; triangles in order, so the last
-    covering triangle wins."""
+    ``uv * (W, H) - 0.5``) with ``pixels [H, W, 3]`` converted, and mark them in ``covered [H, W]``;
+    triangles in order, so the last covering triangle wins."""
     height, width = out.shape[0], out.shape[1]
     for f in range(xy.shape[0]):
         ax, ay, bx, by, cx, cy = xy[f, 0, 0], xy[f, 0, 1], xy[f, 1, 0], xy[f, 1, 1], xy[f, 2, 0], xy[f, 2, 1]
@@ -123,27 +140,30 @@ def _reexpress_kernel(pixels, out, xy, src_n, src_t, dst_n, dst_t):
                 v2 = sx * n2x + sy * n2y + sz * n2z
                 length = max(np.sqrt(v0 * v0 + v1 * v1 + v2 * v2), 1e-30)
                 out[r, c, 0], out[r, c, 1], out[r, c, 2] = v0 / length, v1 / length, v2 / length
+                covered[r, c] = True
 
 
 def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
-                         dst: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+                         dst: tuple[np.ndarray, np.ndarray], gutter: int = 0) -> np.ndarray:
     """Convert a tangent-space normal map from frame ``src`` to frame ``dst`` (compiled kernel).
 
     Args:
         pixels: ``[H, W, 3]`` unit tangent-space normals in the ``src`` frame.
         uv: ``[T, 3, 2]`` corner UVs of the triangles that use the map.
         src, dst: ``(normals [T, 3, 3], tangents [T, 3, 4])`` corner frames.
+        gutter: how many texels beyond the covered ones take dilated converted values.
     Returns:
         ``[H, W, 3]`` float32 unit normals in the ``dst`` frame; where several triangles cover a
-        texel the last one wins, uncovered texels keep their value.
+        texel the last one wins; texels beyond the gutter keep their value.
     """
     height, width = pixels.shape[:2]
     source = np.ascontiguousarray(pixels, np.float64)
     out = source.copy()
+    covered = np.zeros((height, width), bool)
     xy = np.asarray(uv, np.float64) * np.array([width, height]) - 0.5
     f64 = [np.ascontiguousarray(a, np.float64) for a in (*src, *dst)]
-    _reexpress_kernel(source, out, xy, *f64)
-    return out.astype(np.float32)
+    _reexpress_kernel(source, out, covered, xy, *f64)
+    return _extend_into_gutter(out, covered, gutter)
 
 
 def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
@@ -178,8 +198,8 @@ def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> li
         ours, theirs = cache[normal.uv_set]
         src, dst = (theirs, ours) if to_ours else (ours, theirs)
         uv = apply_uv_transform(corner_uvs(mesh, normal.uv_set)[used], normal.transform)
-        pixels = reexpress_normal_map(normal.data.detach().numpy(), uv,
-                                      tuple(a[used] for a in src), tuple(a[used] for a in dst))
+        pixels = reexpress_normal_map(normal.data.detach().numpy(), uv, tuple(a[used] for a in src),
+                                      tuple(a[used] for a in dst), gutter=GUTTER_TEXELS)
         out.append(replace(material, normal=replace(normal, data=torch.from_numpy(pixels), mips=None)))
     return out
 

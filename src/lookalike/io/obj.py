@@ -204,10 +204,11 @@ def _unique_names(materials: list[Material]) -> list[str]:
 
 @writer(".obj")
 def write_obj(asset: Asset, path: Path) -> None:
-    """Write ``asset`` as OBJ + MTL + PNG textures next to it. Normals written are the smooth
-    area-weighted normals lookalike renders with; normal maps are converted to the MikkTSpace
-    frame of the written mesh. ``gamma`` (KHR_materials_specular) has no MTL equivalent and is
-    dropped with a warning where non-zero."""
+    """Write ``asset`` as OBJ + MTL + PNG textures next to it (``<stem>.mtl``,
+    ``<stem>_<material>_<channel>.png``). Normals written are the smooth area-weighted normals
+    lookalike renders with; normal maps are converted to the MikkTSpace frame of the written mesh.
+    Only UV set 0 is written; skins, animations and vertex colours are not. ``gamma``
+    (KHR_materials_specular) has no MTL equivalent and is dropped with a warning where non-zero."""
     path = Path(path)
     mesh = asset.mesh.detach()
     names = _unique_names(asset.materials)

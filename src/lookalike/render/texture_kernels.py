@@ -181,59 +181,77 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
             _bilinear_add(table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, out, p)
 
 
+@njit(cache=True)
+def _backward_pixels(
+    table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
+    grad_out, target, grad_uv, grad_uv_da, grad_bias, start, end,
+):
+    """:func:`texture_backward` for pixels ``start .. end-1``, texel gradients into ``target``."""
+    top = heights.shape[0] - 1
+    has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
+    for p in range(start, end):
+        view = p // pixels_per_view if per_view else 0
+        u, v = uv[p, 0], uv[p, 1]
+        if mode == NEAREST:
+            h, w = heights[0], widths[0]
+            col, col_in = _resolve(int(math.floor(u * w)), w, boundary)
+            row, row_in = _resolve(int(math.floor(v * h)), h, boundary)
+            for ch in range(table.shape[1]):
+                target[offsets[0] + view * h * w + row * w + col, ch] += col_in * row_in * grad_out[p, ch]
+            continue
+        level = 0
+        frac = 0.0
+        lvl, raw, lam = 0.0, 0.0, 0.0
+        if mode != LINEAR:
+            lvl, raw, lam = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
+            if mode == MIP_NEAREST:
+                level = int(math.floor(lvl + 0.5))
+            elif top > 0:
+                level = min(int(math.floor(lvl)), top - 1)
+                frac = lvl - level
+        h, w = heights[level], widths[level]
+        g_u, g_v, fine = _bilinear_backward(
+            table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, grad_out, p, target
+        )
+        if mode == MIP_LINEAR and top > 0:
+            h, w = heights[level + 1], widths[level + 1]
+            g_u1, g_v1, coarse = _bilinear_backward(
+                table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, grad_out, p, target
+            )
+            g_u += g_u1
+            g_v += g_v1
+            if 0.0 <= raw <= top:
+                g_raw = coarse - fine
+                if has_bias:
+                    grad_bias[p] = g_raw
+                if has_da and lam >= _TINY:
+                    _level_backward(uv_da, p, heights[0], widths[0], lam, g_raw, grad_uv_da)
+        grad_uv[p, 0] = g_u
+        grad_uv[p, 1] = g_v
+
+
 @njit(cache=True, parallel=True)
 def texture_backward(
     table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
     grad_out, grad_table, grad_uv, grad_uv_da, grad_bias, n_chunks,
 ):
     """Gradients of :func:`texture_forward`: accumulate into ``grad_table [N, C]`` (zeroed;
-    each thread sums into its own copy, added at the end) and write ``grad_uv [P, 2]``,
-    ``grad_uv_da [P, 4]`` and ``grad_bias [P]`` (zeroed; the last two when present).
-    Pixels are split into ``n_chunks`` parallel chunks."""
+    each parallel chunk of pixels but the first sums into its own copy, added at the end)
+    and write ``grad_uv [P, 2]``, ``grad_uv_da [P, 4]`` and ``grad_bias [P]`` (zeroed; the
+    last two when present)."""
     n_pixels = uv.shape[0]
-    top = heights.shape[0] - 1
-    has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
     private = np.zeros((n_chunks - 1, table.shape[0], table.shape[1]), table.dtype)
     for chunk in prange(n_chunks):
-        target = grad_table if chunk == 0 else private[chunk - 1]
-        for p in range(chunk * n_pixels // n_chunks, (chunk + 1) * n_pixels // n_chunks):
-            view = p // pixels_per_view if per_view else 0
-            u, v = uv[p, 0], uv[p, 1]
-            if mode == NEAREST:
-                h, w = heights[0], widths[0]
-                col, col_in = _resolve(int(math.floor(u * w)), w, boundary)
-                row, row_in = _resolve(int(math.floor(v * h)), h, boundary)
-                for ch in range(table.shape[1]):
-                    target[offsets[0] + view * h * w + row * w + col, ch] += col_in * row_in * grad_out[p, ch]
-                continue
-            level = 0
-            frac = 0.0
-            lvl, raw, lam = 0.0, 0.0, 0.0
-            if mode != LINEAR:
-                lvl, raw, lam = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
-                if mode == MIP_NEAREST:
-                    level = int(math.floor(lvl + 0.5))
-                elif top > 0:
-                    level = min(int(math.floor(lvl)), top - 1)
-                    frac = lvl - level
-            h, w = heights[level], widths[level]
-            g_u, g_v, fine = _bilinear_backward(
-                table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, grad_out, p, target
+        start, end = chunk * n_pixels // n_chunks, (chunk + 1) * n_pixels // n_chunks
+        if chunk == 0:
+            _backward_pixels(
+                table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
+                grad_out, grad_table, grad_uv, grad_uv_da, grad_bias, start, end,
             )
-            if mode == MIP_LINEAR and top > 0:
-                h, w = heights[level + 1], widths[level + 1]
-                g_u1, g_v1, coarse = _bilinear_backward(
-                    table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, grad_out, p, target
-                )
-                g_u += g_u1
-                g_v += g_v1
-                if 0.0 <= raw <= top:
-                    g_raw = coarse - fine
-                    if has_bias:
-                        grad_bias[p] = g_raw
-                    if has_da and lam >= _TINY:
-                        _level_backward(uv_da, p, heights[0], widths[0], lam, g_raw, grad_uv_da)
-            grad_uv[p, 0] = g_u
-            grad_uv[p, 1] = g_v
+        else:
+            _backward_pixels(
+                table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
+                grad_out, private[chunk - 1], grad_uv, grad_uv_da, grad_bias, start, end,
+            )
     for k in range(n_chunks - 1):
         grad_table += private[k]

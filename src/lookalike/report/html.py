@@ -68,7 +68,8 @@ details summary { cursor:pointer; color:var(--accent); font-weight:600; margin:4
 .plot img { width:100%; height:auto; display:block; }
 .two { display:grid; grid-template-columns:2fr 1fr; gap:18px; align-items:start; }
 table.kv td { text-align:left; font-size:13.5px; padding:7px 14px; }
-table.kv td:first-child { color:var(--muted); font-family:"DejaVu Sans Mono", Menlo, Consolas, monospace; font-size:12.5px; width:45%; }
+table.kv td:first-child { color:var(--muted); width:45%; }
+table.kv.mono td:first-child { font-family:"DejaVu Sans Mono", Menlo, Consolas, monospace; font-size:12.5px; }
 footer { margin-top:48px; color:var(--faint); font-size:13px; }
 a { color:var(--accent); }
 @media (max-width: 900px) {
@@ -89,6 +90,12 @@ def _minutes(seconds: float) -> str:
 
 def _signed(value: float, digits: int, unit: str = "") -> str:
     return f"{'+' if value >= 0 else '−'}{abs(value):.{digits}f}{unit}"
+
+
+def _change(delta: float, digits: int, unit: str = "", higher_is_better: bool = True) -> str:
+    """A signed difference, green where it is an improvement and red where not."""
+    good = delta >= 0 if higher_is_better else delta <= 0
+    return f'<span class="{"gain" if good else "loss"}">{_signed(delta, digits, unit)}</span>'
 
 
 def _magma_css() -> str:
@@ -145,8 +152,7 @@ def _view_figure(data: ReportData, i: int, paths: dict[str, str]) -> str:
         _cell(paths[m.key + "_flip"], f"FLIP, {m.label}", f"{m.flip_views[i]:.3f}") for m in data.methods]
     gain = data.ours.psnr_views[i] - data.baseline.psnr_views[i]
     caption = (f"<b>View {i + 1}</b> · {_esc(data.ours.label)} {data.ours.psnr_views[i]:.2f} dB, "
-               f"{_esc(data.baseline.label.lower())} {data.baseline.psnr_views[i]:.2f} dB "
-               f'(<span class="{"gain" if gain >= 0 else "loss"}">{_signed(gain, 2, " dB")}</span>)')
+               f"{_esc(data.baseline.label.lower())} {data.baseline.psnr_views[i]:.2f} dB ({_change(gain, 2, ' dB')})")
     return (f'<figure class="view"><figcaption>{caption}</figcaption>'
             f'<div class="grid" style="--cols:{len(data.methods) + 1}">{"".join(renders + errors)}</div></figure>')
 
@@ -155,16 +161,15 @@ def _summary_cards(data: ReportData) -> str:
     ours, base = data.ours, data.baseline
     psnr_gain, flip_change = ours.psnr - base.psnr, ours.flip - base.flip
     ratio = data.input_triangles / max(ours.triangles, 1)
-    runner_up = "".join(
-        f'<br><span class="{"gain" if ours.psnr >= m.psnr else "loss"}">{_signed(ours.psnr - m.psnr, 2, " dB")}</span>'
-        f" over {_esc(m.label.lower())}" for m in data.methods[1:-1])
+    others = "".join(f"<br>{_change(ours.psnr - m.psnr, 2, ' dB')} over {_esc(m.label.lower())}"
+                     for m in data.methods[1:-1])
     cards = [
         ("Triangles", f"{ours.triangles:,}", f"{ratio:.0f}× fewer than the input's {data.input_triangles:,}"),
-        ("PSNR", f"{ours.psnr:.2f} dB",
-         f'<span class="{"gain" if psnr_gain >= 0 else "loss"}">{_signed(psnr_gain, 2, " dB")}</span> over {_esc(base.label.lower())}{runner_up}'),
+        ("PSNR", f"{ours.psnr:.2f} dB", f"{_change(psnr_gain, 2, ' dB')} over {_esc(base.label.lower())}{others}"),
         ("FLIP", f"{ours.flip:.4f}",
-         f'<span class="{"gain" if flip_change <= 0 else "loss"}">{_signed(flip_change, 4)}</span> against {_esc(base.label.lower())}'),
-        ("Time", _minutes(data.wall_time), f"{data.iterations:,} iterations · {data.seconds_per_iteration:.2f} s/iteration"),
+         f"{_change(flip_change, 4, higher_is_better=False)} against {_esc(base.label.lower())}"),
+        ("Time", _minutes(data.wall_time),
+         f"{data.iterations:,} iterations · {data.seconds_per_iteration:.2f} s/iteration"),
     ]
     return '<section class="cards">' + "".join(
         f'<div class="card"><div class="k">{k}</div><div class="v">{v}</div><div class="s">{s}</div></div>'
@@ -173,8 +178,7 @@ def _summary_cards(data: ReportData) -> str:
 
 def _methods_table(data: ReportData) -> str:
     def row(m: MethodResult) -> str:
-        gain = m.psnr - data.baseline.psnr
-        gain_text = "—" if m is data.baseline else f'<span class="{"gain" if gain >= 0 else "loss"}">{_signed(gain, 2, " dB")}</span>'
+        gain_text = "—" if m is data.baseline else _change(m.psnr - data.baseline.psnr, 2, " dB")
         texture = f"{m.texture_size}²" if m.texture_size else "input's own"
         return (f'<tr class="{"ours" if m is data.ours else ""}"><td>{_esc(m.label)}</td><td>{m.triangles:,}</td>'
                 f"<td>{texture}</td><td>{m.psnr:.2f}</td><td>{m.flip:.4f}</td><td>{gain_text}</td></tr>")
@@ -194,8 +198,9 @@ def _flatten(config: dict, prefix: str = "") -> list[tuple[str, object]]:
     return items
 
 
-def _key_value_table(pairs) -> str:
-    return '<table class="kv">' + "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(v)}</td></tr>" for k, v in pairs) + "</table>"
+def _key_value_table(pairs, mono: bool = False) -> str:
+    rows = "".join(f"<tr><td>{_esc(k)}</td><td>{_esc(v)}</td></tr>" for k, v in pairs)
+    return f'<table class="kv{" mono" if mono else ""}">{rows}</table>'
 
 
 def write_report(outdir: str | Path, data: ReportData) -> Path:
@@ -260,7 +265,7 @@ def write_report(outdir: str | Path, data: ReportData) -> Path:
   {_key_value_table(timings)}
 </div>
 <h2>Configuration</h2>
-{_key_value_table(_flatten(data.config))}
+{_key_value_table(_flatten(data.config), mono=True)}
 <footer>PSNR and FLIP compare whole images after the paper's tone map x ↦ sRGB(log(x + 1)), clamped to [0, 1];
 identical images score {PSNR_CAP_DB:g} dB. FLIP is NVIDIA's FLIP (LDR, 67 pixels per degree), lower is better.
 Written by lookalike {_esc(__version__)} on {_dt.datetime.now().strftime("%Y-%m-%d %H:%M")}.</footer>

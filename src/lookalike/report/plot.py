@@ -38,7 +38,7 @@ def plot_loss(history, path: str | Path, title: str = "Training loss") -> Path:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import FuncFormatter
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
 
     path = Path(path)
     values = np.asarray(history, dtype=np.float64)
@@ -64,6 +64,7 @@ def plot_loss(history, path: str | Path, title: str = "Training loss") -> Path:
         ax.tick_params(which="both", colors="#555555", labelsize=9)
         ax.legend(frameon=False, fontsize=9, loc="upper right")
         ax.set_xlim(1, max(2, len(values)))
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         fig.tight_layout()
         fig.savefig(path, facecolor="white")
     finally:
