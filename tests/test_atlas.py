@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from io_factory import two_material_asset
@@ -100,3 +101,17 @@ def test_merge_materials_keeps_appearance_at_surface_points():
     world_new /= np.linalg.norm(world_new, axis=-1, keepdims=True)
     assert (world_old * world_new).sum(-1)[textured].min() > 0.995
     assert np.allclose(world_new[~textured], n2[~textured], atol=0.02)  # flat where no map was
+
+
+@pytest.mark.parametrize("mode, alpha, expected", [("OPAQUE", 0.3, 1.0), ("MASK", 0.6, 1.0), ("MASK", 0.4, 0.0),
+                                                   ("BLEND", 0.3, 0.3)])
+def test_merged_alpha_keeps_each_part_looking_the_same(mode, alpha, expected):
+    asset = two_material_asset(normal_map=False)
+    asset.materials[0].kd.data[..., 3] = alpha
+    asset.materials[0].alpha_mode = mode
+    merged = merge_materials(asset, size=64, padding=2)
+    m = merged.materials[0]
+    assert m.alpha_mode == "BLEND"  # material 1 blends
+    tri = np.flatnonzero(asset.mesh.t_mat_idx.numpy() == 0)
+    got = _centroid_lookup(merged.mesh, m.kd, tri)[:, 3]
+    assert np.allclose(got, expected, atol=1e-4)

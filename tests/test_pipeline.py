@@ -93,7 +93,8 @@ def test_point_light_falloff():
 
 def test_lambertian_quad_centre_has_analytic_radiance():
     albedo, intensity, distance = 0.6, 9.0, 3.0
-    asset = Asset(quad(), [Material(kd=Texture.constant([albedo, albedo, albedo, 1.0]), ks=Texture.constant(NO_SPECULAR))])
+    grey = Material(kd=Texture.constant([albedo, albedo, albedo, 1.0]), ks=Texture.constant(NO_SPECULAR))
+    asset = Asset(quad(), [grey])
     image = render(asset, front_camera(distance), light_at([0.0, 0.0, distance], intensity), 33)
     expected = albedo / math.pi * intensity / distance ** 2
     assert torch.allclose(image[0, 16, 16], torch.tensor([expected, expected, expected, 1.0]), rtol=1e-4)
@@ -137,7 +138,8 @@ def test_sphere_coverage_matches_projected_area():
 def test_supersampling_reduces_edge_aliasing():
     tilted = quad(size=0.8)
     angle = math.radians(17)
-    rotation = torch.tensor([[math.cos(angle), -math.sin(angle), 0], [math.sin(angle), math.cos(angle), 0], [0, 0, 1.0]])
+    cos, sin = math.cos(angle), math.sin(angle)
+    rotation = torch.tensor([[cos, -sin, 0], [sin, cos, 0], [0, 0, 1.0]])
     tilted.v_pos = tilted.v_pos @ rotation.T
     asset = Asset(tilted, [Material()])
     camera, light = front_camera(), light_at([0.0, 0.0, 3.0], 9.0)
@@ -168,7 +170,7 @@ def test_depth_peeled_blended_quads_composite_back_to_front():
 
 
 def test_mask_alpha_mode_and_background_image_orientation():
-    mask_low, mask_high = emissive_material([1.0, 1.0, 1.0], 0.4, "MASK"), emissive_material([1.0, 1.0, 1.0], 0.4, "MASK")
+    mask_low, mask_high = (emissive_material([1.0, 1.0, 1.0], 0.4, "MASK") for _ in range(2))
     mask_low.alpha_cutoff, mask_high.alpha_cutoff = 0.3, 0.5
     background = torch.zeros(1, 16, 16, 3)
     background[:, :8, :, 0] = 1.0  # top half red
@@ -258,6 +260,26 @@ def test_texture_transform_and_stacked_lookups_match_single_lookups():
     assert torch.equal(stacked[3], torch.tensor([[0.1, 0.2]]).expand(50, 2))
 
 
+def test_own_mip_levels_are_used_and_get_gradients():
+    """A texture with its own mip levels (prefiltering latents): a minified quad shows the
+    levels' colour, not the base level's, and the levels receive the gradient."""
+    base = torch.zeros(64, 64, 4)
+    base[..., 0] = base[..., 3] = 1.0  # red base level
+    levels = []
+    for size in (32, 16, 8, 4, 2, 1):
+        level = torch.zeros(size, size, 4)
+        level[..., 1] = level[..., 3] = 1.0  # green coarser levels
+        levels.append(level.requires_grad_(True))
+    material = Material(kd=Texture(base, mips=levels), ks=Texture.constant(NO_SPECULAR))
+    # The quad covers about 3 x 3 pixels: mip level ~4.
+    far = Camera.looking_at(torch.tensor([[0.0, 0.0, 40.0]]), torch.zeros(1, 3), fovy=math.radians(60), far=100.0)
+    image = render(Asset(quad(), [material]), far, light_at([0.0, 0.0, 40.0], 1600.0), 64)
+    centre = image[0, 32, 32]
+    assert centre[1] > 10 * centre[0]
+    centre[1].backward()
+    assert sum(level.grad.abs().sum() for level in levels) > 0
+
+
 def test_msaa_shades_once_but_covers_like_supersampling():
     asset = Asset(uv_sphere(1.0, 16, 32), [Material()])
     camera, light = front_camera(), light_at([0.0, 0.0, 3.0], 9.0)
@@ -315,7 +337,8 @@ def test_pipeline_gradients_match_finite_differences():
 
 @pytest.mark.parametrize("spp", [1, 2])
 def test_no_nans_at_grazing_views(spp):
-    asset = normal_mapped_sphere(Texture(torch.nn.functional.normalize(torch.rand(8, 8, 3) - 0.5 + torch.tensor([0, 0, 1.0]), dim=-1)))
+    bumps = torch.nn.functional.normalize(torch.rand(8, 8, 3) - 0.5 + torch.tensor([0, 0, 1.0]), dim=-1)
+    asset = normal_mapped_sphere(Texture(bumps))
     camera, light = front_camera(), light_at([3.0, 0.0, 0.1], 9.0)  # light grazing from the side
     image = render(asset, camera, light, 32, spp=spp)
     assert torch.isfinite(image).all() and (image >= 0).all()

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
 import lookalike.render as dr
 from lookalike.render.reference import reference_visibility
+from lookalike.render import visibility
 from lookalike.render.visibility import TILE, visible_triangles
 
 
@@ -126,3 +128,24 @@ def test_bad_inputs_raise_clear_errors():
         dr.rasterize(None, pos[0], torch.tensor([[0, 1, 2]]), (4, 4))
     with pytest.raises(ValueError, match="int32 or int64"):
         dr.rasterize(None, pos, torch.tensor([[0.0, 1.0, 2.0]]), (4, 4))
+
+
+def test_view_parallel_and_tile_parallel_paths_agree():
+    pos, tri = random_scene(3, 300)
+    pos = pos.numpy()
+    tri = tri.int().numpy()
+    begin = np.zeros(3, np.int64)
+    end = np.full(3, tri.shape[0], np.int64)
+    min_depth = np.full((3, 40, 70), -np.inf, np.float32)
+    results = []
+    for by_tiles in (False, True):
+        tri_id = np.zeros((3, 40, 70), np.int32)
+        depth = np.full((3, 40, 70), np.inf, np.float32)
+        if by_tiles:
+            bbox, bin_start, bin_tris = visibility._bin_triangles(pos, tri, begin, end, 70, 40)
+            visibility._rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, 70, 40, min_depth, tri_id, depth)
+        else:
+            visibility._rasterize_views(pos, tri, begin, end, 70, 40, min_depth, tri_id, depth)
+        results.append((tri_id, depth))
+    assert (results[0][0] == results[1][0]).all() and (results[0][1] == results[1][1]).all()
+    assert (results[0][0] > 0).mean() > 0.2

@@ -72,7 +72,7 @@ def test_degenerate_uvs_give_finite_unit_tangents_and_gradients():
     v_tex.requires_grad_(True)
     v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
     v_tng, _ = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex, mesh.uv[0][1], v_nrm)
-    assert torch.isfinite(v_tng).all()
+    assert torch.isfinite(v_tng).all() and (v_tng[:, 3] == 1).all()  # zero UV area counts as unmirrored
     assert torch.allclose(v_tng[:, :3].norm(dim=-1), torch.ones(len(v_tng), dtype=torch.float64))
     assert (v_tng[:, :3] * v_nrm[0]).sum(-1).abs().max() < 1e-9
     v_tng.sum().backward()

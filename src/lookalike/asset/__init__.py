@@ -1,4 +1,5 @@
-"""Assets: Mesh, Material, Skin, Asset, and differentiable mesh operations (``ops``)."""
+"""Assets: Mesh, Material, Skin, Asset; differentiable mesh operations live in the sibling modules
+(normals, tangents, laplacian, subdivide, displace, skinning)."""
 
 from .asset import Asset
 from .material import ALPHA_MODES, Material, Texture

@@ -11,7 +11,9 @@ the chart borders so that bilinear filtering and mipmaps do not pull in the back
 texel still uncovered gets the channel's mean.
 
 The merged material is double-sided if any input is, blends if any input blends, else masks if
-any input masks (with the smallest cutoff).
+any input masks (with the smallest cutoff). Its alpha keeps each part looking as before: 1 where
+the part was opaque, 0 or 1 (the part's own cutoff applied) where it was masked, the alpha itself
+where it blended.
 """
 
 from __future__ import annotations
@@ -63,8 +65,21 @@ def _bake_channel(mesh: Mesh, atlas_mesh: Mesh, materials: list[Material], name:
             if old_set not in frames:
                 frames[old_set] = our_corner_frame(mesh, old_set) if old_set is not None else frames["atlas"]
             values = _reframe(frames[old_set], frames["atlas"], values, tri[pick], bary[pick])
+        if name == "kd":
+            values = np.concatenate([values[:, :3], _merged_alpha(material, values[:, 3:])], axis=1)
         out[rows[pick], cols[pick]] = values
     return out
+
+
+def _merged_alpha(material: Material, alpha: np.ndarray) -> np.ndarray:
+    """Alpha ``[K, 1]`` of ``material`` as the merged material must store it to look the same:
+    1 for an opaque material, 0 or 1 (its own cutoff applied) for a masked one, as is for a
+    blended one."""
+    if material.alpha_mode == "OPAQUE":
+        return np.ones_like(alpha)
+    if material.alpha_mode == "MASK":
+        return (alpha >= material.alpha_cutoff).astype(np.float32)
+    return alpha
 
 
 def _reframe(old_frame, atlas_frame, values: np.ndarray, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
@@ -77,13 +92,26 @@ def _reframe(old_frame, atlas_frame, values: np.ndarray, tri: np.ndarray, bary: 
     return (out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-30)).astype(np.float32)
 
 
-def _finish(texels: np.ndarray, padding: int) -> torch.Tensor:
-    """Dilate covered texels ``padding`` deep, fill the rest with the mean; ``[H, W, C]`` tensor."""
+def fill_uncovered(texels: np.ndarray, padding: int) -> torch.Tensor:
+    """``texels [H, W, C]`` (NaN where uncovered) with covered texels dilated ``padding`` deep and
+    the rest filled with the covered mean; ``[H, W, C]`` float32 tensor."""
     covered = ~np.isnan(texels[..., 0])
     values, covered = dilate(np.nan_to_num(texels), covered, padding)
     if covered.any():
         values[~covered] = values[covered].mean(axis=0)
     return torch.from_numpy(np.ascontiguousarray(values))
+
+
+def merged_modes(materials: list[Material]) -> dict:
+    """``alpha_mode``, ``alpha_cutoff`` and ``double_sided`` of one material standing for all of
+    ``materials`` (the rule in the module docstring), as ``Material`` keyword arguments."""
+    modes = {m.alpha_mode for m in materials}
+    cutoffs = [m.alpha_cutoff for m in materials if m.alpha_mode == "MASK"]
+    return {
+        "alpha_mode": "BLEND" if "BLEND" in modes else "MASK" if "MASK" in modes else "OPAQUE",
+        "alpha_cutoff": min(cutoffs) if cutoffs else 0.5,
+        "double_sided": any(m.double_sided for m in materials),
+    }
 
 
 def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
@@ -106,7 +134,7 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
     materials = asset.materials
 
     def bake(name, channels, default):
-        return _finish(_bake_channel(mesh, atlas_mesh, materials, name, channels, default, size, raster), padding)
+        return fill_uncovered(_bake_channel(mesh, atlas_mesh, materials, name, channels, default, size, raster), padding)
 
     has_normal = any(m.normal is not None for m in materials)
     has_emissive = any(m.emissive is not None for m in materials)
@@ -114,14 +142,10 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
     if has_normal:
         data = bake("normal", 3, _FLAT_NORMAL)
         normal = Texture(data / data.norm(dim=-1, keepdim=True).clamp_min(1e-12))
-    modes = {m.alpha_mode for m in materials}
-    alpha_mode = "BLEND" if "BLEND" in modes else "MASK" if "MASK" in modes else "OPAQUE"
-    cutoffs = [m.alpha_cutoff for m in materials if m.alpha_mode == "MASK"]
     merged = Material(
         name="atlas", kd=Texture(bake("kd", 4, (0.0, 0.0, 0.0, 1.0))), ks=Texture(bake("ks", 3, (0.0, 0.5, 0.0))),
-        normal=normal, alpha_mode=alpha_mode, alpha_cutoff=min(cutoffs) if cutoffs else 0.5,
-        double_sided=any(m.double_sided for m in materials),
-        emissive=Texture(bake("emissive", 3, (0.0, 0.0, 0.0))) if has_emissive else None,
+        normal=normal, emissive=Texture(bake("emissive", 3, (0.0, 0.0, 0.0))) if has_emissive else None,
+        **merged_modes(materials),
     )
     return Asset(mesh=atlas_mesh, materials=[merged], skin=asset.skin, animations=asset.animations,
                  source=asset.source)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import torch
 
+from ..shading.texturing import sample_texture
 from .material import Texture
 from .normals import safe_normalize
 
@@ -20,8 +21,6 @@ def vertex_displacements(num_vertices: int, t_pos_idx: torch.Tensor, v_tex: torc
     """``[V, 1]`` per-vertex displacement: the bilinear lookup of the 1-channel
     ``displacement`` texture (with its transform and wrap) at every UV vertex ``v_tex [VT, 2]``,
     averaged over the corners ``(t_pos_idx [T, 3], t_tex_idx [T, 3])`` of each position."""
-    from ..shading.texturing import sample_texture
-
     per_uv = sample_texture(displacement, v_tex)  # [VT, 1]
     corners = t_pos_idx.reshape(-1)
     summed = per_uv.new_zeros(num_vertices, 1).index_add(0, corners, per_uv[t_tex_idx.reshape(-1)])

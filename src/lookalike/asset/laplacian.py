@@ -14,18 +14,18 @@ from __future__ import annotations
 
 import torch
 
+from .edges import edge_index
+
 
 def unique_edges(t_idx: torch.Tensor) -> torch.Tensor:
     """Undirected edges of a triangle list, each once, as ``[E, 2]`` int64 with
-    ``edge[:, 0] < edge[:, 1]``, sorted lexicographically.
+    ``edge[:, 0] < edge[:, 1]``, sorted lexicographically (degenerate sides dropped).
 
     Args:
         t_idx: ``[T, 3]`` int64 triangle indices.
     """
-    directed = torch.cat([t_idx[:, [0, 1]], t_idx[:, [1, 2]], t_idx[:, [2, 0]]], dim=0)
-    undirected = torch.sort(directed, dim=1).values
-    undirected = undirected[undirected[:, 0] != undirected[:, 1]]
-    return torch.unique(undirected, dim=0)
+    edges = edge_index(t_idx)[0]
+    return edges[edges[:, 0] != edges[:, 1]]
 
 
 class UniformLaplacian:

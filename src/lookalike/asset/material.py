@@ -8,7 +8,7 @@ sampled with glTF's UV convention: ``uv = (0, 0)`` is the top-left corner of the
              by ``(1 - gamma)`` (paper, Sec. 5.2); 0 means an ordinary glTF material.
 - ``normal`` ``[H, W, 3]`` tangent-space unit normal (x right along the tangent, y along the
              bitangent, z out of the surface) in *our* tangent frame
-             (``lookalike.asset.ops.vertex_tangents``), or ``None`` for a flat map.
+             (``lookalike.asset.tangents.vertex_tangents``), or ``None`` for a flat map.
              File formats convert from and to MikkTSpace at the boundary.
 
 A constant channel is a 1x1 texture. Colour is linear inside; sRGB only at file boundaries.

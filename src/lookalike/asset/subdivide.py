@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import torch
 
+from .edges import edge_index
 from .mesh import Mesh
 from .normals import safe_normalize
 
@@ -30,11 +31,9 @@ class EdgeMidpointTopology:
     """
 
     def __init__(self, t_idx: torch.Tensor, num_vertices: int):
-        directed = torch.stack([t_idx[:, [0, 1]], t_idx[:, [1, 2]], t_idx[:, [2, 0]]], dim=1)  # [T, 3, 2]
-        self.edges, inverse = torch.unique(torch.sort(directed.reshape(-1, 2), dim=1).values,
-                                           dim=0, return_inverse=True)
+        self.edges, side_edge = edge_index(t_idx)
         self.num_vertices = num_vertices
-        mid = num_vertices + inverse.reshape(-1, 3)  # [T, 3]: m_ab, m_bc, m_ca
+        mid = num_vertices + side_edge  # [T, 3]: m_ab, m_bc, m_ca
         a, b, c = t_idx.unbind(dim=1)
         m_ab, m_bc, m_ca = mid.unbind(dim=1)
         self.t_idx = torch.stack([

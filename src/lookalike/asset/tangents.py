@@ -11,7 +11,8 @@ Per triangle with edges ``e1 = p1 - p0``, ``e2 = p2 - p0`` and UV edges ``d1 = u
 ``d2 = uv2 - uv0``, ``det = d1.u * d2.v - d2.u * d1.v`` and the UV gradient
 ``dP/du = (e1 * d2.v - e2 * d1.v) / det``. Since ``n . (dP/du x dP/dv) = |e1 x e2| / det``,
 the bitangent ``cross(n, dP/du)`` points along ``+dP/dv`` (down the image) exactly when
-``det > 0``; hence ``w = -sign(det)`` (``det = 0`` counts as positive, so ``w = -1``).
+``det > 0``; hence ``w = -sign(det)`` (``det = 0`` counts as negative, so ``w = +1``, the
+unmirrored case).
 
 Corners are grouped by (position index, UV index, w): a UV seam or a mirror line (change of
 ``w``) splits the tangent, positions never split. Each group's tangent is the sum over its
@@ -61,7 +62,7 @@ def vertex_tangents(v_pos: torch.Tensor, t_pos_idx: torch.Tensor, v_tex: torch.T
     e1, e2 = p1 - p0, p2 - p0
     d1, d2 = uv1 - uv0, uv2 - uv0
     det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
-    sign = torch.where(det < 0, -1.0, 1.0).to(v_pos.dtype)
+    sign = torch.where(det > 0, 1.0, -1.0).to(v_pos.dtype)
     # (e1 * d2.v - e2 * d1.v) = det * dP/du; times sign(det) it points along +dP/du.
     face_dir = safe_normalize((e1 * d2[:, 1:] - e2 * d1[:, 1:]) * sign[:, None])
     area2 = torch.linalg.cross(e1, e2, dim=-1).norm(dim=-1, keepdim=True)

@@ -117,6 +117,8 @@ def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin
     if triangles is None:
         warnings.warn(f"{data.path}: {where} has mode {prim.mode} (points or lines); skipped")
         return None
+    if prim.targets:
+        warnings.warn(f"{data.path}: {where} has morph targets; they are ignored (base shape kept)")
     linear = world[:3, :3]
     with np.errstate(invalid="ignore", over="ignore"):  # non-finite input is reported by _merge
         positions = local @ linear.T + world[:3, 3]

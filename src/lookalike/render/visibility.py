@@ -23,12 +23,15 @@ and near plane fail the depth test ``z/w >= -1``.  Depths are float32 and compar
 float32 throughout, so a depth written by one pass compares bit-exactly in the next
 (depth peeling).
 
-Parallelism: triangles are binned into ``TILE x TILE`` pixel tiles, then ``prange`` runs
-over (view, tile) pairs, so a single view still keeps every core busy.
+Parallelism: with at least as many views as threads, ``prange`` runs over views, each
+walking its triangles once.  With fewer views (a single one, typically) the triangles are
+first binned into ``TILE x TILE`` pixel tiles and ``prange`` runs over (view, tile) pairs,
+so every core stays busy.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -102,19 +105,21 @@ def _outside_one_plane(pos, b, i0, i1, i2):
 
 
 @njit(cache=True, inline="always")
-def _store_bbox(xmin, xmax, ymin, ymax, width, height, bbox, b, t):
-    """Store the inclusive pixel-index box of candidates: pixel ``ix`` is one when its
-    centre (pixel coordinate ``ix``) lies in ``[xmin, xmax]``."""
-    bbox[b, t, 0] = max(0, int(np.ceil(max(xmin, -1.0))))
-    bbox[b, t, 1] = min(width - 1, int(np.floor(min(xmax, float(width)))))
-    bbox[b, t, 2] = max(0, int(np.ceil(max(ymin, -1.0))))
-    bbox[b, t, 3] = min(height - 1, int(np.floor(min(ymax, float(height)))))
+def _pixel_range(xmin, xmax, ymin, ymax, width, height):
+    """Inclusive pixel-index box ``(x0, x1, y0, y1)`` of the pixels whose centre (pixel
+    coordinate ``ix``) lies in ``[xmin, xmax] x [ymin, ymax]``, clipped to the image."""
+    return (
+        max(0, int(np.ceil(max(xmin, -1.0)))),
+        min(width - 1, int(np.floor(min(xmax, float(width))))),
+        max(0, int(np.ceil(max(ymin, -1.0)))),
+        min(height - 1, int(np.floor(min(ymax, float(height))))),
+    )
 
 
 @njit(cache=True)
-def _triangle_bbox(pos, b, t, i0, i1, i2, width, height, bbox):
-    """Write into ``bbox[b, t] = (x0, x1, y0, y1)`` the inclusive pixel-index bounding box
-    of the visible part of a triangle; empty (``x0 > x1``) when culled.
+def _triangle_bbox(pos, b, i0, i1, i2, width, height):
+    """Inclusive pixel-index bounding box ``(x0, x1, y0, y1)`` of the visible part of a
+    triangle; empty (``x0 > x1``) when culled.
 
     Pixel coordinates are ``X = (x/w + 1) W/2 - 1/2`` (pixel ``ix`` has its centre at
     ``X = ix``).  When the triangle crosses the near plane ``z + w = 0`` it is first clipped
@@ -122,23 +127,22 @@ def _triangle_bbox(pos, b, t, i0, i1, i2, width, height, bbox):
     ``w <= 0`` (unusual projections) the box is the whole screen, which is conservative:
     the per-pixel test decides.
     """
-    bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = 1, 0, 1, 0
     if _outside_one_plane(pos, b, i0, i1, i2):
-        return
+        return 1, 0, 1, 0
     half_w, half_h = 0.5 * width, 0.5 * height
     w0, w1, w2 = pos[b, i0, 3], pos[b, i1, 3], pos[b, i2, 3]
     if (
         w0 > 0.0 and w1 > 0.0 and w2 > 0.0
         and pos[b, i0, 2] + w0 >= 0.0 and pos[b, i1, 2] + w1 >= 0.0 and pos[b, i2, 2] + w2 >= 0.0
     ):  # common case: entirely in front of the near plane
-        X0 = (pos[b, i0, 0] / np.float64(w0) + 1.0) * half_w - 0.5
-        X1 = (pos[b, i1, 0] / np.float64(w1) + 1.0) * half_w - 0.5
-        X2 = (pos[b, i2, 0] / np.float64(w2) + 1.0) * half_w - 0.5
-        Y0 = (pos[b, i0, 1] / np.float64(w0) + 1.0) * half_h - 0.5
-        Y1 = (pos[b, i1, 1] / np.float64(w1) + 1.0) * half_h - 0.5
-        Y2 = (pos[b, i2, 1] / np.float64(w2) + 1.0) * half_h - 0.5
-        _store_bbox(min(X0, X1, X2), max(X0, X1, X2), min(Y0, Y1, Y2), max(Y0, Y1, Y2), width, height, bbox, b, t)
-        return
+        r0, r1, r2 = 1.0 / np.float64(w0), 1.0 / np.float64(w1), 1.0 / np.float64(w2)
+        X0 = (pos[b, i0, 0] * r0 + 1.0) * half_w - 0.5
+        X1 = (pos[b, i1, 0] * r1 + 1.0) * half_w - 0.5
+        X2 = (pos[b, i2, 0] * r2 + 1.0) * half_w - 0.5
+        Y0 = (pos[b, i0, 1] * r0 + 1.0) * half_h - 0.5
+        Y1 = (pos[b, i1, 1] * r1 + 1.0) * half_h - 0.5
+        Y2 = (pos[b, i2, 1] * r2 + 1.0) * half_h - 0.5
+        return _pixel_range(min(X0, X1, X2), max(X0, X1, X2), min(Y0, Y1, Y2), max(Y0, Y1, Y2), width, height)
     xmin, xmax, ymin, ymax = np.inf, -np.inf, np.inf, -np.inf
     for k in range(3):
         a = i0 if k == 0 else (i1 if k == 1 else i2)
@@ -159,14 +163,57 @@ def _triangle_bbox(pos, b, t, i0, i1, i2, width, height, bbox):
             y = pos[b, a, 1] + s * (np.float64(pos[b, c, 1]) - pos[b, a, 1])
             w = pos[b, a, 3] + s * (np.float64(pos[b, c, 3]) - pos[b, a, 3])
             if w <= 0.0:
-                bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = 0, width - 1, 0, height - 1
-                return
+                return 0, width - 1, 0, height - 1
             X = (x / w + 1.0) * half_w - 0.5
             Y = (y / w + 1.0) * half_h - 0.5
             xmin, xmax = min(xmin, X), max(xmax, X)
             ymin, ymax = min(ymin, Y), max(ymax, Y)
-    if xmin <= xmax:
-        _store_bbox(xmin, xmax, ymin, ymax, width, height, bbox, b, t)
+    if xmin > xmax:
+        return 1, 0, 1, 0
+    return _pixel_range(xmin, xmax, ymin, ymax, width, height)
+
+
+@njit(cache=True, inline="always")
+def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
+    """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
+    ``x0..x1, y0..y1`` and keep it where it is nearest: ``depth`` (float32 z/w) and
+    ``tri_id`` (``t + 1``) are updated where ``min_depth < d < depth``, ``-1 <= d <= 1``
+    and every edge function is ``>= 0``.  ``planes`` is float64 scratch of 12."""
+    if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
+        return
+    dA = np.float32(planes[9])
+    dB = np.float32(planes[10])
+    dC = np.float32(planes[11])
+    for iy in range(y0, y1 + 1):
+        e0 = planes[1] * iy + planes[2]
+        e1 = planes[4] * iy + planes[5]
+        e2 = planes[7] * iy + planes[8]
+        fy = np.float32(iy)
+        for ix in range(x0, x1 + 1):
+            a0 = planes[0] * ix + e0
+            a1 = planes[3] * ix + e1
+            a2 = planes[6] * ix + e2
+            if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
+                continue
+            d = dA * np.float32(ix) + dB * fy + dC
+            if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
+                continue
+            if d < depth[b, iy, ix]:
+                depth[b, iy, ix] = d
+                tri_id[b, iy, ix] = t + 1
+
+
+@njit(cache=True, parallel=True)
+def _rasterize_views(pos, tri, tri_begin, tri_end, width, height, min_depth, tri_id, depth):
+    """One view per parallel job: each walks its triangles in ascending order (so with the
+    strict depth test the lower index wins ties).  Used when there are at least as many
+    views as threads."""
+    for b in prange(pos.shape[0]):
+        planes = np.empty(12, np.float64)
+        for t in range(tri_begin[b], tri_end[b]):
+            x0, x1, y0, y1 = _triangle_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            if x0 <= x1 and y0 <= y1:
+                _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth)
 
 
 @njit(cache=True, parallel=True)
@@ -174,8 +221,8 @@ def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
     """Bound each view's triangles and bin them into screen tiles.
 
     Returns ``(bbox [B, T, 4] int32, bin_start [B, tiles+1] int64, bin_tris [N] int32)``:
-    ``bbox`` as written by :func:`_triangle_bbox` (only for the view's triangle range), and
-    the triangles of tile ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b,
+    the boxes of :func:`_triangle_bbox` (only for the view's triangle range), and the
+    triangles of tile ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b,
     k + 1]]``, in ascending order.
     """
     n_views = pos.shape[0]
@@ -188,11 +235,12 @@ def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
         b, chunk = job // _CHUNKS, job % _CHUNKS
         n = tri_end[b] - tri_begin[b]
         for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
-            _triangle_bbox(pos, b, t, tri[t, 0], tri[t, 1], tri[t, 2], width, height, bbox)
-            if bbox[b, t, 0] > bbox[b, t, 1] or bbox[b, t, 2] > bbox[b, t, 3]:
+            x0, x1, y0, y1 = _triangle_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = x0, x1, y0, y1
+            if x0 > x1 or y0 > y1:
                 continue
-            for ty in range(bbox[b, t, 2] // TILE, bbox[b, t, 3] // TILE + 1):
-                for tx in range(bbox[b, t, 0] // TILE, bbox[b, t, 1] // TILE + 1):
+            for ty in range(y0 // TILE, y1 // TILE + 1):
+                for tx in range(x0 // TILE, x1 // TILE + 1):
                     counts[b, chunk, ty * tiles_x + tx] += 1
     # offsets in (view, tile, chunk) order, so each bin lists triangles in ascending order
     bin_start = np.zeros((n_views, n_tiles + 1), np.int64)
@@ -222,10 +270,8 @@ def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
 
 @njit(cache=True, parallel=True)
 def _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth):
-    """Fill ``tri_id [B,H,W] int32`` (triangle index + 1, 0 = none) and ``depth [B,H,W]
-    float32`` (z/w, +inf where none) with, per pixel, the nearest triangle whose depth is
-    strictly greater than ``min_depth [B,H,W] float32``.  Bins list triangles in ascending
-    order and the depth test is strict, so on equal depths the lower index wins."""
+    """One screen tile of one view per parallel job, drawing the triangles binned to it
+    (ascending order, so the lower index wins ties).  Used for fewer views than threads."""
     n_views = pos.shape[0]
     tiles_x = (width + TILE - 1) // TILE
     n_tiles = bin_start.shape[1] - 1
@@ -238,28 +284,9 @@ def _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_dep
         planes = np.empty(12, np.float64)
         for n in range(bin_start[b, k], bin_start[b, k + 1]):
             t = bin_tris[n]
-            if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
-                continue
-            dA = np.float32(planes[9])
-            dB = np.float32(planes[10])
-            dC = np.float32(planes[11])
-            for iy in range(max(bbox[b, t, 2], ty0), min(bbox[b, t, 3], ty1) + 1):
-                e0 = planes[1] * iy + planes[2]
-                e1 = planes[4] * iy + planes[5]
-                e2 = planes[7] * iy + planes[8]
-                fy = np.float32(iy)
-                for ix in range(max(bbox[b, t, 0], tx0), min(bbox[b, t, 1], tx1) + 1):
-                    a0 = planes[0] * ix + e0
-                    a1 = planes[3] * ix + e1
-                    a2 = planes[6] * ix + e2
-                    if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
-                        continue
-                    d = dA * np.float32(ix) + dB * fy + dC
-                    if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
-                        continue
-                    if d < depth[b, iy, ix]:
-                        depth[b, iy, ix] = d
-                        tri_id[b, iy, ix] = t + 1
+            x0, x1 = max(bbox[b, t, 0], tx0), min(bbox[b, t, 1], tx1)
+            y0, y1 = max(bbox[b, t, 2], ty0), min(bbox[b, t, 3], ty1)
+            _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth)
 
 
 def visible_triangles(
@@ -295,6 +322,9 @@ def visible_triangles(
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
     tri_id = np.zeros((n_views, height, width), np.int32)
     depth = np.full((n_views, height, width), np.inf, np.float32)
-    bbox, bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
-    _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
+    if n_views >= numba.get_num_threads():
+        _rasterize_views(pos, tri, begin, end, width, height, min_depth, tri_id, depth)
+    else:
+        bbox, bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
+        _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
     return tri_id, depth
