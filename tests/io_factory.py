@@ -63,7 +63,8 @@ def uv_sphere(n_lat: int = 12, n_lon: int = 24, dtype=torch.float32) -> Mesh:
     r = torch.arange(rings - 1)[:, None].expand(-1, n_lon).reshape(-1)
     c = j[None].expand(rings - 1, -1).reshape(-1)
     cn = (c + 1) % n_lon
-    tris_p += [torch.stack([pos(r, c), pos(r + 1, c), pos(r + 1, cn)], 1), torch.stack([pos(r, c), pos(r + 1, cn), pos(r, cn)], 1)]
+    tris_p += [torch.stack([pos(r, c), pos(r + 1, c), pos(r + 1, cn)], 1),
+               torch.stack([pos(r, c), pos(r + 1, cn), pos(r, cn)], 1)]
     tris_t += [torch.stack([tex(r, c), tex(r + 1, c), tex(r + 1, c + 1)], 1),
                torch.stack([tex(r, c), tex(r + 1, c + 1), tex(r, c + 1)], 1)]
     tris_p.append(torch.stack([pos(rings - 1, j), torch.full_like(j, south), pos(rings - 1, jn)], 1))

@@ -40,6 +40,12 @@ class ToySource:
         with torch.no_grad():
             return Batch(camera, light, toy_render(self.truth.as_asset(), camera, light))
 
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, state: dict) -> None:
+        pass
+
 
 def config(**optim) -> Config:
     return config_from_dict({"optim": {"lr_textures": 0.05, "lr_positions": 0.01, **optim}, "views": {"batch_size": 2}})
@@ -132,3 +138,30 @@ def test_the_time_budget_fixes_the_iteration_count():
     assert fit.progress.total == result.iterations
     assert 5 < result.iterations
     assert result.seconds < 1.5
+
+
+class PositionTarget:
+    """A fake reference renderer: each image is filled with its camera's position."""
+
+    def render(self, camera, light):
+        return torch.cat([camera.position, light.position[:, :1]], dim=-1)[:, None, None, :].expand(-1, 2, 2, 4)
+
+
+def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
+    from lookalike.fit.targets import ViewPool
+    from lookalike.fit.views import view_sampler
+    from lookalike.init import icosphere
+
+    sampler = view_sampler(icosphere(1))
+    pool = ViewPool(PositionTarget(), sampler, size=4, seed=(7, 1), refresh_every=2)
+    first = pool.images.clone()
+    rng = np.random.default_rng(0)
+    for _ in range(7):
+        batch = pool.sample(rng, 2)
+        assert torch.equal(batch.target[:, 0, 0, :3], batch.camera.position.half().float())
+    assert pool.drawn == 4 + 3 and (pool.images != first).any(dim=(1, 2, 3)).sum() == 3
+    rebuilt = ViewPool(PositionTarget(), sampler, size=4, seed=(7, 1), refresh_every=2)
+    rebuilt.load_state_dict(pool.state_dict())
+    assert torch.equal(rebuilt.images, pool.images) and torch.equal(rebuilt.camera.mv, pool.camera.mv)
+    assert torch.equal(rebuilt.light.position, pool.light.position)
+    assert torch.equal(rebuilt.sample(np.random.default_rng(1), 2).target, pool.sample(np.random.default_rng(1), 2).target)

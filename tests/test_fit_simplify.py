@@ -123,3 +123,14 @@ def test_the_command_line_reports_bad_input_without_a_traceback(tmp_path, capsys
     assert "target triangle count must be positive" in capsys.readouterr().err
     assert main(["simplify", str(path), "--time-budget", "soon"]) == 2
     assert "cannot read the duration" in capsys.readouterr().err
+
+
+def test_same_seed_same_model(tmp_path):
+    cfg = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 1, "batch_size": 2}})
+    runs = [simplify(bumpy_sphere(), tmp_path / name, triangles=100, iterations=6, seed=seed, config=cfg, progress=False)
+            for name, seed in (("a", 5), ("b", 5), ("c", 6))]
+    models = [io.load(run.model) for run in runs]
+    assert torch.equal(models[0].mesh.v_pos, models[1].mesh.v_pos)
+    assert torch.equal(models[0].materials[0].kd.data, models[1].materials[0].kd.data)
+    assert runs[0].metrics["heldout"]["ours"] == runs[1].metrics["heldout"]["ours"]
+    assert not torch.equal(models[0].mesh.v_pos, models[2].mesh.v_pos)

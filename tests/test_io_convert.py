@@ -50,7 +50,8 @@ def test_matrix_to_trs_inverts_trs_matrix():
     rotation = torch.tensor([0.1, -0.5, 0.3, 0.8], dtype=torch.float64)
     rotation /= rotation.norm()
     for scale in ([2.0, 0.5, 1.5], [-1.0, 2.0, 3.0]):
-        m = trs_matrix(torch.tensor([1.0, 2, 3], dtype=torch.float64), rotation, torch.tensor(scale, dtype=torch.float64))
+        translation = torch.tensor([1.0, 2, 3], dtype=torch.float64)
+        m = trs_matrix(translation, rotation, torch.tensor(scale, dtype=torch.float64))
         t, r, s = matrix_to_trs(m.numpy())
         back = trs_matrix(*(torch.from_numpy(np.asarray(v, np.float64)) for v in (t, r, s)))
         assert torch.allclose(back, m, atol=1e-12)

@@ -65,7 +65,8 @@ def with_degenerate_triangles(mesh):
 @pytest.mark.parametrize("make", [lambda: uv_sphere(10, 20), lambda: bumpy(uv_sphere(7, 11)),
                                   lambda: with_degenerate_triangles(bumpy(uv_sphere(7, 11))),
                                   lambda: bumpy(mirrored_plane(5), 0.2), lambda: bumpy(mirrored_plane(6), 0.2)],
-                         ids=["sphere", "bumpy-sphere-with-seam", "degenerate", "mirrored-uvs", "mirror-inside-triangles"])
+                         ids=["sphere", "bumpy-sphere-with-seam", "degenerate", "mirrored-uvs",
+                              "mirror-inside-triangles"])
 def test_matches_reference_implementation(make):
     positions, normals, uvs = corner_arrays(make())
     ours = mikktspace_tangents(positions, normals, uvs)
@@ -113,7 +114,9 @@ def test_compiled_conversion_matches_numpy_twin():
     positions, normals, uvs = corner_arrays(mesh)
     uvs = uvs * np.float32(1.5) + np.float32(0.25)
     g = np.random.default_rng(0)
-    src = (normals.astype(np.float64), np.concatenate([g.normal(size=normals.shape), np.sign(g.normal(size=(*normals.shape[:2], 1)))], -1))
+    handedness = np.sign(g.normal(size=(*normals.shape[:2], 1)))
+    random_tangents = np.concatenate([g.normal(size=normals.shape), handedness], -1)
+    src = (normals.astype(np.float64), random_tangents)
     dst = our_corner_frame(mesh, 0)
     pixels = bumpy_normal_map(48).numpy()
     fast = reexpress_normal_map(pixels, uvs, src, dst, gutter=2)

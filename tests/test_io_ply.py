@@ -46,6 +46,7 @@ def test_bad_ply_inputs(tmp_path):
     nan = np.array([(0, 0, 0), (1, 0, np.nan), (1, 1, 0), (0, 1, 0), (2, 0, 0)])
     with pytest.raises(AssetError, match="NaN"):
         io.load(write_ply(tmp_path / "n.ply", False, [[0, 1, 2]], positions=nan))
-    (tmp_path / "g.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nend_header\n")
+    header = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nend_header\n"
+    (tmp_path / "g.ply").write_bytes(header)
     with pytest.raises(AssetError, match="g.ply"):
         io.load(tmp_path / "g.ply")

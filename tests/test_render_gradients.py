@@ -111,3 +111,12 @@ def test_interpolate_values_and_derivatives():
     x, w = out[0, iy, ix, 0], out[0, iy, ix, 2]
     dxdX, dwdX = out_da[0, iy, ix, 0], out_da[0, iy, ix, 4]
     torch.testing.assert_close((dxdX * w - x * dwdX) / w**2, torch.full_like(w, 2 / 16))
+
+
+def test_interpolate_rejects_mismatched_triangles():
+    pos, tri = perspective_triangles(1)
+    rast, _ = dr.rasterize(None, pos, tri, (8, 8))
+    with pytest.raises(ValueError, match="beyond"):
+        dr.interpolate(torch.zeros(6, 2), rast, tri[:1])
+    with pytest.raises(ValueError, match="outside"):
+        dr.interpolate(torch.zeros(4, 2), rast, tri)

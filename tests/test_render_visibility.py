@@ -149,3 +149,12 @@ def test_view_parallel_and_tile_parallel_paths_agree():
         results.append((tri_id, depth))
     assert (results[0][0] == results[1][0]).all() and (results[0][1] == results[1][1]).all()
     assert (results[0][0] > 0).mean() > 0.2
+
+
+def test_empty_and_invalid_geometry_never_crash():
+    pos = torch.tensor([[[0.0, 0.0, 0.0, -1.0], [1.0, 0.0, 0.0, -1.0], [0.0, 1.0, 0.0, -1.0], [float("nan"), 0.0, 0.0, 1.0]]])
+    for tri in (torch.zeros(0, 3, dtype=torch.int32), torch.tensor([[0, 1, 2], [0, 1, 3], [3, 3, 3]])):
+        rast, rast_db = dr.rasterize(None, pos, tri, (8, 8))
+        assert (rast == 0).all() and (rast_db == 0).all()
+        color = dr.antialias(torch.ones(1, 8, 8, 3), rast, pos, tri)
+        assert torch.equal(color, torch.ones(1, 8, 8, 3))

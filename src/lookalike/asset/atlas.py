@@ -134,7 +134,8 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
     materials = asset.materials
 
     def bake(name, channels, default):
-        return fill_uncovered(_bake_channel(mesh, atlas_mesh, materials, name, channels, default, size, raster), padding)
+        texels = _bake_channel(mesh, atlas_mesh, materials, name, channels, default, size, raster)
+        return fill_uncovered(texels, padding)
 
     has_normal = any(m.normal is not None for m in materials)
     has_emissive = any(m.emissive is not None for m in materials)

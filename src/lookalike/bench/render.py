@@ -6,8 +6,8 @@ Figures (medians over ``repeats``):
   views at 512x512 of a perturbed sphere with ~100k / ~500k triangles.
 - ``frame_forward_ms`` / ``frame_backward_ms`` / ``frame_total_ms``: one optimisation
   frame, 4 views at 512x512 of a ~5k-triangle sphere: rasterize, interpolate uv (with
-  derivatives), normal and position, trilinear lookup of a 1024^2 RGBA texture, simple
-  shading, antialias, L1 loss; backward to vertex positions and texels.
+  derivatives) and normal + position (one call), trilinear lookup of a 1024^2 RGBA
+  texture, Lambert shading, antialias, L1 loss; backward to vertex positions and texels.
 - ``cpu_per_wall``: process CPU time over wall time during the frames (parallelism).
 - ``compile_s``: in a fresh process with torch imported, ``import lookalike.render`` and a
   first small ``rasterize`` with an empty Numba cache (compiles the visibility kernels);
@@ -142,8 +142,8 @@ def time_frame(repeats: int) -> dict:
         pos = to_clip(v_pos, mvp)
         rast, rast_db = dr.rasterize(None, pos, tri, (512, 512))
         uv, uv_da = dr.interpolate(v_uv, rast, tri, rast_db, diff_attrs="all")
-        normal, _ = dr.interpolate(v_nrm, rast, tri)
-        position, _ = dr.interpolate(v_pos, rast, tri)
+        gbuffer, _ = dr.interpolate(torch.cat([v_nrm, v_pos], 1), rast, tri)
+        normal, position = gbuffer[..., :3], gbuffer[..., 3:]
         albedo = dr.texture(texels, uv, uv_da, filter_mode="linear-mipmap-linear")
         shade = (normal * light).sum(-1, keepdim=True).clamp_min(0.0) + 0.05 * position.norm(dim=-1, keepdim=True)
         color = dr.antialias(albedo[..., :3] * shade, rast, pos, tri, topology)

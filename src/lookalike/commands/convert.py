@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
 
         asset = merge_materials(asset, args.atlas)
     save(asset, args.output)
-    mesh = asset.mesh
-    print(f"{args.input} -> {args.output}: {mesh.num_triangles} triangles, {len(asset.materials)} material(s)"
-          + (f", skin with {len(asset.skin.joints)} joints, {len(asset.animations)} animation(s)" if asset.skin else ""))
+    skin = f", skin with {len(asset.skin.joints)} joints, {len(asset.animations)} animation(s)" if asset.skin else ""
+    print(f"{args.input} -> {args.output}: {asset.mesh.num_triangles} triangles, {len(asset.materials)} material(s)"
+          + skin)
     return 0

@@ -96,14 +96,17 @@ class ViewsConfig:
 
     Attributes:
         batch_size: views per optimisation step (the paper uses 1 to 8).
-        pool_size: reference images rendered once before optimising, from which mini-batches
-            are drawn; 0 renders fresh random views at every step instead.
+        pool_size: reference images rendered before optimising, from which mini-batches are
+            drawn; 0 renders fresh random views at every step instead.
+        refresh_every: steps between renders of one new view into the pool (replacing its
+            oldest); 0 keeps the pool fixed.
         heldout: views of the report, drawn from ``heldout_seed`` and never trained on.
         heldout_seed: seed of the held-out views (fixed so that runs stay comparable).
     """
 
     batch_size: int = 2
-    pool_size: int = 96
+    pool_size: int = 64
+    refresh_every: int = 2
     heldout: int = 16
     heldout_seed: int = 20_210_809
 
@@ -182,7 +185,7 @@ class Config:
         lat, ren, vw, opt = self.latent, self.render, self.views, self.optim
         checks = [
             (lat.triangles is None or lat.triangles > 0,
-             f"latent.triangles must be a positive triangle count, not {lat.triangles}"),
+             f"target triangle count must be positive, got {lat.triangles} (latent.triangles)"),
             (lat.ratio is None or 0.0 < lat.ratio < 1.0, f"latent.ratio must lie in (0, 1), not {lat.ratio}"),
             (lat.triangles is None or lat.ratio is None, "give latent.triangles or latent.ratio, not both"),
             (lat.texture_size >= 4, f"latent.texture_size must be at least 4, not {lat.texture_size}"),
@@ -193,6 +196,7 @@ class Config:
             (vw.batch_size >= 1, f"views.batch_size must be at least 1, not {vw.batch_size}"),
             (vw.pool_size == 0 or vw.pool_size >= vw.batch_size,
              f"views.pool_size must be 0 or at least views.batch_size, not {vw.pool_size}"),
+            (vw.refresh_every >= 0, f"views.refresh_every must not be negative, not {vw.refresh_every}"),
             (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
             (opt.time_budget > 0, f"optim.time_budget must be positive, not {opt.time_budget}"),
             (opt.iterations is None or opt.iterations >= 0,

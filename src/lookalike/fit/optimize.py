@@ -68,9 +68,16 @@ class Batch:
 
 
 class BatchSource(Protocol):
-    """Where training views come from (``lookalike.fit.targets``)."""
+    """Where training views come from (``lookalike.fit.targets``); its state (if any) is part
+    of a checkpoint."""
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        ...
+
+    def state_dict(self) -> dict:
+        ...
+
+    def load_state_dict(self, state: dict) -> None:
         ...
 
 
@@ -306,6 +313,7 @@ class Fitter:
             "best": self.best_state,
             "snapshot": self._good,
             "progress": self.progress.__dict__.copy(),
+            "source": self.source.state_dict(),
             "torch_rng": self._random_state[0],
             "numpy_rng": self._random_state[1],
         }
@@ -316,6 +324,7 @@ class Fitter:
         self.best_state = state["best"]
         self._good = state["snapshot"]
         self.progress = _Progress(**state["progress"])
+        self.source.load_state_dict(state["source"])
         torch.set_rng_state(state["torch_rng"])
         self.rng.bit_generator.state = state["numpy_rng"]
         self._mark_random_state()

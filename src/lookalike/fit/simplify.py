@@ -46,7 +46,8 @@ OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
 
 POOL_STREAM, TEXTURE_STREAM = 1, 2
-"""Independent random streams derived from the seed: ``default_rng((seed, stream))``."""
+"""Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
+optimisation loop itself draws from ``default_rng(seed)``)."""
 
 
 @dataclass
@@ -172,8 +173,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
     draw = latent_renderer(cfg.render.resolution, cfg.render.latent_msaa)
     heldout = HeldoutViews(target, sampler, cfg.views.heldout, cfg.views.heldout_seed)
-    pool_rng = np.random.default_rng((cfg.optim.seed, POOL_STREAM))
-    source = ViewPool(target, sampler, cfg.views.pool_size, pool_rng) if cfg.views.pool_size else FreshViews(target, sampler)
+    source = (ViewPool(target, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM), cfg.views.refresh_every)
+              if cfg.views.pool_size else FreshViews(target, sampler))
     timings["reference views"] = time.monotonic() - clock
 
     clock = time.monotonic()

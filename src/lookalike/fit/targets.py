@@ -4,10 +4,9 @@ The optimisation treats the reference renderer as a black box (paper Sec. 4): a
 :class:`Target` renders the reference under given cameras and lights. :class:`MeshTarget`
 is the input asset rendered by our own pipeline, supersampled.
 
-Training views come from a :class:`BatchSource`: :class:`ViewPool` renders a pool of random
-views once (stored as float16) and draws mini-batches from it; :class:`FreshViews` renders
-new random views at every step. The pool is much cheaper per step because a supersampled
-render of a high-poly reference costs many latent steps.
+Training views come from a :class:`BatchSource`: :class:`ViewPool` keeps a rolling pool of
+rendered views (float16) and draws mini-batches from it; :class:`FreshViews` renders new
+random views at every step.
 """
 
 from __future__ import annotations
@@ -66,21 +65,73 @@ def render_in_chunks(target: Target, camera: Camera, light: PointLight, dtype=to
 
 
 class ViewPool:
-    """``size`` random views rendered once; mini-batches are drawn without replacement within
-    a batch.
+    """A rolling pool of reference images: ``size`` random views rendered up front, then one
+    new view rendered every ``refresh_every`` mini-batches, replacing the oldest. Mini-batches
+    are drawn from the pool without replacement within a batch.
+
+    A small fixed pool lets the latent model overfit its few lights and viewpoints; fresh
+    views at every step cost a supersampled render of the high-poly reference per image. The
+    rolling pool keeps most steps cheap while the set of views keeps growing.
+
+    Views are drawn one at a time from the pool's own generator, so the pool after ``drawn``
+    views is the same however it got there; ``state_dict``/``load_state_dict`` rebuild it.
 
     Attributes:
-        camera, light: the pool's views (batch ``size``).
+        camera, light: the pool's views (batch ``size``); slot ``j % size`` holds view ``j``.
         images: ``[size, H, W, 4]`` float16 reference images.
     """
 
-    def __init__(self, target: Target, sampler: ViewSampler, size: int, rng: np.random.Generator):
-        self.camera, self.light = sampler(rng, size)
-        self.images = render_in_chunks(target, self.camera, self.light, torch.float16)
+    def __init__(self, target: Target, sampler: ViewSampler, size: int, seed, refresh_every: int = 0):
+        self.target = target
+        self.sampler = sampler
+        self.size = size
+        self.seed = seed
+        self.refresh_every = refresh_every
+        self.samples = 0
+        self._fill(drawn=size)
+
+    def _fill(self, drawn: int) -> None:
+        """Render the views ``drawn - size .. drawn - 1`` into their slots."""
+        self.rng = np.random.default_rng(self.seed)
+        views = [self.sampler(self.rng, 1) for _ in range(drawn)][-self.size:]
+        order = sorted(range(self.size), key=lambda k: (drawn - self.size + k) % self.size)
+        self.camera = _cat_cameras([views[k][0] for k in order])
+        self.light = _cat_lights([views[k][1] for k in order])
+        self.images = render_in_chunks(self.target, self.camera, self.light, torch.float16)
+        self.drawn = drawn
+
+    def _refresh(self) -> None:
+        """Render one new view into the slot of the oldest."""
+        camera, light = self.sampler(self.rng, 1)
+        slot = self.drawn % self.size
+        self.camera.mv[slot], self.camera.proj[slot], self.camera.position[slot] = camera.mv[0], camera.proj[0], camera.position[0]
+        self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
+        self.images[slot] = self.target.render(camera, light)[0].to(torch.float16)
+        self.drawn += 1
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
-        index = torch.from_numpy(rng.choice(self.images.shape[0], size=batch_size, replace=False))
+        if self.refresh_every and self.samples and self.samples % self.refresh_every == 0:
+            self._refresh()
+        self.samples += 1
+        index = torch.from_numpy(rng.choice(self.size, size=batch_size, replace=False))
         return Batch(self.camera[index], self.light[index], self.images[index].float())
+
+    def state_dict(self) -> dict:
+        return {"drawn": self.drawn, "samples": self.samples}
+
+    def load_state_dict(self, state: dict) -> None:
+        if state["drawn"] != self.drawn:
+            self._fill(state["drawn"])
+        self.samples = state["samples"]
+
+
+def _cat_cameras(cameras: list[Camera]) -> Camera:
+    return Camera(mv=torch.cat([c.mv for c in cameras]).contiguous(), proj=torch.cat([c.proj for c in cameras]).contiguous(),
+                  position=torch.cat([c.position for c in cameras]).contiguous())
+
+
+def _cat_lights(lights: list[PointLight]) -> PointLight:
+    return PointLight(position=torch.cat([l.position for l in lights]), intensity=torch.cat([l.intensity for l in lights]))
 
 
 class FreshViews:
@@ -93,6 +144,12 @@ class FreshViews:
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
         camera, light = self.sampler(rng, batch_size)
         return Batch(camera, light, self.target.render(camera, light))
+
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, state: dict) -> None:
+        pass
 
 
 def latent_renderer(resolution: int, msaa: int):

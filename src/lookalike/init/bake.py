@@ -142,6 +142,34 @@ class BakeResult:
     mean_offset: float
 
 
+def locate_on_reference(reference: Mesh, texels: AtlasTexels, cage: float):
+    """The reference point each texel bakes: its nearest hit along the normal line within
+    ``cage`` (``project_along_normals``), else the closest point of the reference.
+
+    Returns:
+        ``(triangle [K] int64, barycentric [K, 3] float64, offset [K] float64, hit [K] bool)``:
+        the reference triangle and weights, the signed distance along the normal (the
+        unsigned distance for closest points), and whether a ray found it.
+    """
+    v_pos = reference.v_pos.detach().double().numpy()
+    t_pos_idx = reference.t_pos_idx.numpy()
+    hits, offset = project_along_normals(RayCaster(v_pos, t_pos_idx), texels.position, texels.normal, cage)
+    triangle, bary, hit = hits.triangle.copy(), hits.barycentric.copy(), hits.hit
+    if not hit.all():
+        closest = SurfaceQuery(v_pos, t_pos_idx).closest(texels.position[~hit])
+        triangle[~hit], bary[~hit], offset[~hit] = closest.triangle, closest.barycentric, closest.distance
+    return triangle, bary, offset, hit
+
+
+def to_tangent_space(normals: np.ndarray, texels: AtlasTexels) -> np.ndarray:
+    """``[K, 3]`` unit normal-map values ``normalize(s.t, s.b, s.n)`` of world normals
+    ``normals [K, 3]`` in the texels' frames (``(0, 0, 1)`` where ``s`` is zero)."""
+    values = np.stack([(normals * texels.tangent).sum(-1), (normals * texels.bitangent).sum(-1),
+                       (normals * texels.normal).sum(-1)], axis=-1)
+    length = np.linalg.norm(values, axis=-1, keepdims=True)
+    return np.where(length > 1e-12, values / np.maximum(length, 1e-12), [0.0, 0.0, 1.0])
+
+
 def nearest_covered(rows: np.ndarray, cols: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """For every texel of a ``size x size`` image, the (row, col) ``[size, size]`` int64 of the
     nearest of the covered texels ``(rows [K], cols [K])``, ``K >= 1`` (itself where covered)."""
@@ -184,19 +212,10 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     texels = atlas_texels(low, texture_size)
     if len(texels.rows) == 0:
         raise ConfigError(f"the low-poly mesh's UV atlas covers no texel of a {texture_size}^2 texture")
-    ref_pos = reference.mesh.v_pos.detach().double().numpy()
-    ref_idx = reference.mesh.t_pos_idx.numpy()
-    hits, offset = project_along_normals(RayCaster(ref_pos, ref_idx), texels.position, texels.normal, cage)
-    triangle, bary = hits.triangle, hits.barycentric
-    missed = ~hits.hit
-    if missed.any():
-        closest = SurfaceQuery(ref_pos, ref_idx).closest(texels.position[missed])
-        triangle[missed], bary[missed], offset[missed] = closest.triangle, closest.barycentric, closest.distance
+    triangle, bary, offset, hit = locate_on_reference(reference.mesh, texels, cage)
     values = ReferenceSurface(reference).sample(torch.from_numpy(triangle), torch.from_numpy(bary),
                                                 torch.from_numpy(texels.footprint))
-    s = values.normal.double().numpy()
-    tangent_space = np.stack([(s * texels.tangent).sum(-1), (s * texels.bitangent).sum(-1), (s * texels.normal).sum(-1)], -1)
-    tangent_space /= np.maximum(np.linalg.norm(tangent_space, axis=-1, keepdims=True), 1e-30)
+    tangent_space = to_tangent_space(values.normal.double().numpy(), texels)
     nearest = nearest_covered(texels.rows, texels.cols, texture_size)
     normal = _texture(texels, nearest, tangent_space)
     material = Material(
@@ -207,5 +226,5 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
         emissive=None if values.emissive is None else Texture(_texture(texels, nearest, values.emissive.numpy())),
         **merged_modes(reference.materials),
     )
-    return BakeResult(material=material, cage=cage, texels=len(texels.rows), hit_fraction=1.0 - float(missed.mean()),
+    return BakeResult(material=material, cage=cage, texels=len(texels.rows), hit_fraction=float(hit.mean()),
                       mean_offset=float(np.abs(offset).mean()))

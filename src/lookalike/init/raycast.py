@@ -9,10 +9,13 @@ twin (Moeller-Trumbore against every triangle), kept to test it against.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+THREAD_BLOCK = 1 << 16              # fewest rays worth a thread of their own
 _REFERENCE_CHUNK = 1 << 22          # rays x triangles tested at once by the NumPy twin
 
 
@@ -47,9 +50,11 @@ def _hits(triangle: np.ndarray, u: np.ndarray, v: np.ndarray, t: np.ndarray) -> 
 class RayCaster:
     """Nearest-hit queries against the triangles ``v_pos [V, 3]``, ``t_pos_idx [T, 3]``.
 
-    Embree builds its BVH over the float32 triangle corners once; ``intersect`` then traces
-    any number of rays. Coordinates are float32 inside Embree (relative error ~1e-7 of the
-    mesh's size).
+    Embree builds its BVH over the float32 triangle corners once (committed by a first query
+    here, before any threads share the scene); ``intersect`` then traces any number of rays,
+    in blocks of at least ``THREAD_BLOCK`` rays on up to ``os.cpu_count()`` threads (Embree
+    releases the GIL while it traces). Coordinates are float32 inside Embree (relative error
+    ~1e-7 of the mesh's size).
     """
 
     def __init__(self, v_pos: np.ndarray, t_pos_idx: np.ndarray):
@@ -60,7 +65,8 @@ class RayCaster:
         if len(corners) == 0:
             raise ValueError("RayCaster needs at least one triangle")
         self._scene = rtcore_scene.EmbreeScene()
-        self._mesh = TriangleMesh(self._scene, np.ascontiguousarray(corners))  # the scene keeps a reference
+        self._mesh = TriangleMesh(self._scene, np.ascontiguousarray(corners))  # kept alive with the scene
+        self._trace(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), np.zeros(1, np.float32))
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> RayHits:
         """Nearest hits of rays ``origins [N, 3] + t directions [N, 3]``, ``0 <= t <= t_max [N]``
@@ -68,12 +74,19 @@ class RayCaster:
         origins = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
         directions = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
         t_max = np.ascontiguousarray(np.broadcast_to(t_max, (len(origins),)), dtype=np.float32)
-        if len(origins) == 0:
-            return _hits(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0))
-        out = self._scene.run(origins, directions, dists=t_max.copy(), output=1)
+        blocks = max(1, min(os.cpu_count() or 1, len(origins) // THREAD_BLOCK))
+        parts = [np.array_split(a, blocks) for a in (origins, directions, t_max)]
+        with ThreadPoolExecutor(max_workers=blocks) as pool:
+            traced = list(pool.map(self._trace, *parts))
+        return _hits(*(np.concatenate([part[k] for part in traced]) for k in range(4)))
+
+    def _trace(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
+        """Embree on one block of rays (float32, contiguous): ``(triangle [n] (-1 = miss), u [n],
+        v [n], t [n])``."""
+        out = self._scene.run(np.ascontiguousarray(origins), np.ascontiguousarray(directions),
+                              dists=t_max.copy(), output=1)
         triangle = np.where(out["geomID"] >= 0, out["primID"], -1)
-        return _hits(triangle, out["u"].astype(np.float64), out["v"].astype(np.float64),
-                     out["tfar"].astype(np.float64))
+        return triangle, out["u"].astype(np.float64), out["v"].astype(np.float64), out["tfar"].astype(np.float64)
 
 
 def intersect_reference(v_pos: np.ndarray, t_pos_idx: np.ndarray, origins: np.ndarray, directions: np.ndarray,

@@ -62,7 +62,8 @@ class GltfData:
         else:
             data = _decode_uri(buffer.uri, self.path.parent, self.path, f"buffer {index}")
         if len(data) < buffer.byteLength:
-            raise AssetError(self.path, f"buffer {index} is truncated: {len(data)} bytes, byteLength {buffer.byteLength}")
+            raise AssetError(self.path,
+                             f"buffer {index} is truncated: {len(data)} bytes, byteLength {buffer.byteLength}")
         return data
 
     def buffer_view(self, index: int) -> tuple[bytes, int, int, int | None]:

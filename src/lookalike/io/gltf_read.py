@@ -9,8 +9,9 @@ Materials follow glTF's metallic-roughness model: ``kd = baseColorFactor * baseC
 (sRGB decoded), ``ks = (gamma, roughness, metalness)`` with ``roughness = roughnessFactor * G``,
 ``metalness = metallicFactor * B`` and ``gamma = 1 - specularFactor * specularTexture.A``
 (KHR_materials_specular). Normal maps are scaled by ``normalTexture.scale`` and re-expressed
-from the file's tangent frame (TANGENT, or MikkTSpace where absent) into ours
-(``lookalike.io.normal_frames``).
+from the file's tangent frame (TANGENT, or MikkTSpace where absent, on NORMAL or flat normals
+where that is absent too) into ours (``lookalike.io.normal_frames``). Occlusion textures and
+morph targets are ignored.
 """
 
 from __future__ import annotations
@@ -171,6 +172,16 @@ def _stack_nan(parts: list[_Primitive], name: str, width: int) -> np.ndarray:
     """``[n, width]`` float64 concatenation of a per-vertex attribute, NaN where a primitive lacks it."""
     return np.concatenate([np.full((len(p.positions), width), np.nan) if getattr(p, name) is None
                            else getattr(p, name).astype(np.float64) for p in parts])
+
+
+def _file_corner_normals(mesh: Mesh, parts: list[_Primitive], corners: np.ndarray) -> np.ndarray:
+    """``[T, 3, 3]`` float64 normals a glTF client uses at each corner: NORMAL where the primitive
+    has it, else the flat triangle normal (glTF 2.0, Sec. 3.7.2.1)."""
+    normals = _stack_nan(parts, "normals", 3)[corners]
+    p = mesh.v_pos.double()[mesh.t_pos_idx].numpy()
+    flat = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    flat /= np.maximum(np.linalg.norm(flat, axis=-1, keepdims=True), 1e-30)
+    return np.where(np.isnan(normals), flat[:, None, :], normals)
 
 
 def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
@@ -411,7 +422,7 @@ def read_gltf(path: Path) -> Asset:
         animations = _read_animations(data)
     elif gltf.animations:
         warnings.warn(f"{path}: animations of an unskinned scene are not kept")
-    nan_normals = _stack_nan(parts, "normals", 3)
     nan_tangents = _stack_nan(parts, "tangents", 4)
-    materials = import_normal_maps(mesh, materials, nan_normals[corners], nan_tangents[corners])
+    file_normals = _file_corner_normals(mesh, parts, corners)
+    materials = import_normal_maps(mesh, materials, file_normals, nan_tangents[corners])
     return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path)

@@ -5,7 +5,9 @@ Vertices are unwelded per distinct corner (position, UVs, MikkTSpace tangent), a
 index buffer. NORMAL holds the smooth area-weighted normals lookalike renders with; TANGENT holds
 MikkTSpace tangents of the written mesh, and normal maps are converted into that frame, so
 clients that read TANGENT and clients that compute MikkTSpace (Blender, the glTF specification's
-default) decode the same normals.
+default) decode the same normals. TANGENT follows the UV set of the first normal map; a normal map
+on another UV set is converted to MikkTSpace of its own set, which only MikkTSpace-computing
+clients then decode exactly.
 
 Material channels: base colour (+ alpha) as ``baseColorFactor`` or an sRGB PNG; ``ks`` as
 ``roughnessFactor``/``metallicFactor`` or one RGBA PNG used both as ``metallicRoughnessTexture``
@@ -149,7 +151,8 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
         pbr["roughnessFactor"] = float(np.clip(ks[1], 0, 1))
         pbr["metallicFactor"] = float(np.clip(ks[2], 0, 1))
         if ks[0] != 0:
-            out.setdefault("extensions", {})["KHR_materials_specular"] = {"specularFactor": float(np.clip(1 - ks[0], 0, 1))}
+            out.setdefault("extensions", {})["KHR_materials_specular"] = {
+                "specularFactor": float(np.clip(1 - ks[0], 0, 1))}
     else:
         data = material.ks.data.detach().numpy()
         gamma = data[..., 0]

@@ -227,7 +227,8 @@ def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
             if ke is not None:
                 lines.append(f"Ke {ke[0]:.6g} {ke[1]:.6g} {ke[2]:.6g}")
             else:
-                lines += ["Ke 1 1 1", f"map_Ke {image('emissive', linear_to_srgb(material.emissive.data.detach().cpu().numpy()))}"]
+                emission = linear_to_srgb(material.emissive.data.detach().cpu().numpy())
+                lines += ["Ke 1 1 1", f"map_Ke {image('emissive', emission)}"]
     try:
         path.write_text("\n".join(lines) + "\n")
     except OSError as e:

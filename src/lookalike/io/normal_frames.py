@@ -166,6 +166,13 @@ def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarr
     return _extend_into_gutter(out, covered, gutter)
 
 
+def smooth_corner_normals(mesh: Mesh) -> np.ndarray:
+    """``[T, 3, 3]`` float64 corner normals: ``vertex_normals`` (float32, as renderers and writers
+    use them) at each corner."""
+    v_nrm = vertex_normals(mesh.v_pos.detach().float(), mesh.t_pos_idx)
+    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64)
+
+
 def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
     """Our frame per corner: smooth normals ``[T, 3, 3]`` and ``vertex_tangents`` ``[T, 3, 4]``."""
     v_pos = mesh.v_pos.detach().float()
@@ -215,7 +222,7 @@ def import_normal_maps(mesh: Mesh, materials: list[Material], file_normals: np.n
             that are NaN (or all of them, for ``None``) use MikkTSpace of the file's mesh.
     """
     def frames(uv_set: int):
-        ours_n, _ = our_corner_frame(mesh, uv_set)
+        ours_n = smooth_corner_normals(mesh)
         normals = ours_n if file_normals is None else np.where(np.isnan(file_normals), ours_n, file_normals)
         positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
         mikk = mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
@@ -229,7 +236,7 @@ def export_normal_maps(mesh: Mesh, materials: list[Material]) -> list[Material]:
     """Materials with normal maps converted from our frame to MikkTSpace of the mesh as written
     (our smooth normals, float32 positions and UVs)."""
     def frames(uv_set: int):
-        normals, _ = our_corner_frame(mesh, uv_set)
+        normals = smooth_corner_normals(mesh)
         positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
         return normals, mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
 

@@ -16,7 +16,7 @@ Visibility is a compiled Numba kernel (:mod:`.visibility`); every differentiable
 """
 
 from .antialias import antialias, antialias_construct_topology_hash
-from .context import RasterizeContext
+from .context import RasterizeContext, RasterizeCudaContext, RasterizeGLContext
 from .interpolate import interpolate
 from .mipmap import texture_construct_mip
 from .peel import DepthPeeler
@@ -25,6 +25,8 @@ from .texture import texture
 
 __all__ = [
     "RasterizeContext",
+    "RasterizeCudaContext",
+    "RasterizeGLContext",
     "rasterize",
     "interpolate",
     "texture",

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import torch
 
-from .pair_kernels import silhouette_pair_candidates
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
+from .pair_kernels import silhouette_pair_candidates
 from .topology import antialias_construct_topology_hash
-from .views import check_triangles
+from .views import check_rast_ids, check_triangles
 
 __all__ = ["antialias", "antialias_construct_topology_hash"]
 
@@ -46,7 +46,8 @@ def silhouette_edges(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tenso
 
 
 def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhouette: torch.Tensor):
-    """Plain-torch twin of :func:`.pair_kernels.silhouette_pair_candidates`: horizontally and vertically adjacent pixel pairs that may straddle a silhouette.
+    """Horizontally and vertically adjacent pixel pairs that may straddle a silhouette
+    (plain-torch twin of :func:`.pair_kernels.silhouette_pair_candidates`).
 
     ``ids [B, H, W]`` int64 (triangle + 1), ``depth [B, H, W]`` (z/w), ``has_silhouette
     [B, T + 1]`` bool (column 0 = background, False).  A pair qualifies when the ids differ
@@ -57,11 +58,10 @@ def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhou
     n_views, height, width = ids.shape
     flat = torch.arange(ids.numel()).reshape(ids.shape)
     fronts, others, tris, horizontal = [], [], [], []
-    for is_horizontal, (slice_a, slice_b) in enumerate(
-        (
-            ((slice(None), slice(0, -1), slice(None)), (slice(None), slice(1, None), slice(None))),
-            ((slice(None), slice(None), slice(0, -1)), (slice(None), slice(None), slice(1, None))),
-        )
+    everything = slice(None)
+    for is_horizontal, slice_a, slice_b in (
+        (False, (everything, slice(0, -1), everything), (everything, slice(1, None), everything)),
+        (True, (everything, everything, slice(0, -1)), (everything, everything, slice(1, None))),
     ):
         id_a, id_b = ids[slice_a], ids[slice_b]
         a_in_front = (id_a > 0) & ((id_b == 0) | (depth[slice_a] < depth[slice_b]))
@@ -75,7 +75,7 @@ def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhou
         fronts.append(torch.where(a_front, pa, pb))
         others.append(torch.where(a_front, pb, pa))
         tris.append(front_id.reshape(-1).index_select(0, pick) - 1)
-        horizontal.append(torch.full_like(pick, bool(is_horizontal), dtype=torch.bool))
+        horizontal.append(torch.full_like(pick, is_horizontal, dtype=torch.bool))
     return torch.cat(fronts), torch.cat(others), torch.cat(tris), torch.cat(horizontal)
 
 
@@ -98,6 +98,8 @@ def antialias(
     :func:`silhouette_edges`), the pixel on whose side of the midpoint it crosses is
     blended with its neighbour: for ``alpha < 1/2`` ``C_f += (1/2 - alpha)(C_o - C_f)``,
     else ``C_o += (alpha - 1/2)(C_f - C_o)`` (all blends use the input colours and add up).
+    Each edge is handled only by the pairs running across it, horizontal pairs for edges
+    closer to vertical and vertical pairs otherwise, so no coverage is counted twice.
     ``alpha`` depends on the edge's two vertices only, so gradients reach their ``x, y, w``
     (scaled by ``pos_gradient_boost``) and the colours; interior edges, whose neighbour
     continues the surface, are left alone and give no position gradient.
@@ -120,6 +122,7 @@ def antialias(
     if views.shape[0] != n_views:
         raise ValueError(f"pos has {views.shape[0]} views, color has {n_views}")
     tri = check_triangles(tri, views.shape[1])
+    check_rast_ids(rast, tri.shape[0])
     opposite = antialias_construct_topology_hash(tri) if topology_hash is None else topology_hash
     if pos_gradient_boost != 1.0:
         views = _ScaleGradient.apply(views, pos_gradient_boost)
@@ -128,7 +131,7 @@ def antialias(
     has_silhouette = torch.cat([silhouette.new_zeros(n_views, 1), silhouette.any(-1)], 1)
     pairs = silhouette_pair_candidates(rast.detach().contiguous().numpy(), has_silhouette.numpy())
     front, other, horizontal = (torch.from_numpy(a) for a in pairs)
-    front_tri = rast[..., 3].detach().reshape(-1)[front].long() - 1
+    front_tri = rast.detach().reshape(-1, 4)[front, 3].long() - 1
 
     view = front // (height * width)
     verts = triangle_vertices_xyw(views, tri, view, front_tri)

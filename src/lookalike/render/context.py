@@ -16,3 +16,10 @@ class RasterizeContext:
 
     def __repr__(self) -> str:
         return "RasterizeContext(cpu)"
+
+
+RasterizeCudaContext = RasterizeContext
+"""nvdiffrast's CUDA context name, so ``dr.RasterizeCudaContext()`` keeps working."""
+
+RasterizeGLContext = RasterizeContext
+"""nvdiffrast's OpenGL context name, so ``dr.RasterizeGLContext()`` keeps working."""

@@ -6,6 +6,7 @@ import torch
 
 from . import pixel_kernels
 from .pixels import covered_pixels, scatter_to_image
+from .views import check_rast_ids, check_triangles
 
 
 class _Interpolate(torch.autograd.Function):
@@ -75,8 +76,10 @@ def interpolate(
     :func:`interpolate_reference` is the plain-torch twin.
     """
     attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
+    tri = check_triangles(tri, attr.shape[1])
+    check_rast_ids(rast, tri.shape[0])
     out, out_da = _Interpolate.apply(
-        attr, rast, rast_db if channels else None, tri.long().contiguous(), torch.tensor(channels, dtype=torch.int64)
+        attr, rast, rast_db if channels else None, tri.contiguous(), torch.tensor(channels, dtype=torch.int64)
     )
     return out, out_da
 

@@ -37,20 +37,35 @@ def downsample(table, src, h, w, dst, h2, w2, n_views):
                 table[out, ch] = acc * scale
 
 
+@njit(cache=True, inline="always")
+def _covering(i, n_in, n_out):
+    """First and one-past-last output texel whose span contains input texel ``i``."""
+    first = max(0, (i * n_out) // n_in - 1)
+    while first < n_out and _span(first, n_in, n_out)[1] <= i:
+        first += 1
+    last = first
+    while last < n_out and _span(last, n_in, n_out)[0] <= i:
+        last += 1
+    return first, last
+
+
 @njit(cache=True, parallel=True)
 def downsample_adjoint(grad, src, h, w, dst, h2, w2, n_views):
     """Add to level ``src`` of ``grad [N, C]`` the adjoint of :func:`downsample` applied to
-    level ``dst``: each input texel receives ``g / area`` from every output covering it."""
+    level ``dst``: each input texel gathers ``g / area`` from every output texel whose span
+    covers it (a gather, so input rows run in parallel without races)."""
     n_channels = grad.shape[1]
-    for b in prange(n_views):
-        for oy in range(h2):
-            y0, y1 = _span(oy, h, h2)
-            for ox in range(w2):
-                x0, x1 = _span(ox, w, w2)
-                scale = 1.0 / ((y1 - y0) * (x1 - x0))
-                out = dst + (b * h2 + oy) * w2 + ox
-                for ch in range(n_channels):
-                    g = grad[out, ch] * scale
-                    for y in range(y0, y1):
-                        for x in range(x0, x1):
-                            grad[src + (b * h + y) * w + x, ch] += g
+    for row in prange(n_views * h):
+        b, y = row // h, row % h
+        oy0, oy1 = _covering(y, h, h2)
+        for x in range(w):
+            ox0, ox1 = _covering(x, w, w2)
+            target = src + (b * h + y) * w + x
+            for oy in range(oy0, oy1):
+                y0, y1 = _span(oy, h, h2)
+                for ox in range(ox0, ox1):
+                    x0, x1 = _span(ox, w, w2)
+                    scale = 1.0 / ((y1 - y0) * (x1 - x0))
+                    out = dst + (b * h2 + oy) * w2 + ox
+                    for ch in range(n_channels):
+                        grad[target, ch] += grad[out, ch] * scale

@@ -9,7 +9,6 @@ Pixel ``(ix, iy)`` has its centre at NDC ``((2 ix + 1)/W - 1, (2 iy + 1)/H - 1)`
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit, prange
 
 

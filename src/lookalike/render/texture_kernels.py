@@ -77,7 +77,8 @@ def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
         raw = 0.5 * math.log2(max(lam, _TINY))
     if has_bias:
         raw += bias[p]
-    return min(max(raw, 0.0), top), raw, lam
+    level = raw if raw > 0.0 else 0.0  # also maps NaN to 0
+    return level if level < top else float(top), raw, lam
 
 
 @njit(cache=True, inline="always")

@@ -42,3 +42,13 @@ def check_triangles(tri: torch.Tensor, n_verts: int) -> torch.Tensor:
     if tri.numel() and (tri.min() < 0 or tri.max() >= n_verts):
         raise ValueError(f"tri indexes vertices outside 0..{n_verts - 1}")
     return tri
+
+
+def check_rast_ids(rast: torch.Tensor, n_tris: int) -> None:
+    """Raise unless ``rast [B, H, W, 4]`` names only triangles ``0 .. n_tris - 1`` (ids
+    ``0 .. n_tris``), so compiled kernels never index outside ``tri``."""
+    if rast.dim() != 4 or rast.shape[-1] != 4:
+        raise ValueError(f"rast must have shape [B, H, W, 4], got {tuple(rast.shape)}")
+    ids = rast[..., 3].detach()
+    if ids.numel() and not (ids.min() >= 0 and ids.max() <= n_tris):
+        raise ValueError(f"rast names triangles beyond the {n_tris} of tri")
