@@ -68,7 +68,8 @@ def test_raycaster_matches_brute_force_twin(monkeypatch):
     slow = intersect_reference(v_pos, t_pos_idx, origins, directions, t_max)
     assert 0.2 < slow.hit.mean() < 0.9  # both hits and misses are exercised
     # rays that graze an edge or end right at a surface may go either way in float32
-    clear = (np.abs(slow.t - t_max) > 1e-4) & (np.minimum(slow.barycentric.min(axis=1), fast.barycentric.min(axis=1)) > 1e-4)
+    inner = np.minimum(slow.barycentric.min(axis=1), fast.barycentric.min(axis=1))
+    clear = (np.abs(slow.t - t_max) > 1e-4) & (inner > 1e-4)
     clear |= ~slow.hit & ~fast.hit
     assert clear.mean() > 0.95
     assert np.array_equal(fast.triangle[clear], slow.triangle[clear])
@@ -95,18 +96,49 @@ def two_sheets(z_top: float, z_bottom: float, half: float = 1.0, cells: int = 8)
     return Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx)
 
 
+def sheets_caster(sheets: Mesh):
+    """``(caster, face_normal [T, 3], one_sided [T])`` of ``sheets``, every triangle one-sided."""
+    v_pos, t_pos_idx = sheets.v_pos.numpy().astype(np.float64), sheets.t_pos_idx.numpy()
+    corners = v_pos[t_pos_idx]
+    face_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    face_normal /= np.linalg.norm(face_normal, axis=-1, keepdims=True)
+    return RayCaster(v_pos, t_pos_idx), face_normal, np.ones(len(t_pos_idx), bool)
+
+
 def test_nearest_hit_of_either_direction_wins_and_ties_go_outward():
-    sheets = two_sheets(0.5, -0.25)
-    caster = RayCaster(sheets.v_pos.numpy(), sheets.t_pos_idx.numpy())
-    points = np.array([[0.1, 0.2, 0.0], [0.1, 0.2, 0.25], [0.1, 0.2, 0.125]])
+    upper = two_sheets(0.25, 10.0)             # one sheet facing +z at z = 0.25 (the other far away)
+    lower = two_sheets(-0.25, 10.0)
+    both = Mesh(v_pos=torch.cat([upper.v_pos, lower.v_pos]),
+                t_pos_idx=torch.cat([upper.t_pos_idx, lower.t_pos_idx + upper.num_vertices]))
+    caster, face_normal, one_sided = sheets_caster(both)
+    points = np.array([[0.1, 0.2, -0.1], [0.1, 0.2, 0.1], [0.1, 0.2, 0.0]])
     normals = np.array([[0.0, 0.0, 1.0]] * 3)
-    hits, offset = project_along_normals(caster, points, normals, cage=1.0)
-    top = hits.triangle < sheets.num_triangles // 2
-    # nearer sheet below; nearer sheet above; equidistant (tie -> outward, the top sheet)
-    assert top.tolist() == [False, True, True]
-    assert np.allclose(offset, [-0.25, 0.25, 0.375], atol=1e-6)
-    far, far_offset = project_along_normals(caster, points[:1], normals[:1], cage=0.1)
+    hits, offset = project_along_normals(caster, points, normals, 1.0, face_normal, one_sided)
+    assert hits.hit.all()
+    upper_hit = hits.triangle < upper.num_triangles
+    # nearer sheet below; nearer sheet above; equidistant (tie -> outward, the upper sheet)
+    assert upper_hit.tolist() == [False, True, True]
+    assert np.allclose(offset, [-0.15, 0.15, 0.25], atol=1e-6)
+    far, far_offset = project_along_normals(caster, points[:1], normals[:1], 0.1, face_normal, one_sided)
     assert not far.hit.any() and np.isinf(far_offset).all()
+
+
+def test_rays_pass_through_back_faces_of_one_sided_surfaces_only():
+    sheets = two_sheets(0.5, -0.25)           # facing +z above, facing -z (away from +z) below
+    caster, face_normal, one_sided = sheets_caster(sheets)
+    points, normals = np.array([[0.1, 0.2, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    hits, offset = project_along_normals(caster, points, normals, 1.0, face_normal, one_sided)
+    assert hits.triangle[0] < sheets.num_triangles // 2 and np.isclose(offset[0], 0.5, atol=1e-6)
+    below, _ = project_along_normals(caster, points, -normals, 1.0, face_normal, one_sided)
+    assert below.triangle[0] >= sheets.num_triangles // 2          # seen from below: the lower sheet
+    hits, offset = project_along_normals(caster, points, normals, 1.0, face_normal, ~one_sided)
+    assert hits.triangle[0] >= sheets.num_triangles // 2 and np.isclose(offset[0], -0.25, atol=1e-6)
+    layers = [sheets.v_pos + torch.tensor([0.0, 0.0, dz]) for dz in (0.0, 0.01, 0.02)] + [two_sheets(-0.3, 10.0).v_pos]
+    stacked = Mesh(v_pos=torch.cat(layers),
+                   t_pos_idx=torch.cat([sheets.t_pos_idx + k * sheets.num_vertices for k in range(4)]))
+    caster, face_normal, one_sided = sheets_caster(stacked)
+    hits, offset = project_along_normals(caster, points, normals, 1.0, face_normal, one_sided)
+    assert np.isclose(offset[0], -0.3, atol=1e-6)  # through three back faces to the sheet facing up below
 
 
 def vertex_coloured_sphere() -> Asset:
@@ -167,6 +199,21 @@ def test_bake_of_a_bumpy_sphere_gives_the_analytic_normals():
     assert angle.mean() < 0.1 and angle.max() < 1.0
 
 
+def test_normal_map_of_the_reference_is_baked_in_world_space():
+    sheet = two_sheets(0.0, 10.0)
+    top = Mesh(v_pos=sheet.v_pos, t_pos_idx=sheet.t_pos_idx[: sheet.num_triangles // 2])
+    xy = top.v_pos[:, :2]
+    v_tex = torch.stack([(xy[:, 0] + 1) / 2, (1 - xy[:, 1]) / 2], dim=-1)   # u along +x, v down = -y
+    top.uv = [(v_tex, top.t_pos_idx.clone())]
+    tilt = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
+    reference = Asset(mesh=top, materials=[Material(normal=Texture.constant(tilt.tolist()))])
+    low = unwrap(Mesh(v_pos=top.v_pos, t_pos_idx=top.t_pos_idx), texture_size=64)
+    result = bake(reference, low, texture_size=64)
+    got = world_normals(result.material.normal, atlas_texels(low, 64))
+    # our frame: x along increasing u (+x), y along decreasing v (+y), z along the normal (+z)
+    assert np.abs(got - tilt).max() < 1e-4
+
+
 def test_baked_normal_map_renders_closer_to_the_reference_than_none():
     reference = Asset(mesh=bumpy_sphere(5, 0.08), materials=[Material()])
     low = unwrap(icosphere(2), texture_size=128)
@@ -183,8 +230,10 @@ def test_baked_normal_map_renders_closer_to_the_reference_than_none():
     assert error_baked < 0.8 * error_flat
 
 
-def test_rays_from_inside_thin_geometry_or_missing_everything_leave_no_holes():
-    reference = Asset(mesh=two_sheets(0.0006, -0.0004), materials=[Material(kd=Texture.constant([0.2, 0.4, 0.6, 1.0]))])
+@pytest.mark.parametrize("double_sided", [False, True])
+def test_rays_from_inside_thin_geometry_or_missing_everything_leave_no_holes(double_sided):
+    colour = Texture.constant([0.2, 0.4, 0.6, 1.0])
+    reference = Asset(mesh=two_sheets(0.0006, -0.0004), materials=[Material(kd=colour, double_sided=double_sided)])
     plane = two_sheets(0.0, 0.0, half=1.5, cells=6)
     low = unwrap(Mesh(v_pos=plane.v_pos, t_pos_idx=plane.t_pos_idx[: plane.num_triangles // 2]), texture_size=64)
     result = bake(reference, low, texture_size=64, cage=0.05)
@@ -195,9 +244,10 @@ def test_rays_from_inside_thin_geometry_or_missing_everything_leave_no_holes():
     assert torch.allclose(material.normal.data.norm(dim=-1), torch.ones(64, 64), atol=1e-5)
     assert torch.allclose(material.kd.data, torch.tensor([0.2, 0.4, 0.6, 1.0]))
     texels = atlas_texels(low, 64)
-    inside = (np.abs(texels.position[:, :2]) < 0.95).all(axis=1)
     z = texel_values(material.normal, texels)[:, 2]
-    assert (z[inside] < -0.999).all()             # the nearer sheet (below, facing down) wins
+    # the nearer sheet below faces away: one-sided, rays pass it for the upper one; double-sided,
+    # it is seen from behind with its normal flipped
+    assert (z > 0.999).all()
 
 
 def test_bake_rejects_bad_arguments():
@@ -222,3 +272,17 @@ def test_bake_job_writes_a_model_and_refuses_to_overwrite(tmp_path):
     result = bake_asset(source, out, ratio=0.5, texture_size=32, force=True)
     assert result.metrics["triangles"] == {"input": 1280, "output": 640}
     assert math.isclose(result.metrics["hit_fraction"], 1.0, abs_tol=0.01)
+
+
+def test_bake_benchmark_runs_and_prints_its_figures(monkeypatch):
+    from lookalike.bench import bake as bench
+
+    monkeypatch.setattr(bench, "REFERENCE_GRID", (40, 40))
+    monkeypatch.setattr(bench, "LOW_GRID", (20, 20))
+    monkeypatch.setattr(bench, "TEXTURE_SIZE", 64)
+    monkeypatch.setattr(bench, "MILLION_TEXELS_SIZE", 96)
+    result = bench.run(repeats=1)
+    assert result["reference_triangles"] == 3200 and result["hit_fraction"] > 0.99
+    assert result["million_texels"] > result["texels"] > 0
+    table = bench.format_table(result)
+    assert "bake_wall_s" in table and "<= 10" in table

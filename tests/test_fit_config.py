@@ -67,3 +67,16 @@ def test_durations(text, seconds):
 def test_bad_durations(text):
     with pytest.raises(ConfigError):
         parse_duration(text)
+
+
+def test_overrides_name_fields_and_a_count_replaces_a_ratio(tmp_path):
+    from lookalike.fit.config import with_overrides
+
+    path = tmp_path / "run.toml"
+    path.write_text('[latent]\nratio = 0.1\n[optim]\nseed = 4\n')
+    config = with_overrides(path, triangles=500, seed=None, time_budget="90s")
+    assert config.latent.triangles == 500 and config.latent.ratio is None
+    assert config.optim.seed == 4 and config.optim.time_budget == 90.0
+    assert with_overrides(config, ratio=0.3).latent.triangles is None
+    with pytest.raises(ConfigError, match="texture_size must be at least 4"):
+        with_overrides(None, texture_size=2)

@@ -79,6 +79,12 @@ def test_learning_rate_schedule():
     assert schedule.learning_rate(0.02, 2500, k=0.0004) == pytest.approx(0.002)
 
 
+def test_the_stretched_learning_rate_falls_a_hundredfold_over_the_run():
+    assert schedule.learning_rate_decay(10_000) == pytest.approx(0.0002)  # the paper's k on its runs
+    k = schedule.learning_rate_decay(700)
+    assert schedule.learning_rate(0.03, 700, k) == pytest.approx(0.0003)
+
+
 def test_laplacian_schedule_is_the_closed_form_of_the_papers_recursion():
     lam0, lam_min, k = 3.0, 0.06, 1e-4
     lam = lam0

@@ -16,7 +16,7 @@ from lookalike.fit.optimize import Fitter
 from lookalike.fit.simplify import simplify
 from lookalike.init import icosphere
 
-TINY = {"views": {"pool_size": 16, "heldout": 16, "batch_size": 2},
+TINY = {"views": {"pool_size": 16, "refresh_every": 2, "heldout": 16, "batch_size": 2},
         "render": {"resolution": 64}, "latent": {"texture_size": 64},
         "optim": {"checkpoint_seconds": 1e9}}
 

@@ -8,7 +8,8 @@ Figures (medians over ``repeats``):
   frame, 4 views at 512x512 of a ~5k-triangle sphere: rasterize, interpolate uv (with
   derivatives) and normal + position (one call), trilinear lookup of a 1024^2 RGBA
   texture, Lambert shading, antialias, L1 loss; backward to vertex positions and texels.
-- ``cpu_per_wall``: process CPU time over wall time during the frames (parallelism).
+- ``frame_cpu_ms``: mean process CPU time of a frame (all threads), and ``cpu_per_wall``:
+  process CPU time over wall time during the frames (parallelism).
 - ``compile_s``: in a fresh process with torch imported, ``import lookalike.render`` and a
   first small ``rasterize`` with an empty Numba cache (compiles the visibility kernels);
   ``startup_s``: the same with the cache filled.
@@ -135,9 +136,8 @@ def time_frame(repeats: int) -> dict:
     light = torch.tensor([0.3, 0.8, 0.5])
     target = torch.rand(4, 512, 512, 3)
     topology = dr.antialias_construct_topology_hash(tri)
-    forward, backward = [], []
-    wall0, cpu0 = time.perf_counter(), time.process_time()
-    for _ in range(repeats + 1):
+
+    def one_frame() -> tuple[float, float]:
         start = time.perf_counter()
         pos = to_clip(v_pos, mvp)
         rast, rast_db = dr.rasterize(None, pos, tri, (512, 512))
@@ -151,15 +151,18 @@ def time_frame(repeats: int) -> dict:
         middle = time.perf_counter()
         loss.backward()
         end = time.perf_counter()
-        forward.append(middle - start)
-        backward.append(end - middle)
         v_pos.grad, texels.grad = None, None
+        return middle - start, end - middle
+
+    one_frame()  # warm-up
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    forward, backward = zip(*(one_frame() for _ in range(repeats)))
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-    forward, backward = forward[1:], backward[1:]
     return {
         "frame_forward_ms": _median_ms(forward),
         "frame_backward_ms": _median_ms(backward),
         "frame_total_ms": _median_ms([f + b for f, b in zip(forward, backward)]),
+        "frame_cpu_ms": 1000.0 * cpu / repeats,
         "cpu_per_wall": cpu / wall,
     }
 

@@ -125,7 +125,9 @@ class OptimConfig:
         lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
             radius (the paper's [0.001, 0.003] for a decimated start).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]).
-        lr_decay: k in lr_t = lr_0 * 10^(-k t).
+        lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the paper's schedule over
+            the run, k = 2 / iterations (see ``lookalike.fit.schedule``; the paper's 0.0002
+            is that for its 10k steps).
         laplacian_weight: lambda_0; ``None`` takes 0.25 * L_image / L_laplacian at the start.
         laplacian_min_fraction: lambda_min = this * lambda_0 (the paper's 2 %).
         laplacian_decay_fraction: fraction of the run after which lambda_t - lambda_min has
@@ -142,7 +144,7 @@ class OptimConfig:
     loss: str = "l1-tonemapped"
     lr_positions: float = 0.002
     lr_textures: float = 0.03
-    lr_decay: float = 0.0002
+    lr_decay: float | None = None
     laplacian_weight: float | None = None
     laplacian_min_fraction: float = 0.02
     laplacian_decay_fraction: float = 0.2
@@ -203,6 +205,7 @@ class Config:
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
             (opt.lr_positions >= 0 and opt.lr_textures >= 0, "learning rates must not be negative"),
+            (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
             (self.clamp.normal_max_slope > 0, "clamp.normal_max_slope must be positive"),
             (opt.laplacian_weight is None or opt.laplacian_weight >= 0,
              "optim.laplacian_weight must not be negative"),
@@ -312,3 +315,22 @@ def load_config(path: str | Path) -> Config:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ConfigError(f"{path}: not a valid TOML file: {e}") from None
     return config_from_dict(data, origin=str(path))
+
+
+def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config:
+    """``base`` (a ``Config``, a TOML file, or ``None`` for the defaults) with the non-``None``
+    ``overrides`` applied, each named after a field of one section (``triangles`` sets
+    ``latent.triangles``; command-line options and keyword arguments map this way). Setting
+    ``triangles`` clears a configured ``ratio`` and vice versa. Validated."""
+    config = load_config(base) if isinstance(base, (str, Path)) else dataclasses.replace(base or Config())
+    section_of = {key.name: section.name for section in dataclasses.fields(config)
+                  for key in dataclasses.fields(getattr(config, section.name))}
+    changes: dict[str, dict[str, Any]] = {}
+    for key, value in overrides.items():
+        if value is not None:
+            changes.setdefault(section_of[key], {})[key] = value
+    if "triangles" in changes.get("latent", {}):
+        config.latent = dataclasses.replace(config.latent, ratio=None)
+    if "ratio" in changes.get("latent", {}):
+        config.latent = dataclasses.replace(config.latent, triangles=None)
+    return config_from_dict(changes, base=config, origin="options")

@@ -8,8 +8,6 @@ import torch
 
 from ..asset import Asset
 from ..report.data import MethodResult, score_method
-from ..shading.camera import Camera
-from ..shading.light import PointLight
 from .losses import composite
 from .optimize import RenderFn
 from .targets import RENDER_CHUNK, Target, ViewSampler, render_in_chunks

@@ -15,7 +15,7 @@ Robustness:
 - the best model so far (lowest moving average of the loss) is kept;
 - ``KeyboardInterrupt`` stops the loop cleanly after writing a checkpoint;
 - a checkpoint is written atomically every ``checkpoint_seconds`` and on interruption, and
-  ``Fitter.load_checkpoint`` continues from one exactly where it stopped.
+  ``read_checkpoint`` and ``Fitter.load_state_dict`` continue from one exactly where it stopped.
 """
 
 from __future__ import annotations
@@ -40,13 +40,16 @@ from .config import Config, config_from_dict, config_to_dict
 from .latent import Latent
 from .losses import composite, image_loss
 from .outdir import atomic_path
-from .schedule import laplacian_decay_rate, laplacian_weight, learning_rate
+from .schedule import laplacian_decay_rate, laplacian_weight, learning_rate, learning_rate_decay
 
 SNAPSHOT_EVERY = 20
 """Steps between snapshots of the last good state (the rollback target)."""
 
 CALIBRATION_STEPS = 4
-"""Steps timed (after the first, which pays one-off compilation) to fix the iteration count."""
+"""Steps timed (after the first, which pays one-off compilation) to set the iteration count."""
+
+REPLAN_EVERY = 20
+"""Steps between re-plannings of the iteration count under a time budget."""
 
 LOSS_EMA = 0.9
 """Smoothing factor of the loss average that decides which state is the best."""
@@ -163,9 +166,13 @@ class Fitter:
     # -- one step -------------------------------------------------------------------------
 
     def _set_learning_rates(self) -> None:
-        t = self.progress.iteration
+        """lr_t = lr_0 * 10^(-k t) per group (k = 0 until the total is known), times the
+        reduction after rollbacks."""
+        p, k = self.progress, self.config.optim.lr_decay
+        if k is None:
+            k = 0.0 if p.total is None else learning_rate_decay(p.total)
         for group in self.optimizer.param_groups:
-            group["lr"] = learning_rate(group["lr_0"], t, self.config.optim.lr_decay) * self.progress.lr_scale
+            group["lr"] = learning_rate(group["lr_0"], p.iteration, k) * p.lr_scale
 
     def _lambda(self, image_loss_value: float) -> float:
         """lambda_t; on the first call without a configured lambda_0 the heuristic sets it from
@@ -247,30 +254,35 @@ class Fitter:
     def run(self, seconds_available: float | None = None, progress: bool = True) -> FitResult:
         """Step until ``progress.total`` steps are done.
 
-        When the total is not fixed (``optim.iterations`` unset and no checkpoint), the first
-        ``1 + CALIBRATION_STEPS`` steps are timed and the total set so that the loop ends
-        within ``seconds_available``.
+        With ``seconds_available`` (the loop's share of a time budget; only when
+        ``optim.iterations`` is unset), the total follows the clock: it is set after the
+        first ``1 + CALIBRATION_STEPS`` steps (the first pays one-off compilation and is not
+        timed) from their pace, and re-planned every ``REPLAN_EVERY`` steps from the pace of
+        the recent ones, so that the loop ends in time even when the machine's load changes.
         """
         p = self.progress
+        if p.total is None and seconds_available is None:
+            raise ValueError("the loop needs optim.iterations or seconds_available")
         interrupted = False
         bar = tqdm(total=p.total, initial=p.iteration, disable=not progress, unit="it", dynamic_ncols=True,
                    desc="optimising")
-        last_checkpoint = time.monotonic()
-        calibration_start = None
+        loop_start = last_checkpoint = time.monotonic()
+        durations: list[float] = []
         try:
             while p.total is None or p.iteration < p.total:
                 started = time.monotonic()
                 value = self.step()
-                p.seconds += time.monotonic() - started
+                durations.append(time.monotonic() - started)
+                p.seconds += durations[-1]
                 bar.update(1)
                 bar.set_postfix(loss=f"{value:.4f}", refresh=False)
-                if p.total is None:
-                    if calibration_start is None:
-                        calibration_start = time.monotonic()
-                    elif p.iteration > CALIBRATION_STEPS:
-                        p.total = self._plan(seconds_available, calibration_start)
-                        bar.total = p.total
-                        bar.refresh()
+                if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
+                        p.total is None or len(durations) % REPLAN_EVERY == 0):
+                    pace = float(np.mean(durations[1:][-REPLAN_EVERY:]))
+                    left = seconds_available - (time.monotonic() - loop_start)
+                    p.total = p.iteration + max(0, int(left / pace))
+                    bar.total = p.total
+                    bar.refresh()
                 if p.rollbacks_in_a_row >= self.config.optim.max_rollbacks:
                     bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
                     break
@@ -286,16 +298,6 @@ class Fitter:
         self._snapshot()
         return FitResult(best=self.best_model(), iterations=p.iteration, losses=list(p.losses),
                          seconds=p.seconds, rollbacks=p.rollbacks, interrupted=interrupted)
-
-    def _plan(self, seconds_available: float | None, calibration_start: float) -> int:
-        """Total steps that fit in ``seconds_available`` (counted from the loop's start) at
-        the pace of the calibration steps."""
-        p = self.progress
-        if seconds_available is None:
-            raise ValueError("either optim.iterations or seconds_available is needed")
-        per_step = (time.monotonic() - calibration_start) / (p.iteration - 1)
-        remaining = seconds_available - p.seconds
-        return p.iteration + max(0, int(remaining / per_step))
 
     def best_model(self) -> Latent:
         """A detached copy of the best model so far."""

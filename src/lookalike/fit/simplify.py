@@ -11,6 +11,7 @@ minus an estimate of the time the outputs take (measured on the decimation basel
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -19,20 +20,19 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import torch
 
 from .. import io
 from ..asset import Asset, Material
-from ..errors import ConfigError
 from ..init import decimate
 from ..report.data import MethodResult, ReportData
 from ..report.html import write_report
-from .config import Config, config_from_dict, config_to_dict, load_config, to_toml
+from .config import Config, config_to_dict, to_toml, with_overrides
 from .evaluate import HeldoutViews
 from .initial import decimation_baseline, initial_latent, target_triangle_count
-from .latent import Latent
 from .optimize import Fitter, FitResult, read_checkpoint
 from .outdir import CHECKPOINT_NAME, atomic_path, check_outdir, prepare_outdir, write_text_atomic
 from .targets import FreshViews, MeshTarget, ViewPool, latent_renderer
@@ -87,28 +87,6 @@ class SimplifyResult:
         return "\n".join(lines)
 
 
-def build_config(base: Config | str | Path | None, **overrides) -> Config:
-    """``base`` (a ``Config``, a TOML path, or defaults) with the non-``None`` ``overrides``
-    applied; each override names a field of one section (``triangles`` -> ``latent.triangles``).
-    Setting ``triangles`` clears a configured ``ratio`` and vice versa, ``iterations`` likewise
-    takes precedence over the time budget by being set."""
-    config = load_config(base) if isinstance(base, (str, Path)) else (base or Config())
-    config = dataclasses.replace(config)
-    sections = {f.name: {g.name for g in dataclasses.fields(getattr(config, f.name))} for f in dataclasses.fields(config)}
-    changes: dict[str, dict] = {}
-    for key, value in overrides.items():
-        if value is None:
-            continue
-        section = next(name for name, keys in sections.items() if key in keys)
-        changes.setdefault(section, {})[key] = value
-    latent = changes.get("latent", {})
-    if "triangles" in latent:
-        config.latent = dataclasses.replace(config.latent, ratio=None)
-    if "ratio" in latent:
-        config.latent = dataclasses.replace(config.latent, triangles=None)
-    return config_from_dict(changes, base=config)
-
-
 def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
              ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
              time_budget: float | None = None, iterations: int | None = None, seed: int | None = None,
@@ -141,63 +119,61 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         ConfigError, AssetError: with a message naming the problem.
     """
     started = time.monotonic()
-    timings: dict[str, float] = {}
-    asset = input if isinstance(input, Asset) else None
-    name = asset.name if asset is not None else Path(input).stem
+    given = input if isinstance(input, Asset) else None
+    name = given.name if given is not None else Path(input).stem
     outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
     check_outdir(outdir, force=force, resume=resume)
     checkpoint = outdir / CHECKPOINT_NAME
-    state = None
+    state = resumed_latent = None
     if resume:
         state, cfg, resumed_latent = read_checkpoint(checkpoint)
     else:
-        cfg = build_config(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
-                           resolution=resolution, time_budget=time_budget, iterations=iterations, seed=seed,
-                           export_obj=export_obj)
-        input_name = str(input) if asset is None else str(asset.source or asset.name)
+        cfg = with_overrides(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
+                             resolution=resolution, time_budget=time_budget, iterations=iterations, seed=seed,
+                             export_obj=export_obj)
+        input_name = str(input) if given is None else str(given.source or given.name)
         cfg.io = dataclasses.replace(cfg.io, input=input_name, outdir=str(outdir))
 
-    clock = time.monotonic()
-    asset = asset if asset is not None else io.load(input)
-    asset, notes = _prepare_input(asset, material_override)
-    count = target_triangle_count(cfg.latent, asset.mesh.num_triangles)
-    prepare_outdir(outdir, force=force, resume=resume)
-    write_text_atomic(outdir / "config.toml", to_toml(cfg))
-    decimated = decimate(asset.mesh, count)
-    latent = resumed_latent if state is not None else initial_latent(
-        asset, decimated, cfg.latent, cfg.clamp, np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
-    timings["load and initial guess"] = time.monotonic() - clock
-
-    clock = time.monotonic()
-    sampler = view_sampler(asset.mesh)
-    target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
+    timings: dict[str, float] = {}
+    with _stage(timings, "load and initial guess"):
+        asset, notes = _prepare_input(given if given is not None else io.load(input), material_override)
+        count = target_triangle_count(cfg.latent, asset.mesh.num_triangles)
+        prepare_outdir(outdir, force=force, resume=resume)
+        write_text_atomic(outdir / "config.toml", to_toml(cfg))
+        decimated = decimate(asset.mesh, count)
+        latent = resumed_latent or initial_latent(asset, decimated, cfg.latent, cfg.clamp,
+                                                  np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+    with _stage(timings, "reference views"):
+        sampler = view_sampler(asset.mesh)
+        target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
+        heldout = HeldoutViews(target, sampler, cfg.views.heldout, cfg.views.heldout_seed)
+        source = (ViewPool(target, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM), cfg.views.refresh_every)
+                  if cfg.views.pool_size else FreshViews(target, sampler))
     draw = latent_renderer(cfg.render.resolution, cfg.render.latent_msaa)
-    heldout = HeldoutViews(target, sampler, cfg.views.heldout, cfg.views.heldout_seed)
-    source = (ViewPool(target, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM), cfg.views.refresh_every)
-              if cfg.views.pool_size else FreshViews(target, sampler))
-    timings["reference views"] = time.monotonic() - clock
-
-    clock = time.monotonic()
-    baseline = heldout.score("decimated", "Plain decimation", decimation_baseline(asset, decimated), draw, None)
-    timings["scoring plain decimation"] = time.monotonic() - clock
+    with _stage(timings, "scoring plain decimation"):
+        baseline = heldout.score("decimated", "Plain decimation", decimation_baseline(asset, decimated), draw, None)
 
     fitter = Fitter(latent, source, draw, cfg, checkpoint=checkpoint)
     if state is not None:
         fitter.load_state_dict(state)
     output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
-    available = cfg.optim.time_budget - (time.monotonic() - started) - output_time
-    clock = time.monotonic()
-    fit = fitter.run(seconds_available=max(available, 0.0), progress=progress)
-    timings["optimisation"] = time.monotonic() - clock
-
-    clock = time.monotonic()
-    with torch.no_grad():
+    available = max(cfg.optim.time_budget - (time.monotonic() - started) - output_time, 0.0)
+    with _stage(timings, "optimisation"):
+        fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
+    with _stage(timings, "scoring ours"), torch.no_grad():
         ours = heldout.score("ours", "Ours", fit.best.as_asset(), draw, cfg.latent.texture_size)
-    timings["scoring ours"] = time.monotonic() - clock
     result = _write_outputs(outdir, cfg, asset, fit, heldout, baseline, ours, timings, started, notes)
     if not fit.interrupted:
         checkpoint.unlink(missing_ok=True)
     return result
+
+
+@contextlib.contextmanager
+def _stage(timings: dict[str, float], name: str) -> Iterator[None]:
+    """Record the wall seconds of the ``with`` block as ``timings[name]``."""
+    clock = time.monotonic()
+    yield
+    timings[name] = time.monotonic() - clock
 
 
 def _prepare_input(asset: Asset, material_override: Material | None) -> tuple[Asset, list[str]]:
@@ -219,15 +195,14 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
                    baseline: MethodResult, ours: MethodResult, timings: dict, started: float,
                    notes: list[str]) -> SimplifyResult:
     """Write ``model.glb`` (+ OBJ), ``metrics.json`` and ``report.html`` atomically."""
-    clock = time.monotonic()
     model = outdir / "model.glb"
-    with torch.no_grad():
-        export = fit.best.as_asset()
-    with atomic_path(model) as temp:
-        io.save(export, temp)
-    if cfg.io.export_obj:
-        _save_obj(export, outdir)
-    timings["export"] = time.monotonic() - clock
+    with _stage(timings, "export"):
+        with torch.no_grad():
+            export = fit.best.as_asset()
+        with atomic_path(model) as temp:
+            io.save(export, temp)
+        if cfg.io.export_obj:
+            _save_obj(export, outdir)
     seconds_total = time.monotonic() - started
     steps = max(fit.iterations, 1)
     metrics = {

@@ -6,12 +6,16 @@ surface point ``p`` and its smooth interpolated unit normal ``n`` (our tangent f
 ``lookalike.io.normal_frames``) are found. Two rays leave ``p``: along ``+n`` and along ``-n``,
 each reaching ``cage`` (default ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box
 diagonal). Each starts ``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p``
-itself is found. The hit closest to ``p`` (smallest ``|signed distance|``) of either ray wins; on
-a tie the outward (``+n``) hit wins. Texels whose rays both miss take the closest point of the
-reference (``lookalike.init.closest_point``).
+itself is found. Only surfaces seen from outside count, as a viewer looking down ``-n`` would
+see them: a ray passes through the back of a triangle (face normal ``. n <= 0``) whose material
+is one-sided, since the renderer culls it (``first_seen``). The hit closest to ``p`` (smallest
+``|signed distance|``) of either ray wins; on a tie the outward (``+n``) hit wins. Texels whose
+rays both miss take the closest point of the reference (``lookalike.init.closest_point``).
 
-At that point the reference's material and shading normal ``s`` (``ReferenceSurface``) are read.
-The baked normal map holds ``normalize(s.t, s.b, s.n)``, so that our renderer's
+At that point the reference's material and shading normal ``s`` (``ReferenceSurface``) are read;
+where the point's triangle faces away from ``n`` (a double-sided surface seen from behind, or a
+closest point) ``s`` is flipped, as the renderer flips it. The baked normal map holds
+``normalize(s.t, s.b, s.n)``, so that our renderer's
 ``normalize(x t + y b + z n)`` gives back ``s``; base colour + alpha, (gamma, roughness,
 metalness) and emission are copied. Each texel stands for a patch of the low-poly surface
 ``sqrt(A_world / (A_uv S^2))`` across (its triangle's world area over its texel area), which sets
@@ -34,6 +38,7 @@ from ..asset.asset import Asset
 from ..asset.atlas import merged_modes
 from ..asset.material import Material, Texture
 from ..asset.mesh import Mesh
+from ..asset.normals import face_normals, safe_normalize
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from ..io.normal_frames import our_corner_frame, texel_frames
@@ -47,6 +52,13 @@ bounding-box diagonal."""
 
 START_OFFSET = 1e-4
 """Rays start this fraction of the cage behind the texel's point (see the module docstring)."""
+
+MAX_PASSES = 8
+"""Hits on back faces of one-sided triangles a ray passes through before it gives up."""
+
+PASS_THROUGH_STEP = 1e-5
+"""How far past a hidden hit a ray continues, as a fraction of its reach."""
+
 
 @dataclass
 class AtlasTexels:
@@ -98,21 +110,60 @@ def default_cage(reference: Mesh) -> float:
     return DEFAULT_CAGE_FRACTION * float((hi - lo).double().norm())
 
 
-def project_along_normals(caster: RayCaster, points: np.ndarray, normals: np.ndarray, cage: float) -> tuple[RayHits, np.ndarray]:
-    """The reference hit nearest to each point along its normal line, within ``cage``.
+def first_seen(caster: RayCaster, origins: np.ndarray, directions: np.ndarray, t_max: float, view: np.ndarray,
+               face_normal: np.ndarray, one_sided: np.ndarray) -> RayHits:
+    """The nearest hit along each ray that a viewer looking down ``-view`` would see.
+
+    A hit on the back of a one-sided triangle (``face_normal . view <= 0``) is invisible from
+    there (the renderer culls it): the ray continues just past it, up to ``MAX_PASSES`` hits
+    per ray (later ones count as misses).
+
+    Args:
+        caster: ray caster of the reference; origins, directions, view: ``[K, 3]`` float64.
+        t_max: reach of the rays.
+        face_normal: ``[T, 3]`` float64 unit face normals; one_sided: ``[T]`` bool.
+    Returns:
+        ``RayHits`` with ``t`` measured from ``origins``.
+    """
+    count = len(origins)
+    out = RayHits(np.full(count, -1, np.int64), np.zeros((count, 3)), np.full(count, np.inf))
+    travelled = np.zeros(count)
+    active = np.arange(count)
+    step = PASS_THROUGH_STEP * t_max
+    for _ in range(MAX_PASSES):
+        hits = caster.intersect(origins[active] + travelled[active, None] * directions[active], directions[active],
+                                t_max - travelled[active])
+        triangle = np.maximum(hits.triangle, 0)
+        hidden = hits.hit & one_sided[triangle] & ((face_normal[triangle] * view[active]).sum(-1) <= 0)
+        done = active[~hidden]
+        out.triangle[done], out.barycentric[done] = hits.triangle[~hidden], hits.barycentric[~hidden]
+        out.t[done] = travelled[done] + hits.t[~hidden]
+        active = active[hidden]
+        travelled[active] += hits.t[hidden] + step
+        if len(active) == 0:
+            break
+    return out
+
+
+def project_along_normals(caster: RayCaster, points: np.ndarray, normals: np.ndarray, cage: float,
+                          face_normal: np.ndarray, one_sided: np.ndarray) -> tuple[RayHits, np.ndarray]:
+    """The reference hit nearest to each point along its normal line, within ``cage``, that is
+    seen from outside (``first_seen`` with ``view = normals``).
 
     Args:
         caster: ray caster of the reference.
         points, normals: ``[K, 3]`` float64 points and unit normals.
         cage: reach of the rays on each side.
+        face_normal: ``[T, 3]`` float64 unit face normals of the reference; one_sided: ``[T]``
+            bool, the triangle's material culls back faces.
     Returns:
         ``(hits, offset)``: ``RayHits`` of the winning rays (see the module docstring for the
         rule) and ``offset [K]`` float64 signed distance of the hit along ``+normal`` (inf
         where both rays miss).
     """
     start = START_OFFSET * cage
-    outward = caster.intersect(points - start * normals, normals, cage + start)
-    inward = caster.intersect(points + start * normals, -normals, cage + start)
+    outward = first_seen(caster, points - start * normals, normals, cage + start, normals, face_normal, one_sided)
+    inward = first_seen(caster, points + start * normals, -normals, cage + start, normals, face_normal, one_sided)
     out_distance, in_distance = outward.t - start, inward.t - start
     take_in = np.abs(in_distance) < np.abs(out_distance)
     pick = take_in[:, None]
@@ -142,23 +193,44 @@ class BakeResult:
     mean_offset: float
 
 
-def locate_on_reference(reference: Mesh, texels: AtlasTexels, cage: float):
-    """The reference point each texel bakes: its nearest hit along the normal line within
-    ``cage`` (``project_along_normals``), else the closest point of the reference.
+@dataclass
+class BakePoints:
+    """The reference point each of K texels bakes.
 
-    Returns:
-        ``(triangle [K] int64, barycentric [K, 3] float64, offset [K] float64, hit [K] bool)``:
-        the reference triangle and weights, the signed distance along the normal (the
-        unsigned distance for closest points), and whether a ray found it.
+    Attributes:
+        triangle: ``[K]`` int64 reference triangle; barycentric: ``[K, 3]`` float64 its weights.
+        offset: ``[K]`` float64 signed distance along the texel's normal (for closest points,
+            the unsigned distance).
+        hit: ``[K]`` bool, a ray found the point (else it is the closest point).
+        back: ``[K]`` bool, the point's triangle faces away from the texel's normal (seen from
+            behind: its shading normal is flipped, as the renderer does for double-sided
+            materials).
     """
-    v_pos = reference.v_pos.detach().double().numpy()
-    t_pos_idx = reference.t_pos_idx.numpy()
-    hits, offset = project_along_normals(RayCaster(v_pos, t_pos_idx), texels.position, texels.normal, cage)
+
+    triangle: np.ndarray
+    barycentric: np.ndarray
+    offset: np.ndarray
+    hit: np.ndarray
+    back: np.ndarray
+
+
+def locate_on_reference(reference: Asset, texels: AtlasTexels, cage: float) -> BakePoints:
+    """The reference point each texel bakes: the nearest hit along its normal line within
+    ``cage`` that is seen from outside (``project_along_normals``), else the closest point."""
+    mesh = reference.mesh
+    v_pos = mesh.v_pos.detach().double().numpy()
+    t_pos_idx = mesh.t_pos_idx.numpy()
+    face_normal = safe_normalize(face_normals(mesh.v_pos.detach().double(), mesh.t_pos_idx)).numpy()
+    double_sided = np.array([m.double_sided for m in reference.materials], bool)
+    one_sided = ~double_sided[mesh.t_mat_idx.numpy()]
+    hits, offset = project_along_normals(RayCaster(v_pos, t_pos_idx), texels.position, texels.normal, cage,
+                                         face_normal, one_sided)
     triangle, bary, hit = hits.triangle.copy(), hits.barycentric.copy(), hits.hit
     if not hit.all():
         closest = SurfaceQuery(v_pos, t_pos_idx).closest(texels.position[~hit])
         triangle[~hit], bary[~hit], offset[~hit] = closest.triangle, closest.barycentric, closest.distance
-    return triangle, bary, offset, hit
+    back = (face_normal[triangle] * texels.normal).sum(-1) < 0
+    return BakePoints(triangle, bary, offset, hit, back)
 
 
 def to_tangent_space(normals: np.ndarray, texels: AtlasTexels) -> np.ndarray:
@@ -212,19 +284,19 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     texels = atlas_texels(low, texture_size)
     if len(texels.rows) == 0:
         raise ConfigError(f"the low-poly mesh's UV atlas covers no texel of a {texture_size}^2 texture")
-    triangle, bary, offset, hit = locate_on_reference(reference.mesh, texels, cage)
-    values = ReferenceSurface(reference).sample(torch.from_numpy(triangle), torch.from_numpy(bary),
+    points = locate_on_reference(reference, texels, cage)
+    values = ReferenceSurface(reference).sample(torch.from_numpy(points.triangle), torch.from_numpy(points.barycentric),
                                                 torch.from_numpy(texels.footprint))
-    tangent_space = to_tangent_space(values.normal.double().numpy(), texels)
+    seen = values.normal.double().numpy() * np.where(points.back, -1.0, 1.0)[:, None]
+    tangent_space = to_tangent_space(seen, texels)
     nearest = nearest_covered(texels.rows, texels.cols, texture_size)
-    normal = _texture(texels, nearest, tangent_space)
     material = Material(
         name="baked",
         kd=Texture(_texture(texels, nearest, values.kd.numpy())),
         ks=Texture(_texture(texels, nearest, values.ks.numpy())),
-        normal=Texture(normal),
+        normal=Texture(_texture(texels, nearest, tangent_space)),
         emissive=None if values.emissive is None else Texture(_texture(texels, nearest, values.emissive.numpy())),
         **merged_modes(reference.materials),
     )
-    return BakeResult(material=material, cage=cage, texels=len(texels.rows), hit_fraction=float(hit.mean()),
-                      mean_offset=float(np.abs(offset).mean()))
+    return BakeResult(material=material, cage=cage, texels=len(texels.rows), hit_fraction=float(points.hit.mean()),
+                      mean_offset=float(np.abs(points.offset).mean()))

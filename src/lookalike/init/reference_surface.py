@@ -71,7 +71,8 @@ class ReferenceSurface:
             e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
             uv_area = (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).abs()
             self.uv_scale.append(torch.sqrt(uv_area / world_area.clamp_min(1e-300)).float())
-        normal_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
+        normal_sets = {m.normal.uv_set for m in asset.materials
+                       if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
         self.tangents = {}
         for k in sorted(normal_sets):
             v_tex, t_tex_idx = mesh.uv[k]
@@ -95,7 +96,8 @@ class ReferenceSurface:
         for (v_tex, t_tex_idx), scale in zip(mesh.uv, self.uv_scale):
             size = (footprint.float() * scale[triangle])[:, None]
             zero = torch.zeros_like(size)
-            uv.append((_interpolate(v_tex.float(), t_tex_idx[triangle], bary), torch.cat([size, zero, zero, size], dim=1)))
+            derivatives = torch.cat([size, zero, zero, size], dim=1)   # (du/dx, du/dy, dv/dx, dv/dy)
+            uv.append((_interpolate(v_tex.float(), t_tex_idx[triangle], bary), derivatives))
         tangent = {k: _interpolate(v_tng, t_tng_idx[triangle], bary) for k, (v_tng, t_tng_idx) in self.tangents.items()}
         normal = _interpolate(self.v_nrm, corners, bary)
         gb = GBuffer(

@@ -55,8 +55,16 @@ def downsample_adjoint(grad, src, h, w, dst, h2, w2, n_views):
     level ``dst``: each input texel gathers ``g / area`` from every output texel whose span
     covers it (a gather, so input rows run in parallel without races)."""
     n_channels = grad.shape[1]
+    halving = h == 2 * h2 and w == 2 * w2  # plain 2x2 boxes: one output per input texel
     for row in prange(n_views * h):
         b, y = row // h, row % h
+        if halving:
+            for x in range(w):
+                target = src + (b * h + y) * w + x
+                out = dst + (b * h2 + y // 2) * w2 + x // 2
+                for ch in range(n_channels):
+                    grad[target, ch] += 0.25 * grad[out, ch]
+            continue
         oy0, oy1 = _covering(y, h, h2)
         for x in range(w):
             ox0, ox1 = _covering(x, w, w2)

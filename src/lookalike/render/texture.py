@@ -77,8 +77,9 @@ def texture(
             :func:`interpolate` with ``diff_attrs``), which pick the mip level.
         mip_level_bias: ``[B, H, W]`` added to the mip level.
         mip: mip levels 1, 2, ... as a list of ``[B, h_l, w_l, C]`` tensors, each its own
-            variable (gradients go to each level); None builds them from ``tex`` with
-            :func:`texture_construct_mip` (gradients reach ``tex``).
+            variable (gradients go to each level); None builds the same levels as
+            :func:`texture_construct_mip` with compiled loops (faster; gradients reach
+            ``tex``).
         filter_mode: ``"nearest"``, ``"linear"`` (bilinear), ``"linear-mipmap-nearest"``
             (bilinear in the nearest level), ``"linear-mipmap-linear"`` (trilinear), or
             ``"auto"``: trilinear when ``uv_da`` or ``mip_level_bias`` is given, else bilinear.

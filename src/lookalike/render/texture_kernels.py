@@ -182,15 +182,26 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
             _bilinear_add(table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, out, p)
 
 
+@njit(cache=True, inline="always")
+def _all_zero(grad_out, p):
+    for ch in range(grad_out.shape[1]):
+        if grad_out[p, ch] != 0.0:
+            return False
+    return True
+
+
 @njit(cache=True)
 def _backward_pixels(
     table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
     grad_out, target, grad_uv, grad_uv_da, grad_bias, start, end,
 ):
-    """:func:`texture_backward` for pixels ``start .. end-1``, texel gradients into ``target``."""
+    """:func:`texture_backward` for pixels ``start .. end-1``, texel gradients into ``target``.
+    Pixels whose output gradient is all zero are skipped (their gradients stay 0)."""
     top = heights.shape[0] - 1
     has_da, has_bias = uv_da.shape[0] > 0, bias.shape[0] > 0
     for p in range(start, end):
+        if _all_zero(grad_out, p):
+            continue  # contributes nothing (masked pixels, typically background)
         view = p // pixels_per_view if per_view else 0
         u, v = uv[p, 0], uv[p, 1]
         if mode == NEAREST:
@@ -254,5 +265,7 @@ def texture_backward(
                 table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
                 grad_out, private[chunk - 1], grad_uv, grad_uv_da, grad_bias, start, end,
             )
-    for k in range(n_chunks - 1):
-        grad_table += private[k]
+    for row in prange(table.shape[0]):
+        for k in range(n_chunks - 1):
+            for ch in range(table.shape[1]):
+                grad_table[row, ch] += private[k, row, ch]
