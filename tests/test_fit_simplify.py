@@ -42,7 +42,7 @@ def test_the_optimised_model_beats_plain_decimation_on_held_out_views(tiny_run):
     _, result = tiny_run
     heldout = result.metrics["heldout"]
     assert heldout["views"] == 16
-    assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 0.5
+    assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 1.5
     assert heldout["ours"]["flip"] < heldout["decimated"]["flip"]
 
 

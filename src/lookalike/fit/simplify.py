@@ -108,7 +108,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         seed: random seed (default 0); same seed, same result.
         config: a ``Config`` or a TOML file with further settings; the arguments above override it.
         resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (with the settings
-            stored in it; ``input`` must be the same asset).
+            stored in it; ``input`` must be the same asset). A fixed ``iterations`` count is
+            completed exactly; under a time budget the resumed session gets the budget afresh.
         force: overwrite an existing ``outdir``.
         material_override: render the input with this material on every triangle (e.g. a
             colour for untextured scans).
