@@ -32,7 +32,7 @@ import tomli_w
 from ..errors import ConfigError
 
 LOSSES = ("l1-tonemapped", "l2", "smape", "relative-l2")
-INITS = ("average", "random")
+INITS = ("source", "average", "random")
 
 
 @dataclass
@@ -59,9 +59,10 @@ class LatentConfig:
         ratio: target count as a fraction of the input's (used when ``triangles`` is unset);
             when both are unset, ``DEFAULT_RATIO``.
         texture_size: side S of the square base colour, specular and normal textures.
-        init: how textures start: ``"average"`` (the reference's mean material plus a little
-            noise) or ``"random"`` (uniform noise, as in the paper). The normal map always
-            starts flat.
+        init: how the textures start: ``"source"`` (the input's own UVs and textures, where it
+            has one material with UVs; else as ``"average"``), ``"average"`` (a fresh atlas
+            holding the input's mean material) or ``"random"`` (a fresh atlas with uniform
+            noise, as in the paper). Fresh normal maps start flat.
     """
 
     DEFAULT_RATIO = 0.02
@@ -69,7 +70,7 @@ class LatentConfig:
     triangles: int | None = None
     ratio: float | None = None
     texture_size: int = 1024
-    init: str = "average"
+    init: str = "source"
 
 
 @dataclass

@@ -1,8 +1,9 @@
 """The initial guess (paper Sec. 4) and the plain-decimation baseline it is compared with.
 
-Initial guess: quadric-error decimation of the input to the target triangle count, a fresh
-UV atlas, and textures that start either at the input's mean material (``"average"``) or at
-uniform noise (``"random"``, as in the paper); the normal map starts flat.
+Initial guess: quadric-error decimation of the input to the target triangle count, then
+either the input's own UVs and textures (``"source"``, where the input has one material with
+UVs) or a fresh UV atlas with textures that start at the input's mean material
+(``"average"``) or at uniform noise (``"random"``, as in the paper) and a flat normal map.
 """
 
 from __future__ import annotations
@@ -76,16 +77,59 @@ def initial_textures(asset: Asset, size: int, init: str, limits: ClampConfig, tr
     return kd.float(), ks.float(), normal
 
 
+def reusable_source_material(asset: Asset, decimated: Mesh):
+    """The input's material if the latent can start from its own textures and UVs: exactly one
+    material, all its textures in UV set 0 without a texture transform, and UVs carried over
+    to ``decimated``; else ``None``."""
+    if len(asset.materials) != 1 or not decimated.uv:
+        return None
+    material = asset.materials[0]
+    textures = [t for t in (material.kd, material.ks, material.normal) if t is not None]
+    if any(t.uv_set != 0 or t.transform is not None for t in textures):
+        return None
+    return material
+
+
+def resample(texture: torch.Tensor, size: int) -> torch.Tensor:
+    """``texture [H, W, C]`` resampled to ``[size, size, C]`` (bilinear, antialiased when shrinking)."""
+    image = texture.detach().float().permute(2, 0, 1)[None]
+    resized = torch.nn.functional.interpolate(image, size=(size, size), mode="bilinear", align_corners=False,
+                                              antialias=True)
+    return resized[0].permute(1, 2, 0).contiguous()
+
+
 def initial_latent(asset: Asset, decimated: Mesh, config_latent: LatentConfig, limits: ClampConfig,
                    rng: np.random.Generator) -> Latent:
-    """The latent model starting from the ``decimated`` mesh with a fresh UV atlas."""
-    atlas = unwrap(decimated, texture_size=config_latent.texture_size)
+    """The latent model starting from the ``decimated`` mesh.
+
+    With ``init = "source"`` and an input whose material can be reused
+    (``reusable_source_material``), the latent keeps the decimated mesh's carried-over UVs and
+    starts from the input's own textures resampled to the texture size (the paper's "texture
+    maps from the reference scene as an initial guess"). Otherwise it gets a fresh UV atlas and
+    ``initial_textures`` (``"source"`` falling back to ``"average"``).
+    """
+    size = config_latent.texture_size
     train_alpha = uses_alpha(asset)
-    kd, ks, normal = initial_textures(asset, config_latent.texture_size, config_latent.init, limits, train_alpha, rng)
+    channels = 4 if train_alpha else 3
+    source = reusable_source_material(asset, decimated) if config_latent.init == "source" else None
+    if source is not None:
+        mesh = Mesh(v_pos=decimated.v_pos, t_pos_idx=decimated.t_pos_idx, uv=[decimated.uv[0]])
+        kd = resample(source.kd.data, size)[..., :channels]
+        ks = resample(source.ks.data, size)
+        normal = (torch.nn.functional.normalize(resample(source.normal.data, size), dim=-1)
+                  if source.normal is not None else torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3))
+        wrap = source.kd.wrap
+    else:
+        mesh = unwrap(decimated, texture_size=size)
+        init = "average" if config_latent.init == "source" else config_latent.init
+        kd, ks, normal = initial_textures(asset, size, init, limits, train_alpha, rng)
+        wrap = "clamp"
     centre, radius = asset.mesh.bounding_sphere()
     alpha_mode = _latent_alpha_mode(asset) if train_alpha else "OPAQUE"
     double_sided = any(m.double_sided for m in asset.materials)
-    return Latent(atlas, kd, ks, normal, centre, radius, alpha_mode=alpha_mode, double_sided=double_sided)
+    latent = Latent(mesh, kd, ks, normal, centre, radius, alpha_mode=alpha_mode, double_sided=double_sided, wrap=wrap)
+    latent.clamp_(limits)
+    return latent
 
 
 def _latent_alpha_mode(asset: Asset) -> str:

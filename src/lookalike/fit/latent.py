@@ -36,11 +36,13 @@ class Latent(torch.nn.Module):
         centre, radius: the unit frame.
         alpha_mode: the material's glTF alpha mode (``"OPAQUE"`` unless alpha is trained).
         double_sided: whether the material renders back faces.
+        wrap: texture boundary mode, ``"clamp"`` for an atlas or the input's own mode when
+            the latent reuses its UVs.
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
                  centre: torch.Tensor, radius: float | torch.Tensor, alpha_mode: str = "OPAQUE",
-                 double_sided: bool = False):
+                 double_sided: bool = False, wrap: str = "clamp"):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -55,6 +57,7 @@ class Latent(torch.nn.Module):
         self.normal = torch.nn.Parameter(normal_to_slopes(normal.float()))
         self.alpha_mode = alpha_mode
         self.double_sided = double_sided
+        self.wrap = wrap
 
     @classmethod
     def from_state_dict(cls, state: dict) -> "Latent":
@@ -66,11 +69,12 @@ class Latent(torch.nn.Module):
         return latent
 
     def get_extra_state(self) -> dict:
-        return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided}
+        return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided, "wrap": self.wrap}
 
     def set_extra_state(self, state: dict) -> None:
         self.alpha_mode = state["alpha_mode"]
         self.double_sided = state["double_sided"]
+        self.wrap = state["wrap"]
 
     @property
     def trains_alpha(self) -> bool:
@@ -102,9 +106,9 @@ class Latent(torch.nn.Module):
         mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)])
         material = Material(
             name="lookalike",
-            kd=Texture(self.base_color(), wrap="clamp"),
-            ks=Texture(self.ks, wrap="clamp"),
-            normal=Texture(self.unit_normal(), wrap="clamp"),
+            kd=Texture(self.base_color(), wrap=self.wrap),
+            ks=Texture(self.ks, wrap=self.wrap),
+            normal=Texture(self.unit_normal(), wrap=self.wrap),
             alpha_mode=self.alpha_mode,
             double_sided=self.double_sided,
         )

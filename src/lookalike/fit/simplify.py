@@ -195,7 +195,8 @@ def _prepare_input(asset: Asset, material_override: Material | None) -> tuple[As
 def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, heldout: HeldoutViews,
                    baseline: MethodResult, ours: MethodResult, timings: dict, started: float,
                    notes: list[str]) -> SimplifyResult:
-    """Write ``model.glb`` (+ OBJ), ``metrics.json`` and ``report.html`` atomically."""
+    """Write ``model.glb`` (+ OBJ), ``report.html`` and, last, ``metrics.json`` (whose total
+    time includes the report), each atomically."""
     model = outdir / "model.glb"
     with _stage(timings, "export"):
         with torch.no_grad():
@@ -204,8 +205,14 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
             io.save(export, temp)
         if cfg.io.export_obj:
             _save_obj(export, outdir)
-    seconds_total = time.monotonic() - started
     steps = max(fit.iterations, 1)
+    with _stage(timings, "report"):
+        report = write_report(outdir, ReportData(
+            asset_name=asset.name, reference=heldout.reference, methods=[baseline, ours],
+            input_triangles=asset.mesh.num_triangles, loss_history=np.asarray(fit.losses, dtype=np.float64),
+            wall_time=time.monotonic() - started, iterations=fit.iterations, seconds_per_iteration=fit.seconds / steps,
+            config=config_to_dict(cfg), timings=dict(timings), notes=notes,
+        ))
     metrics = {
         "input": cfg.io.input,
         "triangles": {"input": asset.mesh.num_triangles, "output": export.mesh.num_triangles},
@@ -214,7 +221,7 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
         "iterations": fit.iterations,
         "rollbacks": fit.rollbacks,
         "interrupted": fit.interrupted,
-        "seconds": {"total": seconds_total, "per_iteration": fit.seconds / steps, **timings},
+        "seconds": {"total": time.monotonic() - started, "per_iteration": fit.seconds / steps, **timings},
         "final_loss": _last_finite(fit.losses),
         "heldout": {
             "views": len(baseline.psnr_views),
@@ -223,12 +230,6 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
         },
     }
     write_text_atomic(outdir / "metrics.json", json.dumps(metrics, indent=2))
-    report = write_report(outdir, ReportData(
-        asset_name=asset.name, reference=heldout.reference, methods=[baseline, ours],
-        input_triangles=asset.mesh.num_triangles, loss_history=np.asarray(fit.losses, dtype=np.float64),
-        wall_time=seconds_total, iterations=fit.iterations, seconds_per_iteration=fit.seconds / steps,
-        config=config_to_dict(cfg), timings=timings, notes=notes,
-    ))
     return SimplifyResult(outdir=outdir, model=model, report=Path(report), metrics=metrics, interrupted=fit.interrupted)
 
 

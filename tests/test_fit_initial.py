@@ -1,0 +1,80 @@
+"""The initial guess: triangle targets, texture starts, and the decimation baseline."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from lookalike.asset import Asset, Material, Texture
+from lookalike.errors import ConfigError
+from lookalike.fit.config import ClampConfig, LatentConfig
+from lookalike.fit.demo_asset import knot_mesh
+from lookalike.fit.initial import (decimation_baseline, initial_latent, resample, surface_mean_material,
+                                   target_triangle_count)
+from lookalike.init import decimate
+
+
+def painted_knot(materials: int = 1) -> Asset:
+    mesh = knot_mesh(segments=60, sides=10)
+    kd = torch.rand(16, 64, 4)
+    kd[..., 3] = 1
+    painted = [Material(name=f"m{k}", kd=Texture(kd * (k + 1) / materials), ks=Texture.constant([0.0, 0.5, 0.0]))
+               for k in range(materials)]
+    mesh.t_mat_idx = torch.arange(mesh.num_triangles) % materials
+    return Asset(mesh=mesh, materials=painted)
+
+
+def start(asset: Asset, init: str, size: int = 32):
+    decimated = decimate(asset.mesh, 300)
+    latent = initial_latent(asset, decimated, LatentConfig(texture_size=size, init=init), ClampConfig(),
+                            np.random.default_rng(0))
+    return decimated, latent
+
+
+def test_source_init_reuses_the_inputs_uvs_and_textures():
+    asset = painted_knot()
+    decimated, latent = start(asset, "source")
+    assert torch.equal(latent.v_tex, decimated.uv[0][0]) and torch.equal(latent.t_tex_idx, decimated.uv[0][1])
+    assert torch.allclose(latent.kd, resample(asset.materials[0].kd.data, 32)[..., :3].clamp(0, 1))
+    assert torch.allclose(latent.ks[..., 1], torch.full((32, 32), 0.5))
+    assert torch.equal(latent.unit_normal(), torch.tensor([0.0, 0.0, 1.0]).expand(32, 32, 3))
+
+
+def test_several_materials_get_a_fresh_atlas_with_their_mean_colour():
+    asset = painted_knot(materials=2)
+    decimated, latent = start(asset, "source", size=64)
+    assert not torch.equal(latent.t_tex_idx, decimated.uv[0][1])  # a new atlas from unwrap
+    kd_mean, _ = surface_mean_material(asset)
+    assert torch.allclose(latent.kd, kd_mean[:3].expand(64, 64, 3))
+
+
+def test_random_init_is_uniform_noise_within_the_clamp_ranges():
+    _, latent = start(painted_knot(), "random", size=64)
+    assert latent.kd.std() > 0.2 and latent.ks[..., 1].min() >= 0.08
+
+
+def test_mean_material_weights_materials_by_area():
+    asset = painted_knot(materials=2)
+    asset.materials = [dataclasses.replace(m, kd=Texture.constant([float(k), 0.0, 0.0, 1.0])) for k, m in enumerate(asset.materials)]
+    kd, ks = surface_mean_material(asset)
+    assert 0.3 < float(kd[0]) < 0.7 and float(kd[3]) == pytest.approx(1.0) and float(ks[1]) == pytest.approx(0.5)
+
+
+def test_triangle_targets():
+    assert target_triangle_count(LatentConfig(triangles=100), 1000) == 100
+    assert target_triangle_count(LatentConfig(ratio=0.25), 1000) == 250
+    assert target_triangle_count(LatentConfig(), 10_000) == 200  # default ratio 0.02
+    with pytest.raises(ConfigError, match="not below"):
+        target_triangle_count(LatentConfig(triangles=1000), 1000)
+
+
+def test_the_baseline_keeps_the_inputs_materials_without_normal_maps():
+    asset = painted_knot()
+    asset.materials[0].normal = Texture.constant([0.0, 0.0, 1.0])
+    decimated = decimate(asset.mesh, 300)
+    baseline = decimation_baseline(asset, decimated)
+    assert baseline.mesh is decimated and baseline.materials[0].normal is None
+    assert baseline.materials[0].kd is asset.materials[0].kd and asset.materials[0].normal is not None
