@@ -45,14 +45,14 @@ def test_source_init_reuses_the_inputs_uvs_and_textures():
 
 def test_several_materials_get_a_fresh_atlas_with_their_mean_colour():
     asset = painted_knot(materials=2)
-    decimated, latent = start(asset, "source", size=64)
+    decimated, latent = start(asset, "source", size=128)
     assert not torch.equal(latent.t_tex_idx, decimated.uv[0][1])  # a new atlas from unwrap
     kd_mean, _ = surface_mean_material(asset)
-    assert torch.allclose(latent.kd, kd_mean[:3].expand(64, 64, 3))
+    assert torch.allclose(latent.kd, kd_mean[:3].expand(128, 128, 3))
 
 
 def test_random_init_is_uniform_noise_within_the_clamp_ranges():
-    _, latent = start(painted_knot(), "random", size=64)
+    _, latent = start(painted_knot(), "random", size=128)
     assert latent.kd.std() > 0.2 and latent.ks[..., 1].min() >= 0.08
 
 
