@@ -4,9 +4,9 @@ A tube of radius ``TUBE`` around the torus-knot curve
 c(t) = ((2 + cos 3t) cos 2t, (2 + cos 3t) sin 2t, sin 3t), t = 2 pi u, u in [0, 1), with its
 radius modulated by a bump field, on a ``segments x sides`` grid (two triangles per cell,
 positions welded around both seams). UV u runs along the knot, v around the tube. Its
-material has painted base colour (hue bands, stripes, gold inlays) and roughness and
-metalness that vary with the paint, which a decimated mesh without the textures' detail
-cannot show.
+material has painted base colour (hue bands and six gold rings) with roughness and
+metalness varying along with it; the ridges and knobs are geometry that a decimated mesh
+loses and a normal map can bring back.
 """
 
 from __future__ import annotations
@@ -75,13 +75,10 @@ def paint(height: int = TEXTURE_HEIGHT, width: int = TEXTURE_WIDTH) -> tuple[np.
     v = (np.arange(height) + 0.5) / height
     uu, vv = np.meshgrid(u, v)  # rows follow v, columns u
     hue = 2 * np.pi * (3 * uu + 0.15 * np.sin(2 * np.pi * 2 * vv))
-    base = 0.35 + 0.3 * np.stack([np.cos(hue), np.cos(hue - 2.1), np.cos(hue + 2.1)], axis=-1)
-    stripes = (np.sin(2 * np.pi * (40 * uu + 4 * vv)) > 0.6)[..., None]
-    base = np.where(stripes, 0.9 * base + 0.08, 0.55 * base)
-    gold = (np.abs(np.sin(2 * np.pi * 12 * uu)) > 0.985)[..., None]
+    base = 0.4 + 0.3 * np.stack([np.cos(hue), np.cos(hue - 2.1), np.cos(hue + 2.1)], axis=-1)
+    gold = (np.cos(2 * np.pi * 6 * uu) > 0.8)[..., None]
     kd = np.where(gold, [1.0, 0.72, 0.3], base).clip(0.02, 1.0) ** 2.2
-    roughness = np.where(stripes[..., 0], 0.25, 0.7) + 0.1 * np.sin(2 * np.pi * 9 * vv)
-    roughness = np.where(gold[..., 0], 0.2, roughness)
+    roughness = np.where(gold[..., 0], 0.25, 0.6 + 0.15 * np.sin(hue))
     metalness = gold[..., 0].astype(np.float64)
     ks = np.stack([np.zeros_like(roughness), roughness, metalness], axis=-1)
     kd = np.concatenate([kd, np.ones_like(kd[..., :1])], axis=-1)

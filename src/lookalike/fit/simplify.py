@@ -200,7 +200,7 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
     model = outdir / "model.glb"
     with _stage(timings, "export"):
         with torch.no_grad():
-            export = fit.best.as_asset()
+            export = fit.best.requires_grad_(False).as_asset()
         with atomic_path(model) as temp:
             io.save(export, temp)
         if cfg.io.export_obj:
