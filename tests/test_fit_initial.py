@@ -29,8 +29,9 @@ def painted_knot(materials: int = 1) -> Asset:
 
 def start(asset: Asset, init: str, size: int = 32):
     decimated = decimate(asset.mesh, 300)
-    latent = initial_latent(asset, decimated, LatentConfig(texture_size=size, init=init), ClampConfig(),
-                            np.random.default_rng(0))
+    latent, baked = initial_latent(asset, decimated, LatentConfig(texture_size=size, init=init), ClampConfig(),
+                                   np.random.default_rng(0))
+    assert (baked is not None) == (init == "bake")
     return decimated, latent
 
 
@@ -78,3 +79,18 @@ def test_the_baseline_keeps_the_inputs_materials_without_normal_maps():
     baseline = decimation_baseline(asset, decimated)
     assert baseline.mesh is decimated and baseline.materials[0].normal is None
     assert baseline.materials[0].kd is asset.materials[0].kd and asset.materials[0].normal is not None
+
+
+def test_bake_init_starts_from_the_classic_bake():
+    """The default start: the latent's textures are the bake's, on the bake's atlas, and the
+    bake comes back for the report."""
+    asset = painted_knot()
+    decimated = decimate(asset.mesh, 300)
+    latent, baked = initial_latent(asset, decimated, LatentConfig(texture_size=128), ClampConfig(), np.random.default_rng(0))
+    material = baked.materials[0]
+    assert torch.equal(latent.v_tex, baked.mesh.v_tex) and torch.equal(latent.t_pos_idx, baked.mesh.t_pos_idx)
+    assert torch.allclose(latent.kd, material.kd.data[..., :3].clamp(0, 1))
+    assert torch.allclose(latent.ks[..., 1], material.ks.data[..., 1].clamp(0.08, 1))
+    facing = material.normal.data[..., 2] > 1 / ClampConfig().normal_max_slope
+    assert torch.allclose(latent.unit_normal()[facing], material.normal.data[facing], atol=1e-5)
+    assert not torch.equal(latent.kd, latent.kd.mean(dim=(0, 1)).expand_as(latent.kd))

@@ -32,7 +32,8 @@ import tomli_w
 from ..errors import ConfigError
 
 LOSSES = ("l1-tonemapped", "l2", "smape", "relative-l2")
-INITS = ("source", "average", "random")
+INITS = ("bake", "source", "average", "random")
+WARM_INITS = ("bake", "source")
 
 
 @dataclass
@@ -59,7 +60,9 @@ class LatentConfig:
         ratio: target count as a fraction of the input's (used when ``triangles`` is unset);
             when both are unset, ``DEFAULT_RATIO``.
         texture_size: side S of the square base colour, specular and normal textures.
-        init: how the textures start: ``"source"`` (the input's own UVs and textures, where it
+        init: how the textures start: ``"bake"`` (a fresh atlas with the classic projection
+            bake of the input, ``lookalike.init.bake``: normals, colours and specular from rays
+            along the low-poly normals), ``"source"`` (the input's own UVs and textures, where it
             has one material with UVs; else as ``"average"``), ``"average"`` (a fresh atlas
             holding the input's mean material) or ``"random"`` (a fresh atlas with uniform
             noise, as in the paper). Fresh normal maps start flat.
@@ -70,7 +73,7 @@ class LatentConfig:
     triangles: int | None = None
     ratio: float | None = None
     texture_size: int = 1024
-    init: str = "source"
+    init: str = "bake"
 
 
 @dataclass
@@ -126,7 +129,10 @@ class OptimConfig:
         loss: image loss, one of ``LOSSES`` (see ``lookalike.fit.losses``).
         lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
             radius (the paper's [0.001, 0.003] for a decimated start).
-        lr_textures: Adam's lr_0 for texels (values in [0, 1]).
+        lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
+            ``LR_TEXTURES_COLD`` for textures that start from scratch (``average``, ``random``)
+            and ``LR_TEXTURES_WARM`` for textures that start close (``bake``, ``source``): a
+            large first step would undo a good start (see ``texture_learning_rate``).
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the paper's schedule over
             the run, k = 2 / iterations (see ``lookalike.fit.schedule``; the paper's 0.0002
             is that for its 10k steps).
@@ -145,7 +151,7 @@ class OptimConfig:
     seed: int = 0
     loss: str = "l1-tonemapped"
     lr_positions: float = 0.002
-    lr_textures: float = 0.03
+    lr_textures: float | None = None
     lr_decay: float | None = None
     laplacian_weight: float | None = None
     laplacian_min_fraction: float = 0.02
@@ -206,7 +212,7 @@ class Config:
             (opt.iterations is None or opt.iterations >= 0,
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
-            (opt.lr_positions >= 0 and opt.lr_textures >= 0, "learning rates must not be negative"),
+            (opt.lr_positions >= 0 and (opt.lr_textures is None or opt.lr_textures >= 0), "learning rates must not be negative"),
             (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
             (self.clamp.normal_max_slope > 0, "clamp.normal_max_slope must be positive"),
             (opt.laplacian_weight is None or opt.laplacian_weight >= 0,
@@ -336,3 +342,17 @@ def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config
     if "ratio" in changes.get("latent", {}):
         config.latent = dataclasses.replace(config.latent, triangles=None)
     return config_from_dict(changes, base=config, origin="options")
+
+
+LR_TEXTURES_COLD = 0.03
+"""Texture lr_0 for textures that start from scratch."""
+LR_TEXTURES_WARM = 0.005
+"""Texture lr_0 for textures that start from a bake or the input's own maps."""
+
+
+def texture_learning_rate(config: Config) -> float:
+    """Adam's lr_0 for texels: ``optim.lr_textures`` if set, else the warm or cold default
+    for ``latent.init``."""
+    if config.optim.lr_textures is not None:
+        return config.optim.lr_textures
+    return LR_TEXTURES_WARM if config.latent.init in WARM_INITS else LR_TEXTURES_COLD

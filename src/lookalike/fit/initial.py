@@ -1,9 +1,11 @@
 """The initial guess (paper Sec. 4) and the plain-decimation baseline it is compared with.
 
 Initial guess: quadric-error decimation of the input to the target triangle count, then
-either the input's own UVs and textures (``"source"``, where the input has one material with
-UVs) or a fresh UV atlas with textures that start at the input's mean material
-(``"average"``) or at uniform noise (``"random"``, as in the paper) and a flat normal map.
+either a fresh UV atlas with the classic projection bake of the input (``"bake"``, the
+default: normals, colours and specular copied along the low-poly normals), the input's own
+UVs and textures (``"source"``, where the input has one material with UVs), or a fresh UV
+atlas with textures that start at the input's mean material (``"average"``) or at uniform
+noise (``"random"``, as in the paper) and a flat normal map.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from ..asset import Asset, Mesh
 from ..asset.normals import face_normals
 from ..errors import ConfigError
 from ..init import unwrap
+from ..init.bake import bake
 from ..init.decimate import check_triangle_target
 from .config import ClampConfig, LatentConfig
 from .latent import Latent
@@ -99,19 +102,22 @@ def resample(texture: torch.Tensor, size: int) -> torch.Tensor:
 
 
 def initial_latent(asset: Asset, decimated: Mesh, config_latent: LatentConfig, limits: ClampConfig,
-                   rng: np.random.Generator) -> Latent:
-    """The latent model starting from the ``decimated`` mesh.
+                   rng: np.random.Generator) -> tuple[Latent, Asset | None]:
+    """The latent model starting from the ``decimated`` mesh, and, when the start is
+    ``"bake"``, the classic bake as an asset of its own (else ``None``), so that the report
+    can show it.
 
-    With ``init = "source"`` and an input whose material can be reused
-    (``reusable_source_material``), the latent keeps the decimated mesh's carried-over UVs and
-    starts from the input's own textures resampled to the texture size (the paper's "texture
-    maps from the reference scene as an initial guess"). Otherwise it gets a fresh UV atlas and
-    ``initial_textures`` (``"source"`` falling back to ``"average"``).
+    ``"bake"``: a fresh UV atlas and ``lookalike.init.bake`` of the input onto it. ``"source"``
+    with an input whose material can be reused (``reusable_source_material``): the decimated
+    mesh's carried-over UVs and the input's own textures resampled to the texture size (the
+    paper's "texture maps from the reference scene as an initial guess"). Otherwise a fresh UV
+    atlas and ``initial_textures`` (``"source"`` falling back to ``"average"``).
     """
     size = config_latent.texture_size
     train_alpha = uses_alpha(asset)
     channels = 4 if train_alpha else 3
     source = reusable_source_material(asset, decimated) if config_latent.init == "source" else None
+    baked = None
     if source is not None:
         mesh = Mesh(v_pos=decimated.v_pos, t_pos_idx=decimated.t_pos_idx, uv=[decimated.uv[0]])
         kd = resample(source.kd.data, size)[..., :channels]
@@ -119,6 +125,12 @@ def initial_latent(asset: Asset, decimated: Mesh, config_latent: LatentConfig, l
         normal = (torch.nn.functional.normalize(resample(source.normal.data, size), dim=-1)
                   if source.normal is not None else torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3))
         wrap = source.kd.wrap
+    elif config_latent.init == "bake":
+        mesh = unwrap(decimated, texture_size=size)
+        material = bake(asset, mesh, texture_size=size).material
+        baked = Asset(mesh=mesh, materials=[material], source=asset.source)
+        kd, ks, normal = material.kd.data[..., :channels], material.ks.data, material.normal.data
+        wrap = "clamp"
     else:
         mesh = unwrap(decimated, texture_size=size)
         init = "average" if config_latent.init == "source" else config_latent.init
@@ -127,9 +139,19 @@ def initial_latent(asset: Asset, decimated: Mesh, config_latent: LatentConfig, l
     centre, radius = asset.mesh.bounding_sphere()
     alpha_mode = _latent_alpha_mode(asset) if train_alpha else "OPAQUE"
     double_sided = any(m.double_sided for m in asset.materials)
+    normal = _facing_outwards(normal, limits)
     latent = Latent(mesh, kd, ks, normal, centre, radius, alpha_mode=alpha_mode, double_sided=double_sided, wrap=wrap)
     latent.clamp_(limits)
-    return latent
+    return latent, baked
+
+
+def _facing_outwards(normal: torch.Tensor, limits: ClampConfig) -> torch.Tensor:
+    """``normal [S, S, 3]`` with z raised to at least ``1 / normal_max_slope`` and renormalised:
+    the latent stores normals as slopes (x / z, y / z), which need z > 0 (a bake can see a few
+    texels from behind)."""
+    lifted = normal.clone()
+    lifted[..., 2].clamp_(min=1.0 / limits.normal_max_slope)
+    return torch.nn.functional.normalize(lifted, dim=-1)
 
 
 def _latent_alpha_mode(asset: Asset) -> str:

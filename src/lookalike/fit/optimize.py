@@ -36,7 +36,7 @@ from ..asset.laplacian import UniformLaplacian
 from ..errors import ConfigError
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from .config import Config, config_from_dict, config_to_dict
+from .config import Config, config_from_dict, config_to_dict, texture_learning_rate
 from .latent import Latent
 from .losses import composite, image_loss
 from .outdir import atomic_path
@@ -149,9 +149,10 @@ class Fitter:
         self.loss_fn = image_loss(opt.loss)
         self.laplacian = UniformLaplacian(latent.t_pos_idx, latent.v_pos.shape[0])
         self.rest_delta = self.laplacian.differentials(latent.v_pos.detach())
+        lr_textures = texture_learning_rate(config)
         self.optimizer = torch.optim.Adam([
             {"params": latent.position_parameters(), "lr": opt.lr_positions, "lr_0": opt.lr_positions},
-            {"params": latent.texture_parameters(), "lr": opt.lr_textures, "lr_0": opt.lr_textures},
+            {"params": latent.texture_parameters(), "lr": lr_textures, "lr_0": lr_textures},
         ], fused=True)
         self.progress = _Progress(total=opt.iterations)
         self.best_state = copy.deepcopy(latent.state_dict())

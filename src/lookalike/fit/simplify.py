@@ -142,8 +142,9 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         prepare_outdir(outdir, force=force, resume=resume)
         write_text_atomic(outdir / "config.toml", to_toml(cfg))
         decimated = decimate(asset.mesh, count)
-        latent = resumed_latent or initial_latent(asset, decimated, cfg.latent, cfg.clamp,
-                                                  np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+        latent, baked = initial_latent(asset, decimated, cfg.latent, cfg.clamp,
+                                       np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+        latent = resumed_latent or latent
     with _stage(timings, "reference views"):
         sampler = view_sampler(asset.mesh)
         target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
@@ -153,6 +154,10 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     draw = latent_renderer(cfg.render.resolution, cfg.render.latent_msaa)
     with _stage(timings, "scoring plain decimation"):
         baseline = heldout.score("decimated", "Plain decimation", decimation_baseline(asset, decimated), draw, None)
+    methods = [baseline]
+    if baked is not None:
+        with _stage(timings, "scoring the classic bake"):
+            methods.append(heldout.score("baked", "Classic bake", baked, draw, cfg.latent.texture_size))
 
     fitter = Fitter(latent, source, draw, cfg, checkpoint=checkpoint)
     if state is not None:
@@ -163,7 +168,7 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
     with _stage(timings, "scoring ours"), torch.no_grad():
         ours = heldout.score("ours", "Ours", fit.best.as_asset(), draw, cfg.latent.texture_size)
-    result = _write_outputs(outdir, cfg, asset, fit, heldout, baseline, ours, timings, started, notes)
+    result = _write_outputs(outdir, cfg, asset, fit, heldout, [*methods, ours], timings, started, notes)
     if not fit.interrupted:
         checkpoint.unlink(missing_ok=True)
     return result
@@ -193,7 +198,7 @@ def _prepare_input(asset: Asset, material_override: Material | None) -> tuple[As
 
 
 def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, heldout: HeldoutViews,
-                   baseline: MethodResult, ours: MethodResult, timings: dict, started: float,
+                   methods: list[MethodResult], timings: dict, started: float,
                    notes: list[str]) -> SimplifyResult:
     """Write ``model.glb`` (+ OBJ), ``report.html`` and, last, ``metrics.json`` (whose total
     time includes the report), each atomically."""
@@ -208,7 +213,7 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
     steps = max(fit.iterations, 1)
     with _stage(timings, "report"):
         report = write_report(outdir, ReportData(
-            asset_name=asset.name, reference=heldout.reference, methods=[baseline, ours],
+            asset_name=asset.name, reference=heldout.reference, methods=methods,
             input_triangles=asset.mesh.num_triangles, loss_history=np.asarray(fit.losses, dtype=np.float64),
             wall_time=time.monotonic() - started, iterations=fit.iterations, seconds_per_iteration=fit.seconds / steps,
             config=config_to_dict(cfg), timings=dict(timings), notes=notes,
@@ -224,9 +229,9 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
         "seconds": {"total": time.monotonic() - started, "per_iteration": fit.seconds / steps, **timings},
         "final_loss": _last_finite(fit.losses),
         "heldout": {
-            "views": len(baseline.psnr_views),
+            "views": len(methods[0].psnr_views),
             **{m.key: {"psnr": m.psnr, "flip": m.flip, "psnr_views": m.psnr_views.tolist(),
-                       "flip_views": m.flip_views.tolist()} for m in (baseline, ours)},
+                       "flip_views": m.flip_views.tolist()} for m in methods},
         },
     }
     write_text_atomic(outdir / "metrics.json", json.dumps(metrics, indent=2))
