@@ -5,16 +5,13 @@ from __future__ import annotations
 
 import argparse
 
+from ._options import add_job_arguments
+
 HELP = "decimate, unwrap and bake an asset the classic way (the baseline simplify beats)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", help="the asset to bake (glTF/GLB, OBJ, PLY)")
-    parser.add_argument("-o", "--output", metavar="OUTDIR", default=None,
-                        help="output folder (default: INPUT's name + '-baked' in the current folder)")
-    count = parser.add_mutually_exclusive_group()
-    count.add_argument("--triangles", type=int, metavar="N", help="target triangle count")
-    count.add_argument("--ratio", type=float, metavar="R", help="target count as a fraction of the input's (default 0.02)")
+    add_job_arguments(parser, verb="bake", outdir_suffix="-baked")
     parser.add_argument("--texture-size", type=int, default=1024, metavar="S",
                         help="side of the square baked textures (default 1024)")
     parser.add_argument("--cage", type=float, metavar="D",

@@ -4,16 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+from ._options import add_job_arguments
+
 HELP = "simplify an asset: a low-poly model with textures that renders like the input"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", help="the asset to simplify (glTF/GLB, OBJ, PLY)")
-    parser.add_argument("-o", "--output", metavar="OUTDIR", default=None,
-                        help="output folder (default: INPUT's name + '-lookalike' in the current folder)")
-    count = parser.add_mutually_exclusive_group()
-    count.add_argument("--triangles", type=int, metavar="N", help="target triangle count")
-    count.add_argument("--ratio", type=float, metavar="R", help="target count as a fraction of the input's (default 0.02)")
+    add_job_arguments(parser, verb="simplify", outdir_suffix="-lookalike")
     parser.add_argument("--texture-size", type=int, metavar="S", help="side of the square textures (default 1024)")
     parser.add_argument("--resolution", type=int, metavar="PX", help="side of the training images (default 512)")
     length = parser.add_mutually_exclusive_group()

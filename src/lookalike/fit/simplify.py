@@ -79,6 +79,12 @@ class SimplifyResult:
             f"{m['iterations']} iterations in {m['seconds']['total']:.0f} s",
             f"held-out PSNR: plain decimation {base['psnr']:.2f} dB, ours {ours['psnr']:.2f} dB "
             f"({ours['psnr'] - base['psnr']:+.2f} dB); FLIP {base['flip']:.4f} -> {ours['flip']:.4f}",
+        ]
+        if "baked" in m["heldout"]:
+            baked = m["heldout"]["baked"]
+            lines.append(f"classic bake: PSNR {baked['psnr']:.2f} dB (ours {ours['psnr'] - baked['psnr']:+.2f} dB), "
+                         f"FLIP {baked['flip']:.4f}")
+        lines += [
             f"model:  {self.model}",
             f"report: {self.report}",
         ]
