@@ -80,3 +80,12 @@ def test_overrides_name_fields_and_a_count_replaces_a_ratio(tmp_path):
     assert with_overrides(config, ratio=0.3).latent.triangles is None
     with pytest.raises(ConfigError, match="texture_size must be at least 4"):
         with_overrides(None, texture_size=2)
+
+
+def test_the_command_offers_every_texture_start():
+    """``lookalike simplify --init`` lists its choices without importing torch; they must stay
+    those of the configuration."""
+    from lookalike.commands.simplify import INITS as command_inits
+    from lookalike.fit.config import INITS
+
+    assert command_inits == INITS

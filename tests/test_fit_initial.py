@@ -94,3 +94,13 @@ def test_bake_init_starts_from_the_classic_bake():
     facing = material.normal.data[..., 2] > 1 / ClampConfig().normal_max_slope
     assert torch.allclose(latent.unit_normal()[facing], material.normal.data[facing], atol=1e-5)
     assert not torch.equal(latent.kd, latent.kd.mean(dim=(0, 1)).expand_as(latent.kd))
+
+
+def test_the_bake_of_a_multi_material_input_is_one_material_asset():
+    """Every triangle of the bake's asset uses its one baked material (the input's material
+    indices and vertex colours are baked into it, not carried along)."""
+    asset = painted_knot(materials=3)
+    decimated = decimate(asset.mesh, 300)
+    assert decimated.t_mat_idx.max() > 0
+    _, baked = initial_latent(asset, decimated, LatentConfig(texture_size=128), ClampConfig(), np.random.default_rng(0))
+    assert len(baked.materials) == 1 and int(baked.mesh.t_mat_idx.max()) == 0 and baked.mesh.v_color is None

@@ -6,6 +6,8 @@ import argparse
 
 from ._options import add_job_arguments
 
+INITS = ("bake", "source", "average", "random")   # lookalike.fit.config.INITS, without importing torch
+
 HELP = "simplify an asset: a low-poly model with textures that renders like the input"
 
 
@@ -17,6 +19,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     length.add_argument("--time-budget", metavar="T",
                         help="wall time for the whole run: 90s, 10m, 1h or seconds (default 10m)")
     length.add_argument("--iterations", type=int, metavar="N", help="number of optimisation steps (overrides the budget)")
+    parser.add_argument("--init", choices=INITS, help="how the textures start: the classic projection bake (default), "
+                        "the input's own maps, its mean material, or noise as in the paper")
     parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0): same seed, same result")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file (e.g. a previous run's config.toml)")
     parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
@@ -33,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
         args.input, args.output,
         triangles=args.triangles, ratio=args.ratio, texture_size=args.texture_size, resolution=args.resolution,
         time_budget=None if args.time_budget is None else parse_duration(args.time_budget),
-        iterations=args.iterations, seed=args.seed, config=args.config, resume=args.resume, force=args.force,
+        iterations=args.iterations, init=args.init, seed=args.seed, config=args.config, resume=args.resume, force=args.force,
         export_obj=True if args.obj else None, progress=not args.quiet,
     )
     print(result.summary())

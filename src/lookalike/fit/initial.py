@@ -126,7 +126,8 @@ def initial_latent(asset: Asset, decimated: Mesh, config_latent: LatentConfig, l
                   if source.normal is not None else torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3))
         wrap = source.kd.wrap
     elif config_latent.init == "bake":
-        mesh = unwrap(decimated, texture_size=size)
+        atlas = unwrap(decimated, texture_size=size)
+        mesh = Mesh(v_pos=atlas.v_pos, t_pos_idx=atlas.t_pos_idx, uv=[atlas.uv[0]])   # one material, no colours
         material = bake(asset, mesh, texture_size=size).material
         baked = Asset(mesh=mesh, materials=[material], source=asset.source)
         kd, ks, normal = material.kd.data[..., :channels], material.ks.data, material.normal.data

@@ -95,8 +95,8 @@ class SimplifyResult:
 
 def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
              ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
-             time_budget: float | None = None, iterations: int | None = None, seed: int | None = None,
-             config: Config | str | Path | None = None, resume: bool = False, force: bool = False,
+             time_budget: float | None = None, iterations: int | None = None, init: str | None = None,
+             seed: int | None = None, config: Config | str | Path | None = None, resume: bool = False, force: bool = False,
              material_override: Material | None = None, export_obj: bool | None = None,
              progress: bool = True) -> SimplifyResult:
     """Simplify the asset in ``input`` into ``outdir``.
@@ -111,6 +111,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         time_budget: wall seconds for the whole run (default 600); ignored when
             ``iterations`` is given.
         iterations: fixed number of optimisation steps.
+        init: how the textures start (``"bake"``, the default, ``"source"``, ``"average"`` or
+            ``"random"``; see ``LatentConfig.init``).
         seed: random seed (default 0); same seed, same result.
         config: a ``Config`` or a TOML file with further settings; the arguments above override it.
         resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (with the settings
@@ -136,7 +138,7 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         state, cfg, resumed_latent = read_checkpoint(checkpoint)
     else:
         cfg = with_overrides(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
-                             resolution=resolution, time_budget=time_budget, iterations=iterations, seed=seed,
+                             resolution=resolution, time_budget=time_budget, iterations=iterations, init=init, seed=seed,
                              export_obj=export_obj)
         input_name = str(input) if given is None else str(given.source or given.name)
         cfg.io = dataclasses.replace(cfg.io, input=input_name, outdir=str(outdir))
