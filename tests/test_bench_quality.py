@@ -25,7 +25,7 @@ def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
 def stub_simplify(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, force, progress, material_override):
+    def fake(input, outdir, *, triangles, time_budget, init, force, progress, material_override):
         calls.append(SimpleNamespace(input=input, outdir=outdir, triangles=triangles, time_budget=time_budget,
                                      material=material_override))
         gain = 2.0 if "spot" in str(input) else 4.0
@@ -64,7 +64,7 @@ def test_table_lists_runs_and_the_bar(stub_simplify, tmp_path):
 
 
 def test_baked_columns_appear_when_a_bake_ran():
-    row = quality._row(quality.ASSETS[0], _metrics(1500, 27.0, 31.5, baked=30.0))
+    row = quality.table_row(quality.ASSETS[0], _metrics(1500, 27.0, 31.5, baked=30.0))
     assert row["gain_over_baked_db"] == pytest.approx(1.5)
     table = quality.format_table({"runs": [row], "bar": {"minutes": 10, "gain_db": 3}, "all_meet_bar": True,
                                   "time_budget_s": 600})

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 import torch
 
 from lookalike.fit.config import Config, config_from_dict
@@ -50,10 +51,10 @@ def config(**optim) -> Config:
     return config_from_dict({"optim": {"lr_textures": 0.05, "lr_positions": 0.01, **optim}, "views": {"batch_size": 2}})
 
 
-def fitter(cfg: Config, render=toy_render, checkpoint=None) -> Fitter:
+def fitter(cfg: Config, render=toy_render, checkpoint=None, validate=None) -> Fitter:
     torch.manual_seed(1)
     truth, start = make_latent(SIZE), make_latent(SIZE)
-    return Fitter(start, ToySource(truth), render, cfg, checkpoint=checkpoint)
+    return Fitter(start, ToySource(truth), render, cfg, checkpoint=checkpoint, validate=validate)
 
 
 def test_loss_goes_down_and_the_best_state_is_kept():
@@ -61,8 +62,32 @@ def test_loss_goes_down_and_the_best_state_is_kept():
     result = fit.run(progress=False)
     assert result.iterations == 60 and len(result.losses) == 60
     assert np.mean(result.losses[-10:]) < 0.3 * np.mean(result.losses[:5])
-    assert fit.progress.best_ema < math.inf
+    assert fit.progress.best_score > -math.inf
     assert not torch.equal(result.best.kd, make_latent(SIZE).kd)
+
+
+def test_the_validator_scores_at_the_start_every_few_steps_and_at_the_end_and_picks_the_best():
+    seen = {}
+
+    def validate(asset):
+        iteration = fit.progress.iteration
+        seen[iteration] = fit.latent.kd.detach().clone()
+        return 30.0 if iteration == 20 else 20.0 + iteration / 100
+
+    fit = fitter(config(iterations=47, validate_every=10), validate=validate)
+    result = fit.run(progress=False)
+    assert [i for i, _ in result.validation] == [0, 10, 20, 30, 40, 47]
+    assert result.validation[2] == (20, 30.0) and result.validation[-1] == (47, pytest.approx(20.47))
+    assert torch.equal(result.best.kd, seen[20])
+    assert not torch.equal(result.best.kd, fit.latent.kd)
+
+
+def test_the_start_is_kept_when_no_later_state_scores_better():
+    fit = fitter(config(iterations=12, validate_every=5), validate=lambda asset: -float(fit.progress.iteration))
+    start = fit.latent.kd.clone()
+    result = fit.run(progress=False)
+    assert [i for i, _ in result.validation] == [0, 5, 10, 12]
+    assert torch.equal(result.best.kd, start)
 
 
 def test_same_seed_same_result_and_another_seed_differs():

@@ -46,6 +46,13 @@ def test_the_optimised_model_beats_plain_decimation_on_held_out_views(tiny_run):
     assert heldout["ours"]["flip"] < heldout["decimated"]["flip"]
 
 
+def test_the_run_validates_its_states_and_keeps_the_best(tiny_run):
+    _, result = tiny_run
+    curve = result.metrics["validation"]
+    assert curve["views"] == 4 and curve["iterations"] == [0, 25, 50, 60]
+    assert max(curve["psnr"]) > curve["psnr"][0] + 0.1
+
+
 def test_outputs_are_complete_and_nothing_temporary_is_left(tiny_run):
     outdir, result = tiny_run
     names = sorted(p.name for p in outdir.iterdir())

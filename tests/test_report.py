@@ -104,3 +104,13 @@ def test_loss_plot_is_written(tmp_path):
     path = plot_loss(np.exp(-np.arange(200) / 50) + 0.01, tmp_path / "loss.png")
     with Image.open(path) as image:
         assert image.width > 600 and image.height > 300
+
+
+def test_the_validation_curve_is_drawn_on_the_loss_plot(tmp_path):
+    history = np.exp(-np.arange(200) / 50) + 0.01
+    validation = np.array([[0, 20.0], [50, 25.0], [100, 27.0], [200, 28.0]])
+    plain = np.asarray(Image.open(plot_loss(history, tmp_path / "plain.png")).convert("RGB")).astype(int)
+    both = np.asarray(Image.open(plot_loss(history, tmp_path / "both.png", validation=validation)).convert("RGB")).astype(int)
+    orange = np.array([0xc0, 0x56, 0x2b])
+    assert (np.abs(both - orange).sum(axis=-1) < 30).sum() > 200
+    assert (np.abs(plain - orange).sum(axis=-1) < 30).sum() == 0

@@ -107,6 +107,12 @@ class ViewsConfig:
             oldest); 0 keeps the pool fixed.
         heldout: views of the report, drawn from ``heldout_seed`` and never trained on.
         heldout_seed: seed of the held-out views (fixed so that runs stay comparable).
+        validation: views, drawn from ``validation_seed`` and never trained on, on which the
+            model is scored every ``optim.validate_every`` steps: the best-scoring state is the
+            one kept (the training loss of one-view batches is too noisy to choose by), and the
+            scores are the run's convergence curve. 0 chooses by the training loss instead.
+        validation_seed: seed of the validation views (not the held-out ones: the report's
+            scores stay independent of the choice).
     """
 
     batch_size: int = 1
@@ -114,6 +120,8 @@ class ViewsConfig:
     refresh_every: int = 2
     heldout: int = 16
     heldout_seed: int = 20_210_809
+    validation: int = 4
+    validation_seed: int = 20_211_021
 
 
 @dataclass
@@ -141,6 +149,7 @@ class OptimConfig:
         laplacian_decay_fraction: fraction of the run after which lambda_t - lambda_min has
             fallen to 1 % of lambda_0 - lambda_min (see ``lookalike.fit.schedule``; 0.2
             reproduces the paper's k = 1e-6 on its 10k-step runs).
+        validate_every: steps between scorings on the validation views (``views.validation``).
         checkpoint_seconds: write ``OUTDIR/checkpoint.pt`` at most this often.
         rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
         max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
@@ -156,6 +165,7 @@ class OptimConfig:
     laplacian_weight: float | None = None
     laplacian_min_fraction: float = 0.02
     laplacian_decay_fraction: float = 0.2
+    validate_every: int = 25
     checkpoint_seconds: float = 60.0
     rollback_lr_factor: float = 0.5
     max_rollbacks: int = 8
@@ -208,6 +218,8 @@ class Config:
              f"views.pool_size must be 0 or at least views.batch_size, not {vw.pool_size}"),
             (vw.refresh_every >= 0, f"views.refresh_every must not be negative, not {vw.refresh_every}"),
             (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
+            (vw.validation >= 0, f"views.validation must not be negative, not {vw.validation}"),
+            (opt.validate_every >= 1, f"optim.validate_every must be at least 1, not {opt.validate_every}"),
             (opt.time_budget > 0, f"optim.time_budget must be positive, not {opt.time_budget}"),
             (opt.iterations is None or opt.iterations >= 0,
              f"optim.iterations must not be negative, not {opt.iterations}"),

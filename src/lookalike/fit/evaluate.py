@@ -1,5 +1,6 @@
 """Held-out views: a fixed set of cameras and lights, never trained on, on which plain
-decimation and our result are scored against the reference (PSNR and FLIP)."""
+decimation and our result are scored against the reference (PSNR and FLIP), and on which
+(another set of them) the optimisation validates its states (PSNR)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import torch
 
 from ..asset import Asset
 from ..report.data import MethodResult, score_method
+from ..report.metrics import psnr
 from .losses import composite
 from .optimize import RenderFn
 from .targets import RENDER_CHUNK, Target, ViewSampler, render_in_chunks
@@ -46,3 +48,7 @@ class HeldoutViews:
         (``lookalike.report.data.score_method``: PSNR, FLIP and FLIP maps per view)."""
         return score_method(key, label, self.reference, self.images(asset, render),
                             asset.mesh.num_triangles, texture_size)
+
+    def psnr(self, asset: Asset, render: RenderFn) -> float:
+        """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""
+        return psnr(self.reference, self.images(asset, render))

@@ -12,7 +12,9 @@ with lr_t = lr_0 * 10^(-k t) for each parameter group and lambda_t from
 Robustness:
 - a non-finite loss or gradient rolls the model and Adam back to the last good snapshot
   (taken every ``SNAPSHOT_EVERY`` steps), halves the learning rate, and carries on;
-- the best model so far (lowest moving average of the loss) is kept;
+- the best model so far is kept: the one that scores best on the validation views (scored
+  every ``optim.validate_every`` steps, at the start and at the end), or, without a
+  validator, the one with the lowest moving average of the training loss;
 - ``KeyboardInterrupt`` stops the loop cleanly after writing a checkpoint;
 - a checkpoint is written atomically every ``checkpoint_seconds`` and on interruption, and
   ``read_checkpoint`` and ``Fitter.load_state_dict`` continue from one exactly where it stopped.
@@ -52,12 +54,12 @@ REPLAN_EVERY = 20
 """Steps between re-plannings of the iteration count under a time budget."""
 
 LOSS_EMA = 0.9
-"""Smoothing factor of the loss average that decides which state is the best."""
+"""Smoothing factor of the loss average that decides which state is the best without a validator."""
 
 LAMBDA_HEURISTIC = 0.25
 """lambda_0 = LAMBDA_HEURISTIC * L_image / L_laplacian when not configured (paper Sec. 6.3)."""
 
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
 
 
 @dataclass
@@ -87,6 +89,9 @@ class BatchSource(Protocol):
 RenderFn = Callable[[Asset, Camera, PointLight], torch.Tensor]
 """Renders an asset under B views: ``[B, H, W, 4]`` (differentiable)."""
 
+Validator = Callable[[Asset], float]
+"""Scores a model on views it is not trained on; higher is better (e.g. mean PSNR in dB)."""
+
 
 @dataclass
 class FitResult:
@@ -98,6 +103,8 @@ class FitResult:
         losses: ``[iterations]`` training loss per step (NaN for rolled-back steps).
         seconds: wall time spent stepping (over all sessions).
         rollbacks: number of rollbacks after non-finite steps.
+        validation: ``[(iteration, score), ...]`` the validator's scores (empty without one);
+            ``iteration`` is the number of steps taken before the scoring.
         interrupted: stopped by Ctrl-C.
     """
 
@@ -106,6 +113,7 @@ class FitResult:
     losses: list[float]
     seconds: float
     rollbacks: int
+    validation: list[tuple[int, float]] = field(default_factory=list)
     interrupted: bool = False
 
 
@@ -119,8 +127,10 @@ class _Progress:
     lambda_0: float | None = None
     losses: list[float] = field(default_factory=list)
     loss_ema: float | None = None
-    best_ema: float = math.inf
+    best_score: float = -math.inf
+    validation: list[tuple[int, float]] = field(default_factory=list)
     seconds: float = 0.0
+    validation_seconds: float = 0.0
     rollbacks: int = 0
     rollbacks_in_a_row: int = 0
 
@@ -134,15 +144,18 @@ class Fitter:
         render: renders the latent's asset under a batch of views.
         config: the run's settings (``optim``, ``views``, ``clamp`` sections are used).
         checkpoint: where to write checkpoints (``None``: never).
+        validate: scores a model on held-back views; the best-scoring state is kept
+            (``None``: the state with the lowest moving average of the training loss).
     """
 
     def __init__(self, latent: Latent, source: BatchSource, render: RenderFn, config: Config,
-                 checkpoint: Path | None = None):
+                 checkpoint: Path | None = None, validate: Validator | None = None):
         self.latent = latent
         self.source = source
         self.render = render
         self.config = config
         self.checkpoint = checkpoint
+        self.validate = validate
         opt = config.optim
         torch.manual_seed(opt.seed)
         self.rng = np.random.default_rng(opt.seed)
@@ -224,6 +237,8 @@ class Fitter:
         p.losses.append(value)
         if p.iteration % SNAPSHOT_EVERY == 0 and p.rollbacks_in_a_row == 0:
             self._snapshot()
+        if p.iteration % self.config.optim.validate_every == 0 and p.rollbacks_in_a_row == 0:
+            self._score()
         self._mark_random_state()
         return value
 
@@ -233,12 +248,30 @@ class Fitter:
         return bool(torch.stack(sums).isfinite().all()) if sums else True
 
     def _snapshot(self) -> None:
-        """Remember the current state as the last good one, and as the best if it is."""
+        """Remember the current state as the last good one (and, without a validator, as the
+        best if its loss average is the lowest so far)."""
         self._good = (copy.deepcopy(self.latent.state_dict()), copy.deepcopy(self.optimizer.state_dict()))
+        if self.validate is None and self.progress.loss_ema is not None:
+            self._keep_if_best(-self.progress.loss_ema, self._good[0])
+
+    def _score(self) -> None:
+        """Score the current state with the validator (if any) and keep it if it is the best;
+        a state already scored at this iteration is not scored again."""
         p = self.progress
-        if p.loss_ema is not None and p.loss_ema < p.best_ema:
-            p.best_ema = p.loss_ema
-            self.best_state = self._good[0]
+        if self.validate is None or (p.validation and p.validation[-1][0] == p.iteration):
+            return
+        started = time.monotonic()
+        with torch.no_grad():
+            score = float(self.validate(self.latent.as_asset()))
+        p.validation_seconds += time.monotonic() - started
+        p.validation.append((p.iteration, score))
+        self._keep_if_best(score, copy.deepcopy(self.latent.state_dict()))
+
+    def _keep_if_best(self, score: float, state: dict) -> None:
+        """Make ``state`` the best one if ``score`` (higher is better) beats the best so far."""
+        if math.isfinite(score) and score > self.progress.best_score:
+            self.progress.best_score = score
+            self.best_state = state
 
     def _roll_back(self) -> None:
         """Restore the last good snapshot and lower the learning rate."""
@@ -259,7 +292,8 @@ class Fitter:
         ``optim.iterations`` is unset), the total follows the clock: it is set after the
         first ``1 + CALIBRATION_STEPS`` steps (the first pays one-off compilation and is not
         timed) from their pace, and re-planned every ``REPLAN_EVERY`` steps from the pace of
-        the recent ones, so that the loop ends in time even when the machine's load changes.
+        the recent ones (each step's share of the validation time included), so that the loop
+        ends in time even when the machine's load changes.
         """
         p = self.progress
         if p.total is None and seconds_available is None:
@@ -269,6 +303,7 @@ class Fitter:
                    desc="optimising")
         loop_start = last_checkpoint = time.monotonic()
         durations: list[float] = []
+        self._score()
         try:
             while p.total is None or p.iteration < p.total:
                 started = time.monotonic()
@@ -279,7 +314,7 @@ class Fitter:
                 bar.set_postfix(loss=f"{value:.4f}", refresh=False)
                 if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
                         p.total is None or len(durations) % REPLAN_EVERY == 0):
-                    pace = float(np.mean(durations[1:][-REPLAN_EVERY:]))
+                    pace = float(np.mean(durations[1:][-REPLAN_EVERY:])) + self._validation_pace()
                     left = seconds_available - (time.monotonic() - loop_start)
                     p.total = p.iteration + max(0, int(left / pace))
                     bar.total = p.total
@@ -297,8 +332,18 @@ class Fitter:
         finally:
             bar.close()
         self._snapshot()
+        if p.rollbacks_in_a_row == 0:
+            self._score()
         return FitResult(best=self.best_model(), iterations=p.iteration, losses=list(p.losses),
-                         seconds=p.seconds, rollbacks=p.rollbacks, interrupted=interrupted)
+                         seconds=p.seconds, rollbacks=p.rollbacks, validation=list(p.validation),
+                         interrupted=interrupted)
+
+    def _validation_pace(self) -> float:
+        """Seconds of validation per step so far (mean scoring time / ``validate_every``)."""
+        scorings = len(self.progress.validation)
+        if not scorings:
+            return 0.0
+        return self.progress.validation_seconds / scorings / self.config.optim.validate_every
 
     def best_model(self) -> Latent:
         """A detached copy of the best model so far."""

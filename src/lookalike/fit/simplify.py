@@ -157,6 +157,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         sampler = view_sampler(asset.mesh)
         target = MeshTarget(asset, cfg.render.resolution, cfg.render.target_spp)
         heldout = HeldoutViews(target, sampler, cfg.views.heldout, cfg.views.heldout_seed)
+        validation = (HeldoutViews(target, sampler, cfg.views.validation, cfg.views.validation_seed)
+                      if cfg.views.validation else None)
         source = (ViewPool(target, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM), cfg.views.refresh_every)
                   if cfg.views.pool_size else FreshViews(target, sampler))
     draw = latent_renderer(cfg.render.resolution, cfg.render.latent_msaa)
@@ -167,7 +169,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         with _stage(timings, "scoring the classic bake"):
             methods.append(heldout.score("baked", "Classic bake", baked, draw, cfg.latent.texture_size))
 
-    fitter = Fitter(latent, source, draw, cfg, checkpoint=checkpoint)
+    fitter = Fitter(latent, source, draw, cfg, checkpoint=checkpoint,
+                    validate=None if validation is None else lambda model: validation.psnr(model, draw))
     if state is not None:
         fitter.load_state_dict(state)
     output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
@@ -223,6 +226,7 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
         report = write_report(outdir, ReportData(
             asset_name=asset.name, reference=heldout.reference, methods=methods,
             input_triangles=asset.mesh.num_triangles, loss_history=np.asarray(fit.losses, dtype=np.float64),
+            validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
             wall_time=time.monotonic() - started, iterations=fit.iterations, seconds_per_iteration=fit.seconds / steps,
             config=config_to_dict(cfg), timings=dict(timings), notes=notes,
         ))
@@ -236,6 +240,8 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
         "interrupted": fit.interrupted,
         "seconds": {"total": time.monotonic() - started, "per_iteration": fit.seconds / steps, **timings},
         "final_loss": _last_finite(fit.losses),
+        "validation": {"views": cfg.views.validation, "iterations": [i for i, _ in fit.validation],
+                       "psnr": [score for _, score in fit.validation]},
         "heldout": {
             "views": len(methods[0].psnr_views),
             **{m.key: {"psnr": m.psnr, "flip": m.flip, "psnr_views": m.psnr_views.tolist(),

@@ -74,6 +74,8 @@ class ReportData:
         config: the configuration used (nested dicts of plain values).
         timings: optional seconds per stage, e.g. ``{"reference views": 12.0, ...}``.
         notes: optional remarks shown under the summary (e.g. "input had no UVs").
+        validation_history: optional ``[K, 2]`` (iteration, PSNR on the validation views) of
+            the optimisation's scorings, drawn with the loss curve.
     """
 
     asset_name: str
@@ -87,6 +89,7 @@ class ReportData:
     config: dict
     timings: dict[str, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    validation_history: Any = None
 
     @property
     def baseline(self) -> MethodResult:

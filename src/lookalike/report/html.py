@@ -224,7 +224,8 @@ def write_report(outdir: str | Path, data: ReportData) -> Path:
     files = outdir / FILES_DIR
     files.mkdir(parents=True, exist_ok=True)
     views = _write_view_pictures(data, files)
-    plot_loss(data.loss_history, files / "loss.png", title=f"Training loss, {data.asset_name}")
+    plot_loss(data.loss_history, files / "loss.png", title=f"Training loss, {data.asset_name}",
+              validation=data.validation_history)
 
     figures = [_view_figure(data, i, paths) for i, paths in enumerate(views)]
     views_div = f'<div class="views" style="--fig:{(len(data.methods) + 1) * _MIN_CELL_PX}px">{{}}</div>'

@@ -1,4 +1,4 @@
-"""The loss curve of a run as a PNG (matplotlib, drawn off-screen)."""
+"""The loss curve of a run, and its validation scores, as a PNG (matplotlib, drawn off-screen)."""
 
 from __future__ import annotations
 
@@ -25,12 +25,14 @@ def _minor_label(value: float, _position) -> str:
     return f"{value:g}" if leading in (2, 5) else ""
 
 
-def plot_loss(history, path: str | Path, title: str = "Training loss") -> Path:
-    """Write the loss curve: raw loss per iteration (light) under its smoothed curve, log y.
+def plot_loss(history, path: str | Path, title: str = "Training loss", validation=None) -> Path:
+    """Write the loss curve: raw loss per iteration (light) under its smoothed curve, log y;
+    with ``validation``, its PSNR on a second axis at the right.
 
     Args:
         history: ``[N]`` loss per iteration (non-positive values are dropped from the log plot).
         path: the PNG to write.
+        validation: optional ``[K, 2]`` (iteration, PSNR in dB) scorings on validation views.
 
     Returns:
         ``path``.
@@ -62,7 +64,19 @@ def plot_loss(history, path: str | Path, title: str = "Training loss") -> Path:
         for side in ("left", "bottom"):
             ax.spines[side].set_color("#bbbbbb")
         ax.tick_params(which="both", colors="#555555", labelsize=9)
-        ax.legend(frameon=False, fontsize=9, loc="upper right")
+        handles, labels = ax.get_legend_handles_labels()
+        if validation is not None and len(validation):
+            points = np.asarray(validation, dtype=np.float64).reshape(-1, 2)
+            right = ax.twinx()
+            right.plot(points[:, 0], points[:, 1], color="#c0562b", linewidth=1.6, marker="o", markersize=2.5,
+                       label="validation PSNR (dB)")
+            right.set_ylabel("validation PSNR (dB)", color="#c0562b")
+            right.tick_params(colors="#c0562b", labelsize=9)
+            for side in ("top", "left"):
+                right.spines[side].set_visible(False)
+            more_handles, more_labels = right.get_legend_handles_labels()
+            handles, labels = handles + more_handles, labels + more_labels
+        ax.legend(handles, labels, frameon=False, fontsize=9, loc="upper center")
         ax.set_xlim(1, max(2, len(values)))
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         fig.tight_layout()

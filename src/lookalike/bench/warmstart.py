@@ -1,0 +1,116 @@
+"""``lookalike bench warmstart``: how many iterations does starting from the classic bake save?
+
+Every benchmark asset of ``bench quality`` is simplified twice with default settings and the
+same time budget: once with textures from noise (``init="random"``, the paper's start) and
+once from the classic bake (the default). Both runs score their states on the same
+validation views every ``optim.validate_every`` steps (``metrics.json``, ``validation``).
+The figure of merit is the first scored iteration at which the bake start reaches the random
+start's best validation PSNR, as a fraction of the iterations the random start took.
+
+Bar (issue 5): that fraction is at most one half on every asset. The bake-start runs are the
+default ``simplify`` runs, so their rows of the ``bench quality`` table come with the result.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from ._table import aligned_table
+
+from .quality import (ASSETS, SHARED_ASSETS, TIME_BUDGET_S, BenchAsset, table_row, check_assets_dir, output_root,
+                      simplify_case, summary)
+from .quality import format_table as format_quality_table
+
+HELP = "simplify the benchmark assets from a random start and from the bake: iterations to the same PSNR"
+
+BAR_FRACTION = 0.5
+STARTS = ("random", "bake")
+
+
+def iterations_to_reach(curve: dict, score: float) -> int | None:
+    """The first scored iteration of ``curve`` (``{"iterations": [K], "psnr": [K]}``) whose
+    PSNR is at least ``score``; ``None`` if none is."""
+    return next((i for i, value in zip(curve["iterations"], curve["psnr"]) if value >= score), None)
+
+
+def _row_of(case: BenchAsset, random: dict, bake: dict) -> dict:
+    """One table row from the ``metrics.json`` contents of the two runs of ``case``."""
+    goal = max(random["validation"]["psnr"])
+    reached = iterations_to_reach(bake["validation"], goal)
+    fraction = None if reached is None else reached / max(random["iterations"], 1)
+    return {
+        "asset": case.name,
+        "iterations_random": random["iterations"],
+        "iterations_bake": bake["iterations"],
+        "validation_psnr_random_best": goal,
+        "validation_psnr_bake_start": bake["validation"]["psnr"][0],
+        "validation_psnr_bake_best": max(bake["validation"]["psnr"]),
+        "bake_reaches_random_at": reached,
+        "fraction": fraction,
+        "psnr_random": random["heldout"]["ours"]["psnr"],
+        "psnr_bake": bake["heldout"]["ours"]["psnr"],
+        "flip_random": random["heldout"]["ours"]["flip"],
+        "flip_bake": bake["heldout"]["ours"]["flip"],
+        "meets_bar": fraction is not None and fraction <= BAR_FRACTION,
+    }
+
+
+def run(repeats: int | None = None, out: str | Path | None = None, time_budget: float = TIME_BUDGET_S,
+        assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS) -> dict:
+    """Simplify every benchmark asset from both starts and compare their validation curves.
+
+    Args:
+        repeats: ignored (each run takes minutes).
+        out: keep the runs' outputs in ``out/<asset>-<start>`` (default: ``$LOOKALIKE_BENCH_OUT``
+            or a temporary folder removed afterwards).
+        time_budget: seconds per run (600, as in ``bench quality``).
+        assets: which cases to run; assets_dir: where their files are.
+
+    Returns:
+        ``{"time_budget_s", "bar_fraction", "runs": [row, ...], "all_meet_bar", "quality": {...}}``;
+        a row holds both runs' iterations, validation and held-out scores, the iteration at
+        which the bake start reached the random start's best validation PSNR and its fraction
+        of the random start's iterations; ``quality`` is the ``bench quality`` result of the
+        bake-start runs.
+    """
+    assets_dir = check_assets_dir(assets_dir)
+    with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
+        root = output_root(out, scratch)
+        rows, quality_rows = [], []
+        for case in assets:
+            metrics = {start: simplify_case(case, assets_dir, root / f"{case.name}-{start}", time_budget, init=start).metrics
+                       for start in STARTS}
+            rows.append(_row_of(case, metrics["random"], metrics["bake"]))
+            quality_rows.append(table_row(case, metrics["bake"]))
+        outputs = None if root == Path(scratch) else root
+        return {
+            "time_budget_s": time_budget,
+            "bar_fraction": BAR_FRACTION,
+            "runs": rows,
+            "all_meet_bar": all(r["meets_bar"] for r in rows),
+            "quality": summary(quality_rows, time_budget, outputs),
+        }
+
+
+COLUMNS = (
+    ("asset", "asset", "{}"), ("iters random", "iterations_random", "{:,}"), ("iters bake", "iterations_bake", "{:,}"),
+    ("val random best", "validation_psnr_random_best", "{:.2f}"), ("val bake start", "validation_psnr_bake_start", "{:.2f}"),
+    ("val bake best", "validation_psnr_bake_best", "{:.2f}"), ("bake reaches it at", "bake_reaches_random_at", "{:,}"),
+    ("fraction", "fraction", "{:.2f}"), ("PSNR random", "psnr_random", "{:.2f}"), ("PSNR bake", "psnr_bake", "{:.2f}"),
+    ("FLIP random", "flip_random", "{:.4f}"), ("FLIP bake", "flip_bake", "{:.4f}"),
+)
+
+
+def format_table(result: dict) -> str:
+    """The comparison as an aligned text table with its bar, then the quality table of the
+    bake-start runs."""
+    header = [name for name, _, _ in COLUMNS] + ["bar"]
+    cells = [[fmt.format(r[key]) if r.get(key) is not None else "never" for _, key, fmt in COLUMNS]
+             + ["ok" if r["meets_bar"] else "MISSED"] for r in result["runs"]]
+    lines = aligned_table(header, cells)
+    lines.append(f"bar: the bake start reaches the random start's best validation PSNR within "
+                 f"{result['bar_fraction']:g} of the random start's iterations: "
+                 f"{'met' if result['all_meet_bar'] else 'NOT met'} (time budget {result['time_budget_s']:g} s per run; "
+                 f"PSNR and FLIP columns: held-out views)")
+    return "\n".join(lines) + "\n\nbake-start runs (default settings):\n" + format_quality_table(result["quality"])
