@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from lookalike.errors import ConfigError
-from lookalike.fit.config import Config, config_from_dict, load_config, parse_duration, to_toml
+from lookalike.fit.config import (LR_POSITIONS_COLD, LR_POSITIONS_WARM, LR_TEXTURES_COLD, LR_TEXTURES_WARM, Config,
+                                  config_from_dict, learning_rates, load_config, parse_duration, to_toml)
 
 
 def test_toml_round_trip_keeps_every_setting(tmp_path):
@@ -89,3 +90,16 @@ def test_the_command_offers_every_texture_start():
     from lookalike.fit.config import INITS
 
     assert command_inits == INITS
+
+
+@pytest.mark.parametrize("init, expected", [
+    ("bake", (LR_POSITIONS_WARM, LR_TEXTURES_WARM)), ("source", (LR_POSITIONS_WARM, LR_TEXTURES_WARM)),
+    ("average", (LR_POSITIONS_COLD, LR_TEXTURES_COLD)), ("random", (LR_POSITIONS_COLD, LR_TEXTURES_COLD)),
+])
+def test_warm_starts_get_lower_learning_rates_unless_they_are_set(init, expected):
+    assert learning_rates(config_from_dict({"latent": {"init": init}})) == expected
+    assert LR_POSITIONS_WARM < LR_POSITIONS_COLD and LR_TEXTURES_WARM < LR_TEXTURES_COLD
+    given = config_from_dict({"latent": {"init": init}, "optim": {"lr_positions": 0.001}})
+    assert learning_rates(given) == (0.001, expected[1])
+    given = config_from_dict({"latent": {"init": init}, "optim": {"lr_textures": 0.02}})
+    assert learning_rates(given) == (expected[0], 0.02)

@@ -38,7 +38,7 @@ from ..asset.laplacian import UniformLaplacian
 from ..errors import ConfigError
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from .config import Config, config_from_dict, config_to_dict, texture_learning_rate
+from .config import Config, config_from_dict, config_to_dict, learning_rates
 from .latent import Latent
 from .losses import composite, image_loss
 from .outdir import atomic_path
@@ -162,9 +162,9 @@ class Fitter:
         self.loss_fn = image_loss(opt.loss)
         self.laplacian = UniformLaplacian(latent.t_pos_idx, latent.v_pos.shape[0])
         self.rest_delta = self.laplacian.differentials(latent.v_pos.detach())
-        lr_textures = texture_learning_rate(config)
+        lr_positions, lr_textures = learning_rates(config)
         self.optimizer = torch.optim.Adam([
-            {"params": latent.position_parameters(), "lr": opt.lr_positions, "lr_0": opt.lr_positions},
+            {"params": latent.position_parameters(), "lr": lr_positions, "lr_0": lr_positions},
             {"params": latent.texture_parameters(), "lr": lr_textures, "lr_0": lr_textures},
         ], fused=True)
         self.progress = _Progress(total=opt.iterations)

@@ -147,6 +147,19 @@ def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
     grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0
 
 
+@njit(cache=True, inline="always")
+def _mip_pair(mode, lvl, top):
+    """``(level, frac)`` of a lookup at mip level ``lvl`` (clamped to [0, top]): the finer
+    level read and the weight of the next coarser one, which is 0 for ``MIP_NEAREST`` (the
+    nearest level) and where the pyramid has one level only."""
+    if mode == MIP_NEAREST:
+        return int(math.floor(lvl + 0.5)), 0.0
+    if top > 0:
+        level = min(int(math.floor(lvl)), top - 1)
+        return level, lvl - level
+    return 0, 0.0
+
+
 @njit(cache=True, parallel=True)
 def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary, out):
     """``out [P, C]`` (zeroed) = filtered lookups at ``uv [P, 2]``.  ``uv_da [P, 4]`` and
@@ -166,15 +179,10 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
             for ch in range(table.shape[1]):
                 out[p, ch] = col_in * row_in * table[base + row * w + col, ch]
             continue
-        level = 0
-        frac = 0.0
+        level, frac = 0, 0.0
         if mode != LINEAR:
             lvl, _, _ = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
-            if mode == MIP_NEAREST:
-                level = int(math.floor(lvl + 0.5))
-            elif top > 0:
-                level = min(int(math.floor(lvl)), top - 1)
-                frac = lvl - level
+            level, frac = _mip_pair(mode, lvl, top)
         h, w = heights[level], widths[level]
         _bilinear_add(table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, out, p)
         if frac != 0.0:
@@ -211,16 +219,11 @@ def _backward_pixels(
             for ch in range(table.shape[1]):
                 target[offsets[0] + view * h * w + row * w + col, ch] += col_in * row_in * grad_out[p, ch]
             continue
-        level = 0
-        frac = 0.0
-        lvl, raw, lam = 0.0, 0.0, 0.0
+        level, frac = 0, 0.0
+        raw, lam = 0.0, 0.0
         if mode != LINEAR:
             lvl, raw, lam = _level(uv_da, bias, p, has_da, has_bias, heights[0], widths[0], top)
-            if mode == MIP_NEAREST:
-                level = int(math.floor(lvl + 0.5))
-            elif top > 0:
-                level = min(int(math.floor(lvl)), top - 1)
-                frac = lvl - level
+            level, frac = _mip_pair(mode, lvl, top)
         h, w = heights[level], widths[level]
         g_u, g_v, fine = _bilinear_backward(
             table, offsets[level] + view * h * w, h, w, u, v, boundary, 1.0 - frac, grad_out, p, target
