@@ -65,6 +65,7 @@ def plot_loss(history, path: str | Path, title: str = "Training loss", validatio
             ax.spines[side].set_color("#bbbbbb")
         ax.tick_params(which="both", colors="#555555", labelsize=9)
         handles, labels = ax.get_legend_handles_labels()
+        legend_axes = ax
         if validation is not None and len(validation):
             points = np.asarray(validation, dtype=np.float64).reshape(-1, 2)
             right = ax.twinx()
@@ -76,7 +77,9 @@ def plot_loss(history, path: str | Path, title: str = "Training loss", validatio
                 right.spines[side].set_visible(False)
             more_handles, more_labels = right.get_legend_handles_labels()
             handles, labels = handles + more_handles, labels + more_labels
-        ax.legend(handles, labels, frameon=False, fontsize=9, loc="upper center")
+            legend_axes = right  # drawn last, so the legend's box covers the curves under it
+        legend_axes.legend(handles, labels, fontsize=9, loc="lower right", frameon=True, framealpha=0.9,
+                           edgecolor="none")
         ax.set_xlim(1, max(2, len(values)))
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         fig.tight_layout()
