@@ -265,13 +265,14 @@ class Fitter:
             score = float(self.validate(self.latent.as_asset()))
         p.validation_seconds += time.monotonic() - started
         p.validation.append((p.iteration, score))
-        self._keep_if_best(score, copy.deepcopy(self.latent.state_dict()))
+        self._keep_if_best(score)
 
-    def _keep_if_best(self, score: float, state: dict) -> None:
-        """Make ``state`` the best one if ``score`` (higher is better) beats the best so far."""
+    def _keep_if_best(self, score: float, state: dict | None = None) -> None:
+        """Make the current state the best one if ``score`` (higher is better) beats the best
+        so far; ``state`` is a copy of it already taken (else one is taken only then)."""
         if math.isfinite(score) and score > self.progress.best_score:
             self.progress.best_score = score
-            self.best_state = state
+            self.best_state = state if state is not None else copy.deepcopy(self.latent.state_dict())
 
     def _roll_back(self) -> None:
         """Restore the last good snapshot and lower the learning rate."""
