@@ -14,7 +14,8 @@ from lookalike.errors import ConfigError
 
 
 def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
-    heldout = {"decimated": {"psnr": psnr_decimated, "flip": 0.12}, "ours": {"psnr": psnr_ours, "flip": 0.07}}
+    heldout = {"decimated": {"psnr": psnr_decimated, "flip": 0.12},
+               "ours": {"psnr": psnr_ours, "flip": 0.07, "silhouette_error": 0.537}}
     if baked is not None:
         heldout["baked"] = {"psnr": baked, "flip": 0.1}
     return {"triangles": {"input": 10 * triangles, "output": triangles}, "iterations": 700,
@@ -69,6 +70,7 @@ def test_baked_columns_appear_when_a_bake_ran():
     table = quality.format_table({"runs": [row], "bar": {"minutes": 10, "gain_db": 3}, "all_meet_bar": True,
                                   "time_budget_s": 600})
     assert "PSNR baked" in table and "+1.50" in table
+    assert "error near outline" in table and "54%" in table
 
 
 def test_missing_assets_are_a_clear_error(tmp_path):

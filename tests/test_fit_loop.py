@@ -82,6 +82,14 @@ def test_the_validator_scores_at_the_start_every_few_steps_and_at_the_end_and_pi
     assert not torch.equal(result.best.kd, fit.latent.kd)
 
 
+def test_the_progress_bar_shows_the_loss_and_the_latest_and_best_validation_scores(capsys):
+    fit = fitter(config(iterations=12, validate_every=5), validate=lambda asset: 30.0 - fit.progress.iteration / 10)
+    fit.run(progress=True)
+    last_line = capsys.readouterr().err.strip().split("\r")[-1]
+    assert "12/12" in last_line and "loss=" in last_line
+    assert "val=29.00" in last_line and "best=30.00" in last_line  # last scored at step 10; the start is the best
+
+
 def test_the_start_is_kept_when_no_later_state_scores_better():
     fit = fitter(config(iterations=12, validate_every=5), validate=lambda asset: -float(fit.progress.iteration))
     start = fit.latent.kd.clone()

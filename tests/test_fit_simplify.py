@@ -44,6 +44,9 @@ def test_the_optimised_model_beats_plain_decimation_on_held_out_views(tiny_run):
     assert heldout["views"] == 16
     assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 1.5
     assert heldout["ours"]["flip"] < heldout["decimated"]["flip"]
+    assert 0 < heldout["silhouette_pixels"] < 0.5  # a band around the sphere's outline (few pixels: 64 px views)
+    for method in ("decimated", "ours"):
+        assert 0 < heldout[method]["silhouette_error"] < 1
 
 
 def test_the_run_validates_its_states_and_keeps_the_best(tiny_run):

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from lookalike.report.metrics import PSNR_CAP_DB, flip, flip_views, psnr, psnr_views, srgb_encode, tonemap
+from lookalike.report.metrics import (PSNR_CAP_DB, error_share, flip, flip_views, psnr, psnr_views, silhouette_band,
+                                      srgb_encode, tonemap)
 
 
 def _linear_for_display(value: float) -> float:
@@ -81,3 +82,29 @@ def test_shape_mismatch_is_an_error():
         psnr(np.zeros((1, 4, 4, 3)), np.zeros((1, 4, 5, 3)))
     with pytest.raises(ValueError, match="differ in shape"):
         flip(np.zeros((1, 4, 4, 3)), np.zeros((2, 4, 4, 3)))
+    with pytest.raises(ValueError, match="differ in shape"):
+        error_share(np.zeros((1, 4, 4, 3)), np.zeros((1, 5, 4, 3)), np.ones((1, 4, 4), bool))
+
+
+def test_the_silhouette_band_surrounds_the_outline_on_both_sides():
+    coverage = np.zeros((2, 12, 12), np.float32)
+    coverage[0, 4:8, 4:8] = 1.0
+    coverage[0, 4:8, 8] = 0.4  # partly covered: counts as outside
+    band = silhouette_band(torch.from_numpy(coverage), width=1)
+    expected = np.zeros((12, 12), bool)
+    expected[3:9, 3:9] = True
+    expected[5:7, 5:7] = False  # two pixels deep inside
+    np.testing.assert_array_equal(band[0], expected)
+    assert not band[1].any()  # nothing covered: no outline
+    np.testing.assert_array_equal(silhouette_band(coverage[0], width=1)[0], expected)
+
+
+def test_the_error_share_is_the_squared_error_in_the_mask_over_all_of_it():
+    reference = np.zeros((1, 4, 4, 3), np.float32)
+    test = reference.copy()
+    test[0, 0, 0] = _linear_for_display(0.2)   # error 3 * 0.04 inside the mask
+    test[0, 3, 3, 0] = _linear_for_display(0.4)  # error 0.16 outside
+    mask = np.zeros((1, 4, 4), bool)
+    mask[0, :2, :2] = True
+    assert error_share(reference, test, mask) == pytest.approx(0.12 / 0.28, abs=1e-4)
+    assert error_share(reference, reference, mask) == 0.0

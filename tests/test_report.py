@@ -59,6 +59,14 @@ def test_report_shows_the_numbers_and_every_picture_exists(tmp_path, baked):
     assert "http://" not in page and "https://" not in page and "<script" not in page
 
 
+def test_the_table_shows_the_error_near_the_outline_where_it_was_measured(tmp_path):
+    data = _data()
+    assert "Error near outline" not in write_report(tmp_path / "a", data).read_text(encoding="utf-8")
+    data.methods[-1].silhouette_error = 0.537
+    page = write_report(tmp_path / "b", data).read_text(encoding="utf-8")
+    assert "Error near outline" in page and "<td>54 %</td>" in page and "<td>—</td></tr>" in page
+
+
 def test_report_escapes_text(tmp_path):
     page = write_report(tmp_path, _data(asset_name="<b>&model")).read_text(encoding="utf-8")
     assert "<b>&model" not in page and "&lt;b&gt;&amp;model" in page

@@ -9,7 +9,7 @@ import torch
 
 from ..asset import Asset
 from ..report.data import MethodResult, score_method
-from ..report.metrics import psnr
+from ..report.metrics import psnr, silhouette_band
 from .losses import composite
 from .optimize import RenderFn
 from .targets import RENDER_CHUNK, Target, ViewSampler, render_in_chunks
@@ -24,11 +24,15 @@ class HeldoutViews:
     Attributes:
         camera, light: the views (batch ``count``).
         reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND``.
+        silhouette: ``[count, H, W]`` bool, the pixels near the reference's outline
+            (``lookalike.report.metrics.silhouette_band``).
     """
 
     def __init__(self, target: Target, sampler: ViewSampler, count: int, seed: int):
         self.camera, self.light = sampler(np.random.default_rng(seed), count)
-        self.reference = self._composite(render_in_chunks(target, self.camera, self.light))
+        rgba = render_in_chunks(target, self.camera, self.light)
+        self.reference = self._composite(rgba)
+        self.silhouette = silhouette_band(rgba[..., 3])
 
     @staticmethod
     def _composite(rgba: torch.Tensor) -> torch.Tensor:
@@ -45,9 +49,10 @@ class HeldoutViews:
 
     def score(self, key: str, label: str, asset: Asset, render: RenderFn, texture_size: int | None) -> MethodResult:
         """Render ``asset`` on the held-out views and score it against the reference
-        (``lookalike.report.data.score_method``: PSNR, FLIP and FLIP maps per view)."""
+        (``lookalike.report.data.score_method``: PSNR, FLIP and FLIP maps per view, and the
+        share of the error near the outline)."""
         return score_method(key, label, self.reference, self.images(asset, render),
-                            asset.mesh.num_triangles, texture_size)
+                            asset.mesh.num_triangles, texture_size, self.silhouette)
 
     def psnr(self, asset: Asset, render: RenderFn) -> float:
         """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""

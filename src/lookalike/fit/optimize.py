@@ -312,7 +312,7 @@ class Fitter:
                 durations.append(time.monotonic() - started)
                 p.seconds += durations[-1]
                 bar.update(1)
-                bar.set_postfix(loss=f"{value:.4f}", refresh=False)
+                bar.set_postfix(self._postfix(value), refresh=False)
                 if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
                         p.total is None or len(durations) % REPLAN_EVERY == 0):
                     pace = float(np.mean(durations[1:][-REPLAN_EVERY:])) + self._validation_pace()
@@ -338,6 +338,16 @@ class Fitter:
         return FitResult(best=self.best_model(), iterations=p.iteration, losses=list(p.losses),
                          seconds=p.seconds, rollbacks=p.rollbacks, validation=list(p.validation),
                          interrupted=interrupted)
+
+    def _postfix(self, loss: float) -> dict[str, str]:
+        """What the progress bar shows after the count: the step's loss and, with a validator,
+        the latest and the best validation scores (``val``, ``best``; PSNR in dB in ``simplify``)."""
+        p = self.progress
+        postfix = {"loss": f"{loss:.4f}"}
+        if p.validation:
+            postfix["val"] = f"{p.validation[-1][1]:.2f}"
+            postfix["best"] = f"{p.best_score:.2f}"
+        return postfix
 
     def _validation_pace(self) -> float:
         """Seconds of validation per step so far (mean scoring time / ``validate_every``)."""

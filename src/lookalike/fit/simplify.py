@@ -244,8 +244,9 @@ def _write_outputs(outdir: Path, cfg: Config, asset: Asset, fit: FitResult, held
                        "psnr": [score for _, score in fit.validation]},
         "heldout": {
             "views": len(methods[0].psnr_views),
-            **{m.key: {"psnr": m.psnr, "flip": m.flip, "psnr_views": m.psnr_views.tolist(),
-                       "flip_views": m.flip_views.tolist()} for m in methods},
+            "silhouette_pixels": float(heldout.silhouette.mean()),
+            **{m.key: {"psnr": m.psnr, "flip": m.flip, "silhouette_error": m.silhouette_error,
+                       "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()} for m in methods},
         },
     }
     write_text_atomic(outdir / "metrics.json", json.dumps(metrics, indent=2))

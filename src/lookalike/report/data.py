@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .metrics import flip_views, psnr_views
+from .metrics import error_share, flip_views, psnr_views
 
 
 @dataclass
@@ -27,6 +27,8 @@ class MethodResult:
         flip_maps: ``[B, H, W, 3]`` uint8 FLIP error maps (magma).
         triangles: triangle count of the method's model.
         texture_size: side of its textures in texels, or ``None`` where it has no own textures.
+        silhouette_error: the share of its squared error (all views) that lies near the
+            reference's outline (``lookalike.report.metrics.error_share``), or ``None``.
     """
 
     key: str
@@ -37,6 +39,7 @@ class MethodResult:
     flip_maps: np.ndarray
     triangles: int
     texture_size: int | None = None
+    silhouette_error: float | None = None
 
     @property
     def psnr(self) -> float:
@@ -50,12 +53,15 @@ class MethodResult:
 
 
 def score_method(key: str, label: str, reference, images, triangles: int,
-                 texture_size: int | None = None) -> MethodResult:
+                 texture_size: int | None = None, silhouette=None) -> MethodResult:
     """Score ``images [B, H, W, C]`` against ``reference [B, H, W, C]`` (both linear) with
-    PSNR and FLIP (see ``lookalike.report.metrics``) and keep the FLIP maps for the page."""
+    PSNR and FLIP (see ``lookalike.report.metrics``) and keep the FLIP maps for the page; with
+    ``silhouette`` (``[B, H, W]`` bool, ``metrics.silhouette_band``) also the share of the error
+    that lies there."""
     flip_means, flip_maps = flip_views(reference, images, with_maps=True)
+    share = None if silhouette is None else error_share(reference, images, silhouette)
     return MethodResult(key, label, images, psnr_views(reference, images), flip_means, flip_maps,
-                        int(triangles), texture_size)
+                        int(triangles), texture_size, share)
 
 
 @dataclass

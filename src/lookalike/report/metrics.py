@@ -40,6 +40,14 @@ def _as_batch(images) -> np.ndarray:
     return values[None] if values.ndim == 3 else values
 
 
+def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
+    """Both image sets as ``_as_batch`` values; ``ValueError`` if their shapes differ."""
+    a, b = _as_batch(reference), _as_batch(test)
+    if a.shape != b.shape:
+        raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
+    return a, b
+
+
 def psnr_views(reference, test) -> np.ndarray:
     """PSNR in dB of each view: ``10 log10(1 / MSE)`` over all pixels and RGB channels of the
     tone-mapped, clamped images (peak 1).
@@ -50,9 +58,7 @@ def psnr_views(reference, test) -> np.ndarray:
     Returns:
         ``[B]`` float64; identical views give ``PSNR_CAP_DB`` (100 dB) instead of infinity.
     """
-    a, b = _as_batch(reference).astype(np.float64), _as_batch(test).astype(np.float64)
-    if a.shape != b.shape:
-        raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
+    a, b = (x.astype(np.float64) for x in _pair(reference, test))
     mse = ((a - b) ** 2).mean(axis=(1, 2, 3))
     return np.minimum(10 * np.log10(1.0 / np.maximum(mse, 1e-300)), PSNR_CAP_DB)
 
@@ -73,9 +79,7 @@ def flip_views(reference, test, with_maps: bool = False) -> tuple[np.ndarray, np
     Returns:
         ``(mean [B] float64 in [0, 1], maps [B, H, W, 3] uint8 or None)``; 0 means identical.
     """
-    a, b = _as_batch(reference), _as_batch(test)
-    if a.shape != b.shape:
-        raise ValueError(f"images differ in shape: {a.shape} vs {b.shape}")
+    a, b = _pair(reference, test)
     means, maps = [], []
     for ref_view, test_view in zip(a, b):
         error_map, mean, _ = flip_evaluator.evaluate(
@@ -86,6 +90,45 @@ def flip_views(reference, test, with_maps: bool = False) -> tuple[np.ndarray, np
         if with_maps:
             maps.append(np.clip(np.round(error_map * 255), 0, 255).astype(np.uint8))
     return np.asarray(means, dtype=np.float64), (np.stack(maps) if with_maps else None)
+
+
+SILHOUETTE_WIDTH_PX = 2
+"""Half-width, in pixels, of the band around the reference's outline (``silhouette_band``)."""
+
+
+def silhouette_band(coverage, width: int = SILHOUETTE_WIDTH_PX) -> np.ndarray:
+    """Pixels within ``width`` pixels (a square neighbourhood) of the reference's outline.
+
+    A pixel is covered where ``coverage >= 0.5``; the band holds every pixel that has both a
+    covered and an uncovered pixel within ``width`` of it (itself included).
+
+    Args:
+        coverage: ``[B, H, W]`` (or ``[H, W]``) coverage in [0, 1], torch or numpy.
+    Returns:
+        ``[B, H, W]`` bool.
+    """
+    coverage = torch.as_tensor(coverage).detach().to("cpu", torch.float32)
+    covered = (coverage >= 0.5).float().reshape(-1, 1, *coverage.shape[-2:])
+
+    def within_reach(mask: torch.Tensor) -> torch.Tensor:
+        return torch.nn.functional.max_pool2d(mask, 2 * width + 1, stride=1, padding=width)[:, 0] > 0
+
+    return (within_reach(covered) & within_reach(1.0 - covered)).numpy()
+
+
+def error_share(reference, test, mask) -> float:
+    """The share of the squared error (tone-mapped, clamped, as in ``psnr_views``) of all views
+    that lies in ``mask``: ``sum_mask e / sum e`` with ``e = |ref' - test'|^2`` summed over RGB;
+    0 where the images agree everywhere.
+
+    Args:
+        reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance.
+        mask: ``[B, H, W]`` (or ``[H, W]``) bool.
+    """
+    a, b = (x.astype(np.float64) for x in _pair(reference, test))
+    error = ((a - b) ** 2).sum(axis=-1)
+    total = error.sum()
+    return float(error[np.asarray(mask, bool).reshape(error.shape)].sum() / total) if total > 0 else 0.0
 
 
 def flip(reference, test) -> float:
