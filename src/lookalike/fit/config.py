@@ -370,9 +370,11 @@ def learning_rates(config: Config) -> tuple[float, float]:
     Why two sets: with one-view batches, Adam moves every parameter by a fraction of its
     learning rate at each step whatever the gradient's size, so the rate sets a noise floor.
     From scratch, the cold rates climb fastest. From a good bake, they first push the model
-    down to their noise floor (about 2 dB below the bake on stanford-bunny within 100 steps):
-    moving vertices rotates the tangent frames under the baked normal map, and texels jitter.
-    The warm rates, 1/6 of the cold ones, keep the climb monotone.
+    down to their noise floor (1-2 dB below the bake on stanford-bunny within 25-100 steps):
+    vertices whose gradients are mostly view-to-view noise random-walk away from a surface
+    whose shading is already right (with frozen texels too, and with the normal map held in
+    object space), and texels jitter. The warm rates, 1/6 of the cold ones, keep the climb
+    monotone.
     """
     opt = config.optim
     warm = config.latent.init in WARM_INITS

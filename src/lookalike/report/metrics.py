@@ -48,6 +48,12 @@ def _pair(reference, test) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
+def _squared_error(reference, test) -> np.ndarray:
+    """``[B, H, W, 3]`` float64 ``(ref' - test')^2`` of the tone-mapped, clamped images."""
+    a, b = _pair(reference, test)
+    return (a.astype(np.float64) - b.astype(np.float64)) ** 2
+
+
 def psnr_views(reference, test) -> np.ndarray:
     """PSNR in dB of each view: ``10 log10(1 / MSE)`` over all pixels and RGB channels of the
     tone-mapped, clamped images (peak 1).
@@ -58,8 +64,7 @@ def psnr_views(reference, test) -> np.ndarray:
     Returns:
         ``[B]`` float64; identical views give ``PSNR_CAP_DB`` (100 dB) instead of infinity.
     """
-    a, b = (x.astype(np.float64) for x in _pair(reference, test))
-    mse = ((a - b) ** 2).mean(axis=(1, 2, 3))
+    mse = _squared_error(reference, test).mean(axis=(1, 2, 3))
     return np.minimum(10 * np.log10(1.0 / np.maximum(mse, 1e-300)), PSNR_CAP_DB)
 
 
@@ -125,8 +130,7 @@ def error_share(reference, test, mask) -> float:
         reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance.
         mask: ``[B, H, W]`` (or ``[H, W]``) bool.
     """
-    a, b = (x.astype(np.float64) for x in _pair(reference, test))
-    error = ((a - b) ** 2).sum(axis=-1)
+    error = _squared_error(reference, test).sum(axis=-1)
     total = error.sum()
     return float(error[np.asarray(mask, bool).reshape(error.shape)].sum() / total) if total > 0 else 0.0
 
