@@ -76,3 +76,21 @@ def test_baked_columns_appear_when_a_bake_ran():
 def test_missing_assets_are_a_clear_error(tmp_path):
     with pytest.raises(ConfigError, match="benchmark assets are missing"):
         quality.run(assets_dir=tmp_path / "nowhere")
+
+
+def test_select_assets_keeps_the_benchmark_order_and_names_unknown_ones():
+    assert [c.name for c in quality.select_assets(["spot", "stanford-bunny"])] == ["stanford-bunny", "spot"]
+    with pytest.raises(ConfigError, match="unknown benchmark asset teapot; the assets are flight-helmet, nefertiti"):
+        quality.select_assets(["spot", "teapot"])
+
+
+def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, monkeypatch, capsys):
+    from lookalike.cli import main
+
+    calls, assets = stub_simplify
+    monkeypatch.setattr(quality.run, "__defaults__", (None, None, quality.TIME_BUDGET_S, quality.ASSETS, assets))
+    assert main(["bench", "quality", "--asset", "spot", "--out", str(tmp_path / "out")]) == 0
+    assert [c.outdir.name for c in calls] == ["spot"]
+    assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:3]] == ["spot"]
+    assert main(["bench", "render", "--asset", "spot"]) != 0
+    assert "--asset: bench render does not run the benchmark assets" in capsys.readouterr().err

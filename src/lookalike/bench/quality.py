@@ -13,6 +13,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import ConfigError
 from ._table import aligned_table
 
 HELP = "simplify the four benchmark assets and compare held-out PSNR/FLIP with plain decimation"
@@ -44,6 +45,16 @@ ASSETS = (
     BenchAsset("flight-helmet", "flight-helmet/FlightHelmet.gltf", 5000, False),
     BenchAsset("spot", "spot/spot.obj", 1000, False),
 )
+
+
+def select_assets(names: list[str]) -> tuple[BenchAsset, ...]:
+    """The cases of ``ASSETS`` named in ``names``, in ``ASSETS`` order; an unknown name is a
+    ``ConfigError`` listing the known ones."""
+    known = {case.name for case in ASSETS}
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ConfigError(f"unknown benchmark asset {', '.join(unknown)}; the assets are {', '.join(sorted(known))}")
+    return tuple(case for case in ASSETS if case.name in names)
 
 
 def scan_material():
@@ -80,8 +91,6 @@ def table_row(case: BenchAsset, metrics: dict) -> dict:
 
 def check_assets_dir(assets_dir: str | Path) -> Path:
     """``assets_dir`` as a path; ``ConfigError`` if it is not a folder."""
-    from ..errors import ConfigError
-
     assets_dir = Path(assets_dir)
     if not assets_dir.is_dir():
         raise ConfigError(f"the benchmark assets are missing: no folder {assets_dir}")

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import json
 
 from ..bench import benchmark_modules
+from ..bench.quality import ASSETS, select_assets
+from ..errors import ConfigError
 
 HELP = "run a benchmark and print its figures"
 
@@ -17,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     parser.add_argument("--repeats", type=int, default=None, help="timed repetitions (default: the benchmark's own)")
     parser.add_argument("--out", default=None, help="keep the outputs of benchmarks that write files in this folder")
+    parser.add_argument("--asset", action="append", default=None, metavar="NAME",
+                        help="run only this benchmark asset (repeatable; quality and warmstart): "
+                             + ", ".join(case.name for case in ASSETS))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -24,6 +30,10 @@ def run(args: argparse.Namespace) -> int:
     kwargs = {} if args.repeats is None else {"repeats": args.repeats}
     if args.out is not None:
         kwargs["out"] = args.out
+    if args.asset:
+        if "assets" not in inspect.signature(module.run).parameters:
+            raise ConfigError(f"--asset: bench {args.name} does not run the benchmark assets")
+        kwargs["assets"] = select_assets(args.asset)
     result = module.run(**kwargs)
     if args.json:
         print(json.dumps(result, indent=2))
