@@ -6,7 +6,8 @@ import pytest
 
 from lookalike.errors import ConfigError
 from lookalike.fit.config import (LR_POSITIONS_COLD, LR_POSITIONS_WARM, LR_TEXTURES_COLD, LR_TEXTURES_WARM, Config,
-                                  config_from_dict, learning_rates, load_config, parse_duration, to_toml)
+                                  config_from_dict, learning_rates, load_config, outline_views, parse_duration,
+                                  to_toml)
 
 
 def test_toml_round_trip_keeps_every_setting(tmp_path):
@@ -41,6 +42,8 @@ def test_defaults_round_trip():
     ({"optim": {"bogus": 1}}, "unknown key 'bogus'"),
     ({"extras": {}}, "unknown section [extras]"),
     ({"views": {"pool_size": 1, "batch_size": 4}}, "pool_size"),
+    ({"optim": {"outline_views": -1}}, "optim.outline_views must not be negative"),
+    ({"optim": {"outline_weight": -0.5}}, "optim.outline_weight must not be negative"),
 ])
 def test_invalid_settings_are_refused_with_a_clear_message(data, words):
     with pytest.raises(ConfigError, match=None) as info:
@@ -103,3 +106,10 @@ def test_warm_starts_get_lower_learning_rates_unless_they_are_set(init, expected
     assert learning_rates(given) == (0.001, expected[1])
     given = config_from_dict({"latent": {"init": init}, "optim": {"lr_textures": 0.02}})
     assert learning_rates(given) == (expected[0], 0.02)
+
+
+@pytest.mark.parametrize("init, optim, expected", [("bake", {}, 2), ("source", {}, 2), ("random", {}, 0),
+                                                   ("average", {}, 0), ("random", {"outline_views": 3}, 3),
+                                                   ("bake", {"outline_views": 0}, 0)])
+def test_warm_starts_add_outline_views_unless_set(init, optim, expected):
+    assert outline_views(config_from_dict({"latent": {"init": init}, "optim": optim})) == expected

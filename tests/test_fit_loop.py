@@ -14,6 +14,7 @@ from lookalike.fit.latent import Latent
 from lookalike.fit.optimize import SNAPSHOT_EVERY, Batch, Fitter, read_checkpoint
 from lookalike.shading.camera import Camera
 from lookalike.shading.light import PointLight
+from lookalike.shading.pipeline import render_coverage
 
 from test_fit_latent import make_latent
 
@@ -48,7 +49,8 @@ class ToySource:
 
 
 def config(**optim) -> Config:
-    return config_from_dict({"optim": {"lr_textures": 0.05, "lr_positions": 0.01, **optim}, "views": {"batch_size": 2}})
+    return config_from_dict({"optim": {"lr_textures": 0.05, "lr_positions": 0.01, "outline_views": 0, **optim},
+                             "views": {"batch_size": 2}})
 
 
 def fitter(cfg: Config, render=toy_render, checkpoint=None, validate=None) -> Fitter:
@@ -197,3 +199,44 @@ def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
     assert torch.equal(rebuilt.images, pool.images) and torch.equal(rebuilt.camera.mv, pool.camera.mv)
     assert torch.equal(rebuilt.light.position, pool.light.position)
     assert torch.equal(rebuilt.sample(np.random.default_rng(1), 2).target, pool.sample(np.random.default_rng(1), 2).target)
+
+
+class CountingSource(ToySource):
+    """``ToySource`` that records how many views each step asks for."""
+
+    def __init__(self, truth: Latent):
+        super().__init__(truth)
+        self.sizes = []
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        self.sizes.append(batch_size)
+        return super().sample(rng, batch_size)
+
+
+def test_outline_views_come_with_the_batch_and_add_a_coverage_term():
+    cfg = config(outline_views=3, outline_weight=2.0)
+    torch.manual_seed(1)
+    start = make_latent(SIZE)
+    source = CountingSource(make_latent(SIZE))
+    fit = Fitter(start, source, toy_render, cfg)
+    fit.step()
+    assert source.sizes == [2 + 3]
+    batch = source.sample(np.random.default_rng(0), 5)
+    background = torch.zeros(2, 3)
+    shaded, outline = batch.split(2)
+    with torch.no_grad():
+        with_outline, _ = fit.loss(batch, background)
+        plain, _ = fit.loss(shaded, background)
+        coverage = render_coverage(start.as_asset().mesh, outline.camera, outline.target.shape[1:3],
+                                   cfg.render.latent_msaa)
+    assert outline.camera.batch_size == 3 and coverage.mean() < 1
+    assert torch.allclose(with_outline, plain + 2.0 * (1 - coverage).mean())  # the toy targets are opaque
+
+
+@pytest.mark.parametrize("pool, alpha_mode, expected", [(0, "OPAQUE", 3), (16, "OPAQUE", 3), (4, "OPAQUE", 2),
+                                                        (16, "BLEND", 0)])
+def test_outline_views_fit_the_pool_and_skip_latents_with_alpha(pool, alpha_mode, expected):
+    cfg = config_from_dict({"optim": {"outline_views": 3}, "views": {"batch_size": 2, "pool_size": pool}})
+    latent = make_latent(SIZE)
+    latent.alpha_mode = alpha_mode
+    assert Fitter(latent, ToySource(make_latent(SIZE)), toy_render, cfg).outline_count == expected

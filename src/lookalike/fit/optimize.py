@@ -4,9 +4,11 @@ Each step draws a mini-batch of views (camera, light, reference image), renders 
 model under them, composites both renders over the same random background colour per view
 (so that coverage and alpha are compared along with colour) and minimises
 
-    L = L_image(latent, reference) + lambda_t * L_laplacian(v_pos),
+    L = L_image(latent, reference) + w_outline * L_outline + lambda_t * L_laplacian(v_pos),
 
-with lr_t = lr_0 * 10^(-k t) for each parameter group and lambda_t from
+where L_outline = mean |coverage(latent) - coverage(reference)| over a few more views of the
+batch, drawn for their outline only (``outline_views``; by default from warm starts only), with
+lr_t = lr_0 * 10^(-k t) for each parameter group and lambda_t from
 ``lookalike.fit.schedule``. Textures are clamped to their valid ranges after each step.
 
 Robustness:
@@ -38,7 +40,8 @@ from ..asset.laplacian import UniformLaplacian
 from ..errors import ConfigError
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from .config import Config, config_from_dict, config_to_dict, learning_rates
+from ..shading.pipeline import render_coverage
+from .config import Config, config_from_dict, config_to_dict, learning_rates, outline_views
 from .latent import Latent
 from .losses import composite, image_loss
 from .outdir import atomic_path
@@ -70,6 +73,13 @@ class Batch:
     camera: Camera
     light: PointLight
     target: torch.Tensor
+
+    def split(self, n: int) -> tuple["Batch", "Batch | None"]:
+        """The first ``n`` views and the rest (``None`` if there are none)."""
+        head = Batch(self.camera[:n], self.light[:n], self.target[:n])
+        if self.target.shape[0] <= n:
+            return head, None
+        return head, Batch(self.camera[n:], self.light[n:], self.target[n:])
 
 
 class BatchSource(Protocol):
@@ -167,10 +177,20 @@ class Fitter:
             {"params": latent.position_parameters(), "lr": lr_positions, "lr_0": lr_positions},
             {"params": latent.texture_parameters(), "lr": lr_textures, "lr_0": lr_textures},
         ], fused=True)
+        self.outline_count = self._count_outline_views()
         self.progress = _Progress(total=opt.iterations)
         self.best_state = copy.deepcopy(latent.state_dict())
         self._snapshot()
         self._mark_random_state()
+
+    def _count_outline_views(self) -> int:
+        """Coverage-only views per step: ``outline_views``, at most the pool's views besides
+        the batch; none where the latent has alpha (its coverage is then a texture's too)."""
+        if self.latent.alpha_mode != "OPAQUE":
+            return 0
+        views = self.config.views
+        count = outline_views(self.config)
+        return count if views.pool_size == 0 else min(count, views.pool_size - views.batch_size)
 
     def _mark_random_state(self) -> None:
         """Remember the random state between steps, so that a checkpoint written while a step
@@ -209,16 +229,27 @@ class Fitter:
         return torch.from_numpy(self.rng.uniform(0.0, 1.0, size=(batch_size, 3)).astype(np.float32))
 
     def loss(self, batch: Batch, background: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """``(image loss, Laplacian loss)`` of the current model on ``batch`` (differentiable)."""
-        pred = self.render(self.latent.as_asset(), batch.camera, batch.light)
-        image = self.loss_fn(composite(pred, background), composite(batch.target, background))
+        """``(image loss, Laplacian loss)`` of the current model on ``batch`` (differentiable).
+
+        The image loss compares the first ``views.batch_size`` views, shaded, over
+        ``background [B, 3]``; where ``batch`` holds more (outline views), it adds
+        ``optim.outline_weight * mean |c - c_ref|`` over their pixels, c the latent's
+        antialiased coverage (``render_coverage``) and c_ref the reference's alpha.
+        """
+        asset = self.latent.as_asset()
+        shaded, outline = batch.split(self.config.views.batch_size)
+        pred = self.render(asset, shaded.camera, shaded.light)
+        image = self.loss_fn(composite(pred, background), composite(shaded.target, background))
+        if outline is not None:
+            coverage = render_coverage(asset.mesh, outline.camera, outline.target.shape[1:3], self.config.render.latent_msaa)
+            image = image + self.config.optim.outline_weight * (coverage - outline.target[..., 3]).abs().mean()
         return image, self.laplacian.loss(self.latent.v_pos, self.rest_delta)
 
     def step(self) -> float:
         """One optimisation step; returns the total loss (NaN if the step was rolled back)."""
         p = self.progress
-        batch = self.source.sample(self.rng, self.config.views.batch_size)
-        background = self._background(batch.target.shape[0])
+        batch = self.source.sample(self.rng, self.config.views.batch_size + self.outline_count)
+        background = self._background(self.config.views.batch_size)
         self._set_learning_rates()
         self.optimizer.zero_grad(set_to_none=True)
         image, lap = self.loss(batch, background)

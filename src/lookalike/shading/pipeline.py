@@ -148,6 +148,20 @@ def background_image(background, batch: int, height: int, width: int, factor: in
     return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
 
 
+def render_coverage(mesh, camera: Camera, resolution, spp: int = 1) -> torch.Tensor:
+    """``[B, H, W]`` antialiased coverage of ``mesh`` (its opaque silhouette, no materials):
+    1 inside, 0 outside, fractional where an outline edge crosses a pixel, differentiable in
+    the positions through ``antialias``; ``spp x spp`` visibility samples per pixel, averaged.
+    Row 0 = top, as ``render``."""
+    height, width = _resolution(resolution)
+    tri = mesh.t_pos_idx.to(torch.int32)
+    clip = camera.clip(mesh.v_pos)
+    rast, _ = dr.rasterize(dr.RasterizeContext(), clip, tri, (height * spp, width * spp))
+    covered = (rast[..., 3:] > 0).to(clip.dtype)
+    covered = dr.antialias(covered, rast, clip, tri, topology_hash=dr.antialias_construct_topology_hash(tri))
+    return box_downsample(covered, spp).flip(1)[..., 0]
+
+
 def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
     """Average ``factor x factor`` blocks of ``image [B, H*factor, W*factor, C]`` -> ``[B, H, W, C]``."""
     if factor == 1:
