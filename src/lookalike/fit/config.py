@@ -405,7 +405,7 @@ def outline_views(config: Config) -> int:
     ``learning_rates``). Two more views, coverage only (no shading; a step takes about a
     quarter longer), make it steadier. On stanford-bunny's bake start the validation PSNR
     reached the random start's best (35.58) at step 400 instead of 850 in a fixed 1,065-step
-    run, and at step 600 of 832 in a 10-minute run, whose held-out PSNR rose from 34.88 to
+    run, and at step 625 of 832 in a 10-minute run, whose held-out PSNR rose from 34.88 to
     35.03. Random starts keep the paper's loss: the term was not measured there.
     """
     if config.optim.outline_views is not None:
