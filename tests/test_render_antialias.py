@@ -3,6 +3,8 @@ edges, the topology hash, and values on a straight edge."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -43,6 +45,44 @@ def test_position_gradient_matches_supersampled_coverage(vertex, axis):
     assert pos.grad[0, vertex, axis].item() == pytest.approx(expected, rel=0.10)
 
 
+def test_outline_owned_by_a_sliver_gets_its_gradient():
+    # the right outline is the outer edges of a sliver (0.3 px wide) glued to a big triangle
+    # along (1, 2): no pixel centre shows the sliver, the pairs across the outline show the
+    # big triangle, whose own edge there is interior, and must walk on into the sliver
+    eps = 0.3 * 2 / 32
+    pos = torch.tensor(
+        [[[-0.6, -0.7, 0.0, 1.0], [0.3, -0.6, 0.0, 1.0], [0.3, 0.7, 0.0, 1.0], [0.3 + eps, 0.05, 0.0, 1.0]]],
+        dtype=torch.float64,
+        requires_grad=True,
+    )
+    tri = torch.tensor([[0, 1, 2], [1, 3, 2]])
+    rast, _ = dr.rasterize(None, pos, tri, (32, 32))
+    assert rast[..., 3].unique().tolist() == [0.0, 1.0]
+    antialiased_sum(pos, tri, 32).backward()
+    h = 2.0 / 32 * 0.1
+    with torch.no_grad():
+        plus, minus = pos.clone(), pos.clone()
+        plus[0, 3, 0] += h
+        minus[0, 3, 0] -= h
+        expected = (coverage_sum(plus, tri, 32, 32) - coverage_sum(minus, tri, 32, 32)) / (2 * h)
+    assert expected > 3.0
+    assert pos.grad[0, 3, 0].item() == pytest.approx(expected, rel=0.10)
+
+
+def test_sub_pixel_surface_stays_within_its_neighbours_colours():
+    # an equilateral triangle 0.2 px in circumradius around a pixel centre: each of its three
+    # edges, 0.1 px from the centre, would blend 0.4 of the pixel with background, 1.2 in all
+    centre = (8 + 0.5) / 16 * 2 - 1
+    r = 0.2 * 2 / 16
+    corners = [(r * math.cos(a), r * math.sin(a)) for a in (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6)]
+    pos = torch.tensor([[[centre + x, centre + y, 0.0, 1.0] for x, y in corners]])
+    tri = torch.tensor([[0, 1, 2]])
+    rast, _ = dr.rasterize(None, pos, tri, (16, 16))
+    assert (rast[..., 3] > 0).sum() == 1
+    out = dr.antialias((rast[..., 3:] > 0).float(), rast, pos, tri)
+    assert out.min() == 0 and out.max() <= 1  # the pixel is all background, not less
+
+
 def test_interior_edges_give_no_position_gradient():
     # a quad larger than the screen: its only on-screen edge is the shared diagonal
     pos = torch.tensor(
@@ -70,7 +110,8 @@ def test_folded_edge_is_a_silhouette():
     )
     tri = torch.tensor([[0, 1, 2], [1, 2, 3]])
     topology = dr.antialias_construct_topology_hash(tri)
-    assert topology.tolist() == [[3, -1, -1], [-1, -1, 0]]
+    assert topology.opposite.tolist() == [[3, -1, -1], [-1, -1, 0]]
+    assert topology.neighbour.tolist() == [[1, -1, -1], [-1, -1, 0]]
     assert antialiased_sum(pos, tri, 24).requires_grad
     antialiased_sum(pos, tri, 24).backward()
     assert pos.grad[0, 1, 0] > 1.0 and pos.grad[0, 2, 1] > 1.0

@@ -8,11 +8,12 @@ import pytest
 import torch
 
 import lookalike.render as dr
-from lookalike.render.antialias import neighbour_pairs_reference, silhouette_edges
+from lookalike.init import icosphere
+from lookalike.render.antialias import neighbour_pairs_reference, outline_walk_reference, silhouette_edges
 from lookalike.render.barycentrics import barycentrics, pixel_ndc
 from lookalike.render.interpolate import interpolate_reference
 from lookalike.render.mipmap import build_pyramid
-from lookalike.render.pair_kernels import silhouette_pair_candidates
+from lookalike.render.pair_kernels import outline_crossings
 from lookalike.render.texture import texture_reference
 
 
@@ -85,18 +86,36 @@ def test_compiled_pyramid_matches_area_mips():
     torch.testing.assert_close(gradients([pyramid.table], tex), gradients([expected], tex))
 
 
-def test_pair_kernel_matches_torch_twin():
-    pos, tri = random_mesh(2, 60, 90)
-    rast, _ = dr.rasterize(None, pos, tri, (24, 30))
-    opposite = dr.antialias_construct_topology_hash(tri)
-    silhouette = silhouette_edges(pos, tri, opposite)
-    has_silhouette = torch.cat([silhouette.new_zeros(2, 1), silhouette.any(-1)], 1)
-    has_silhouette[:, 1::3] = False  # make the filter matter
-    front, other, horizontal = silhouette_pair_candidates(rast.numpy(), has_silhouette.numpy())
-    ref_front, ref_other, ref_tri, ref_horizontal = neighbour_pairs_reference(
-        rast[..., 3].long(), rast[..., 2], has_silhouette
-    )
-    fast = sorted(zip(front.tolist(), other.tolist(), horizontal.tolist()))
-    slow = sorted(zip(ref_front.tolist(), ref_other.tolist(), ref_horizontal.tolist()))
-    assert fast == slow and len(fast) > 20
-    assert torch.equal(rast[..., 3].reshape(-1)[ref_front].long() - 1, ref_tri)
+def bumpy_sphere_clip(n_views: int = 2, level: int = 2, seed: int = 0):
+    """A jittered icosphere (a closed mesh whose outline folds) seen through random
+    perspective cameras: ``(pos [B, V, 4] float64, tri [T, 3] int64)``."""
+    generator = torch.Generator().manual_seed(seed)
+    sphere = icosphere(level)
+    bumps = 1 + 0.15 * torch.rand(sphere.v_pos.shape[0], 1, generator=generator, dtype=torch.float64)
+    verts = sphere.v_pos.double() * bumps
+    pos = []
+    for _ in range(n_views):
+        rotation, _ = torch.linalg.qr(torch.randn(3, 3, generator=generator, dtype=torch.float64))
+        eye = verts @ rotation.T + torch.tensor([0.0, 0.0, -3.5], dtype=torch.float64)
+        pos.append(torch.stack([1.6 * eye[:, 0], 1.6 * eye[:, 1], -eye[:, 2] * 0.5 - 1.0, -eye[:, 2]], -1))
+    return torch.stack(pos), sphere.t_pos_idx.long()
+
+
+def test_outline_kernel_matches_torch_twin():
+    pos, tri = bumpy_sphere_clip()
+    height, width = 40, 52
+    rast, _ = dr.rasterize(None, pos, tri, (height, width))
+    topology = dr.antialias_construct_topology_hash(tri)
+    silhouette = silhouette_edges(pos, tri, topology.opposite)
+    fast = outline_crossings(rast.numpy(), pos[..., [0, 1, 3]].contiguous().numpy(), tri.numpy(),
+                             topology.neighbour.numpy(), silhouette.numpy())
+    front, other, start_tri, horizontal = neighbour_pairs_reference(rast[..., 3].long(), rast[..., 2])
+    assert torch.equal(rast[..., 3].reshape(-1)[front].long() - 1, start_tri)
+    edge_tri, edge = outline_walk_reference(pos, tri, topology.neighbour, silhouette, front, other, start_tri,
+                                            height, width)
+    hit = edge >= 0
+    slow = (front[hit], other[hit], horizontal[hit], edge_tri[hit], edge[hit])
+    assert sorted(zip(*(a.tolist() for a in fast))) == sorted(zip(*(a.tolist() for a in slow)))
+    walked = (edge_tri[hit] != start_tri[hit]).sum().item()
+    assert hit.sum() > 100 and walked > 20 and (~hit).sum() > 100  # outlines found beyond the first triangle
+    assert silhouette[front[hit] // (height * width), edge_tri[hit], edge[hit]].all()

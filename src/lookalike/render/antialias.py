@@ -6,8 +6,8 @@ from __future__ import annotations
 import torch
 
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
-from .pair_kernels import silhouette_pair_candidates
-from .topology import antialias_construct_topology_hash
+from .pair_kernels import MAX_WALK, outline_crossings
+from .topology import EdgeTopology, antialias_construct_topology_hash
 from .views import check_rast_ids, check_triangles
 
 __all__ = ["antialias", "antialias_construct_topology_hash"]
@@ -45,17 +45,15 @@ def silhouette_edges(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tenso
     return (opposite < 0) | ((other > 0) == (own[..., None] > 0))
 
 
-def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhouette: torch.Tensor):
-    """Horizontally and vertically adjacent pixel pairs that may straddle a silhouette
-    (plain-torch twin of :func:`.pair_kernels.silhouette_pair_candidates`).
+def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor):
+    """Horizontally and vertically adjacent pixel pairs showing different triangles
+    (plain-torch twin of the pair search in :func:`.pair_kernels.outline_crossings`).
 
-    ``ids [B, H, W]`` int64 (triangle + 1), ``depth [B, H, W]`` (z/w), ``has_silhouette
-    [B, T + 1]`` bool (column 0 = background, False).  A pair qualifies when the ids differ
-    and the *front* triangle (the nearer one; any triangle is in front of background) has a
-    silhouette edge.  Returns flat pixel indices ``(front [M], other [M])``, the front
-    triangle's index ``[M]`` and whether the pair is horizontal ``[M]`` bool.
+    ``ids [B, H, W]`` int64 (triangle + 1), ``depth [B, H, W]`` (z/w).  The *front* pixel
+    of a pair is the nearer one (any triangle is in front of background).  Returns flat
+    pixel indices ``(front [M], other [M])``, the front triangle's index ``[M]`` and
+    whether the pair is horizontal ``[M]`` bool.
     """
-    n_views, height, width = ids.shape
     flat = torch.arange(ids.numel()).reshape(ids.shape)
     fronts, others, tris, horizontal = [], [], [], []
     everything = slice(None)
@@ -65,18 +63,66 @@ def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor, has_silhou
     ):
         id_a, id_b = ids[slice_a], ids[slice_b]
         a_in_front = (id_a > 0) & ((id_b == 0) | (depth[slice_a] < depth[slice_b]))
-        front_id = torch.where(a_in_front, id_a, id_b)
-        view = torch.arange(n_views)[:, None, None]
-        candidate = (id_a != id_b) & has_silhouette[view, front_id]
-        pick = torch.nonzero(candidate.reshape(-1)).squeeze(1)
+        pick = torch.nonzero((id_a != id_b).reshape(-1)).squeeze(1)
         pa = flat[slice_a].reshape(-1).index_select(0, pick)
         pb = flat[slice_b].reshape(-1).index_select(0, pick)
         a_front = a_in_front.reshape(-1).index_select(0, pick)
         fronts.append(torch.where(a_front, pa, pb))
         others.append(torch.where(a_front, pb, pa))
-        tris.append(front_id.reshape(-1).index_select(0, pick) - 1)
+        tris.append(torch.where(a_front, id_a.reshape(-1)[pick], id_b.reshape(-1)[pick]) - 1)
         horizontal.append(torch.full_like(pick, is_horizontal, dtype=torch.bool))
     return torch.cat(fronts), torch.cat(others), torch.cat(tris), torch.cat(horizontal)
+
+
+def outline_walk_reference(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    neighbour: torch.Tensor,
+    silhouette: torch.Tensor,
+    front: torch.Tensor,
+    other: torch.Tensor,
+    start_tri: torch.Tensor,
+    height: int,
+    width: int,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The silhouette edge between each pixel pair (plain-torch twin of the walk in
+    :func:`.pair_kernels.outline_crossings`, same rule, all pairs stepped together).
+
+    Args:
+        pos: ``[B, V, 4]`` clip-space positions (used in float64).
+        tri, neighbour: ``[T, 3]`` int64 (``neighbour`` from ``EdgeTopology``).
+        silhouette: ``[B, T, 3]`` bool.
+        front, other, start_tri: ``[M]`` int64 from :func:`neighbour_pairs_reference`.
+        height, width: image size.
+
+    Returns:
+        ``(edge_tri [M], edge [M])`` int64, -1 where the pair has no outline between it.
+    """
+    pos = pos.detach().double()
+    view = front // (height * width)
+    p_front = pixel_ndc(front, height, width, torch.float64)[:, None]  # [M, 1, 3]
+    p_other = pixel_ndc(other, height, width, torch.float64)[:, None]
+    t, entry, s_in = start_tri.clone(), torch.full_like(front, -1), torch.zeros(front.shape, dtype=torch.float64)
+    walking = torch.ones_like(front, dtype=torch.bool)
+    edge_tri, edge = torch.full_like(front, -1), torch.full_like(front, -1)
+    corners = torch.arange(3)
+    for _ in range(MAX_WALK):
+        verts = triangle_vertices_xyw(pos, tri, view, t)
+        c = edge_coefficients(verts[:, 0], verts[:, 1], verts[:, 2])  # [M, 3 edges, 3]
+        e_front, e_other = (c * p_front).sum(-1), (c * p_other).sum(-1)
+        crossing = e_front / (e_front - e_other)
+        allowed = (e_front != e_other) & (crossing > s_in[:, None]) & (corners != entry[:, None])
+        s_out, k = torch.where(allowed, crossing, torch.inf).min(1)
+        walking &= s_out <= 1.0
+        found = walking & silhouette[view, t, k]
+        edge_tri, edge = torch.where(found, t, edge_tri), torch.where(found, k, edge)
+        walking &= ~found
+        shared = tri[t[:, None], (k[:, None] + corners[None, 1:]) % 3]  # [M, 2]
+        t = torch.where(walking, neighbour[t, k], t)
+        off_edge = (tri[t][:, :, None] != shared[:, None, :]).all(-1)  # [M, 3]: the far vertex
+        entry = torch.where(walking, off_edge.int().argmax(1), entry)
+        s_in = torch.where(walking, s_out, s_in)
+    return edge_tri, edge
 
 
 def antialias(
@@ -84,25 +130,31 @@ def antialias(
     rast: torch.Tensor,
     pos: torch.Tensor,
     tri: torch.Tensor,
-    topology_hash: torch.Tensor | None = None,
+    topology_hash: EdgeTopology | None = None,
     pos_gradient_boost: float = 1.0,
 ) -> torch.Tensor:
     """Blend pixel colours across silhouette edges by analytic coverage (nvdiffrast's
-    ``dr.antialias``).
+    ``dr.antialias``, extended to outlines made of sub-pixel triangles).
 
     For every horizontally or vertically adjacent pixel pair whose triangle ids differ, the
-    nearer (*front*) triangle's centre pixel ``P_f`` is inside it and the other centre ``P_o``
-    is not, so the segment ``P_f -> P_o`` leaves the triangle through one edge: the edge
-    with the smallest crossing ``alpha = e(P_f) / (e(P_f) - e(P_o))`` among those whose edge
-    function ``e`` is negative at ``P_o``.  If that edge is a silhouette edge (see
-    :func:`silhouette_edges`), the pixel on whose side of the midpoint it crosses is
-    blended with its neighbour: for ``alpha < 1/2`` ``C_f += (1/2 - alpha)(C_o - C_f)``,
-    else ``C_o += (alpha - 1/2)(C_f - C_o)`` (all blends use the input colours and add up).
-    Each edge is handled only by the pairs running across it, horizontal pairs for edges
-    closer to vertical and vertical pairs otherwise, so no coverage is counted twice.
+    segment from the nearer (*front*) pixel centre ``P_f`` to the other, ``P_o``, is
+    followed across interior edges until it crosses a silhouette edge (see
+    :func:`silhouette_edges` and :func:`.pair_kernels.outline_crossings`), at
+    ``alpha = e(P_f) / (e(P_f) - e(P_o))`` with that edge's function ``e``.  nvdiffrast
+    looks at the front triangle's own edges only, which misses most of the outline of a
+    finely tessellated mesh, whose silhouette triangles are grazing slivers.
+
+    The pixel on whose side of the midpoint the edge crosses is blended with its neighbour:
+    for ``alpha < 1/2`` ``C_f += (1/2 - alpha)(C_o - C_f)``, else ``C_o += (alpha - 1/2)
+    (C_f - C_o)``.  All blends use the input colours and add up; a pixel whose blend weights
+    sum past 1 (a sub-pixel piece of surface, its outline crossing the pixel on several
+    sides) has them scaled to sum to 1, so it stays a mix of its neighbours' colours.  Each
+    edge is handled only by the pairs running across it, horizontal pairs for edges closer to
+    vertical and vertical pairs otherwise, so no coverage is counted twice.
+
     ``alpha`` depends on the edge's two vertices only, so gradients reach their ``x, y, w``
     (scaled by ``pos_gradient_boost``) and the colours; interior edges, whose neighbour
-    continues the surface, are left alone and give no position gradient.
+    continues the surface, give no position gradient.
 
     Args:
         color: ``[B, H, W, C]`` shaded image.
@@ -123,38 +175,40 @@ def antialias(
         raise ValueError(f"pos has {views.shape[0]} views, color has {n_views}")
     tri = check_triangles(tri, views.shape[1])
     check_rast_ids(rast, tri.shape[0])
-    opposite = antialias_construct_topology_hash(tri) if topology_hash is None else topology_hash
+    topology = antialias_construct_topology_hash(tri) if topology_hash is None else topology_hash
     if pos_gradient_boost != 1.0:
         views = _ScaleGradient.apply(views, pos_gradient_boost)
 
-    silhouette = silhouette_edges(views, tri, opposite)  # [B, T, 3]
-    has_silhouette = torch.cat([silhouette.new_zeros(n_views, 1), silhouette.any(-1)], 1)
-    pairs = silhouette_pair_candidates(rast.detach().contiguous().numpy(), has_silhouette.numpy())
-    front, other, horizontal = (torch.from_numpy(a) for a in pairs)
-    front_tri = rast.detach().reshape(-1, 4)[front, 3].long() - 1
-
-    view = front // (height * width)
-    verts = triangle_vertices_xyw(views, tri, view, front_tri)
-    c = edge_coefficients(verts[:, 0], verts[:, 1], verts[:, 2])  # [M, 3 edges, 3]
-    det_sign = torch.sign((c[:, 0] * verts[:, 0]).sum(-1)).detach()[:, None]
-    e_front = (c * pixel_ndc(front, height, width, c.dtype)[:, None]).sum(-1) * det_sign  # [M, 3]
-    e_other = (c * pixel_ndc(other, height, width, c.dtype)[:, None]).sum(-1) * det_sign
-    exits = e_other.detach() < 0
-    alpha_all = e_front / (e_front - e_other).where(exits, torch.ones_like(e_front))
-    alpha_rank = torch.where(exits, alpha_all.detach(), torch.inf)
-    edge = alpha_rank.argmin(1)
+    silhouette = silhouette_edges(views, tri, topology.opposite)  # [B, T, 3]
+    crossings = outline_crossings(
+        rast.detach().contiguous().numpy(),
+        views.detach()[..., [0, 1, 3]].double().contiguous().numpy(),
+        tri.numpy(),
+        topology.neighbour.numpy(),
+        silhouette.numpy(),
+    )
+    front, other, horizontal, edge_tri, edge = (torch.from_numpy(a) for a in crossings)
+    verts = triangle_vertices_xyw(views, tri, front // (height * width), edge_tri)  # [M, 3, 3]
+    ends = (edge[:, None] + torch.tensor([1, 2])) % 3
+    v_i, v_j = verts.gather(1, ends[:, :, None].expand(-1, -1, 3)).unbind(1)
+    c = torch.cross(v_i, v_j, dim=-1)  # the edge function's coefficients, [M, 3]
     # an edge is handled by the pairs running across it: horizontal pairs for edges closer
     # to vertical (normal (c.x / W, c.y / H) in pixel units mostly along x), vertical otherwise
-    normal = c.detach().gather(1, edge[:, None, None].expand(-1, 1, 3))[:, 0, :2].abs()
-    mostly_vertical = normal[:, 0] / width >= normal[:, 1] / height
-    keep = exits.any(1) & silhouette[view, front_tri, edge] & (mostly_vertical == horizontal)
-    front, other = front[keep], other[keep]
-    alpha = alpha_all[keep].gather(1, edge[keep, None]).clamp(0.0, 1.0)  # [K, 1]
+    normal = c.detach()[:, :2].abs()
+    keep = (normal[:, 0] / width >= normal[:, 1] / height) == horizontal
+    front, other, c = front[keep], other[keep], c[keep]
+    e_front = (c * pixel_ndc(front, height, width, c.dtype)).sum(-1)
+    e_other = (c * pixel_ndc(other, height, width, c.dtype)).sum(-1)
+    span = e_front - e_other
+    alpha = (e_front / torch.where(span == 0, torch.ones_like(span), span)).clamp(0.0, 1.0)[:, None]  # [K, 1]
 
+    into_front = alpha[:, 0] < 0.5
+    target = torch.where(into_front, front, other)
+    source = torch.where(into_front, other, front)
+    weight = (0.5 - alpha).abs()  # [K, 1]
+    total = weight.new_zeros(color.shape[:3].numel()).index_add(0, target, weight[:, 0])
+    scale = 1.0 / total.clamp_min(1.0)
+    weight = weight * scale.index_select(0, target)[:, None]
+    keep = (1.0 - total * scale).clamp_min(0.0)[:, None]  # [B*H*W, 1]: share of a pixel's own colour
     flat_color = color.reshape(-1, n_channels)
-    c_front = flat_color.index_select(0, front)
-    c_other = flat_color.index_select(0, other)
-    into_front = alpha < 0.5
-    target = torch.where(into_front[:, 0], front, other)
-    delta = torch.where(into_front, (0.5 - alpha) * (c_other - c_front), (alpha - 0.5) * (c_front - c_other))
-    return flat_color.index_add(0, target, delta).reshape(color.shape)
+    return (flat_color * keep).index_add(0, target, weight * flat_color.index_select(0, source)).reshape(color.shape)

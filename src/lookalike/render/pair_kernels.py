@@ -1,45 +1,49 @@
-"""Compiled search for the adjacent pixel pairs that antialiasing must look at.
+"""Compiled search for the adjacent pixel pairs that an outline runs between, and the
+silhouette edge it runs along.
 
-Twin of :func:`.antialias.neighbour_pairs_reference` (plain torch); tests compare them.
+Twin of :func:`.antialias.neighbour_pairs_reference` followed by
+:func:`.antialias.outline_walk_reference` (plain torch); tests compare them.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
+MAX_WALK = 16
+"""Most triangles a pixel-pair segment is followed through before it is given up."""
+
 
 @njit(cache=True, inline="always")
-def _candidate(rast, has_silhouette, b, ya, xa, yb, xb):
-    """Front pixel side (+1: a, -1: b) when pixels a and b show different triangles and
-    the front one has a silhouette edge, else 0."""
+def _front_side(rast, b, ya, xa, yb, xb):
+    """+1 when pixel a is the front of a pair showing different triangles (nearer; any
+    triangle is in front of background), -1 when pixel b is, 0 when both show the same."""
     id_a = int(rast[b, ya, xa, 3])
     id_b = int(rast[b, yb, xb, 3])
     if id_a == id_b:
         return 0
     a_in_front = id_a > 0 and (id_b == 0 or rast[b, ya, xa, 2] < rast[b, yb, xb, 2])
-    front = id_a if a_in_front else id_b
-    if not has_silhouette[b, front]:
-        return 0
     return 1 if a_in_front else -1
 
 
 @njit(cache=True, parallel=True)
-def _count_pairs(rast, has_silhouette, counts):
+def _count_pairs(rast, counts):
     n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     for row in prange(n_views * height):
         b, y = row // height, row % height
         n = 0
         for x in range(width):
-            if x + 1 < width and _candidate(rast, has_silhouette, b, y, x, y, x + 1) != 0:
+            if x + 1 < width and _front_side(rast, b, y, x, y, x + 1) != 0:
                 n += 1
-            if y + 1 < height and _candidate(rast, has_silhouette, b, y, x, y + 1, x) != 0:
+            if y + 1 < height and _front_side(rast, b, y, x, y + 1, x) != 0:
                 n += 1
         counts[row] = n
 
 
 @njit(cache=True, parallel=True)
-def _fill_pairs(rast, has_silhouette, starts, front, other, horizontal):
+def _fill_pairs(rast, starts, front, other, horizontal):
     n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     for row in prange(n_views * height):
         b, y = row // height, row % height
@@ -50,7 +54,7 @@ def _fill_pairs(rast, has_silhouette, starts, front, other, horizontal):
                 yb, xb = (y, x + 1) if is_horizontal else (y + 1, x)
                 if yb >= height or xb >= width:
                     continue
-                side = _candidate(rast, has_silhouette, b, y, x, yb, xb)
+                side = _front_side(rast, b, y, x, yb, xb)
                 if side == 0:
                     continue
                 pa, pb = base + x, (b * height + yb) * width + xb
@@ -60,28 +64,96 @@ def _fill_pairs(rast, has_silhouette, starts, front, other, horizontal):
                 k += 1
 
 
-def silhouette_pair_candidates(rast: np.ndarray, has_silhouette: np.ndarray):
-    """Adjacent pixel pairs that may straddle a silhouette edge.
+@njit(cache=True, inline="always")
+def _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy):
+    """Parameter ``s`` at which the segment ``F + s (O - F)`` crosses the line of edge ``k``
+    of triangle ``t``: ``e(F) / (e(F) - e(O))`` with ``e(p) = (v_i x v_j) . (p, 1)``; inf
+    when the segment runs parallel to it."""
+    i, j = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
+    xi, yi, wi = xyw[b, i, 0], xyw[b, i, 1], xyw[b, i, 2]
+    xj, yj, wj = xyw[b, j, 0], xyw[b, j, 1], xyw[b, j, 2]
+    cx = yi * wj - wi * yj
+    cy = wi * xj - xi * wj
+    cw = xi * yj - yi * xj
+    e_f = cx * fx + cy * fy + cw
+    e_o = cx * ox + cy * oy + cw
+    if e_f == e_o:
+        return math.inf
+    return e_f / (e_f - e_o)
+
+
+@njit(cache=True, parallel=True)
+def _walk(xyw, tri, neighbour, silhouette, front, other, start_tri, height, width, hit_tri, hit_edge):
+    for m in prange(front.shape[0]):
+        hit_tri[m] = -1
+        hit_edge[m] = -1
+        b = front[m] // (height * width)
+        fx = (2.0 * (front[m] % width) + 1.0) / width - 1.0
+        fy = (2.0 * ((front[m] // width) % height) + 1.0) / height - 1.0
+        ox = (2.0 * (other[m] % width) + 1.0) / width - 1.0
+        oy = (2.0 * ((other[m] // width) % height) + 1.0) / height - 1.0
+        t, entry, s_in = start_tri[m], -1, 0.0
+        for _ in range(MAX_WALK):
+            best_s, best_k = math.inf, -1
+            for k in range(3):
+                if k == entry:
+                    continue
+                s = _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy)
+                if s > s_in and s < best_s:
+                    best_s, best_k = s, k
+            if best_k < 0 or best_s > 1.0:
+                break  # the segment ends inside t: no outline between the pixels
+            if silhouette[b, t, best_k]:
+                hit_tri[m], hit_edge[m] = t, best_k
+                break
+            shared_a, shared_b = tri[t, (best_k + 1) % 3], tri[t, (best_k + 2) % 3]
+            t = neighbour[t, best_k]  # interior edge: the walk goes on in the neighbour
+            for k in range(3):
+                if tri[t, k] != shared_a and tri[t, k] != shared_b:
+                    entry = k  # the neighbour's far vertex: the shared edge is opposite it
+                    break
+            s_in = best_s
+
+
+def outline_crossings(
+    rast: np.ndarray, xyw: np.ndarray, tri: np.ndarray, neighbour: np.ndarray, silhouette: np.ndarray
+):
+    """Adjacent pixel pairs with an outline between them, and the silhouette edge it runs along.
+
+    Every horizontally or vertically adjacent pair whose triangle ids differ is followed from
+    the front pixel's centre ``F`` (inside its triangle) towards the other's, ``O``: the
+    segment leaves a triangle through the edge whose line it crosses first past the entry;
+    across an interior edge it goes on in the neighbour, at a silhouette edge it stops
+    there.  So an outline is found even when its triangles are slivers that cover no pixel
+    centre.  A segment that ends inside a triangle, or crosses more than :data:`MAX_WALK`
+    of them, has no outline.
 
     Args:
         rast: ``[B, H, W, 4]`` float (channel 2 depth z/w, channel 3 triangle id + 1).
-        has_silhouette: ``[B, T + 1]`` bool, whether triangle ``id - 1`` has a silhouette
-            edge in view ``b`` (column 0, background, False).
+        xyw: ``[B, V, 3]`` float64 clip-space ``(x, y, w)``.
+        tri: ``[T, 3]`` int64.
+        neighbour: ``[T, 3]`` int64 triangle across each edge (see ``EdgeTopology``).
+        silhouette: ``[B, T, 3]`` bool, from :func:`.antialias.silhouette_edges`.
 
     Returns:
-        ``(front [M], other [M], horizontal [M])``: flat pixel indices into ``[B, H, W]``
-        of each pair whose ids differ and whose front (nearer; any triangle is in front of
-        background) triangle has a silhouette edge, and whether the pair is horizontal.
-        Pairs come in row-major order of their first pixel, horizontal before vertical.
+        ``(front [M], other [M], horizontal [M], edge_tri [M], edge [M])``: flat pixel
+        indices into ``[B, H, W]``, whether the pair is horizontal, and the silhouette edge
+        ``edge`` of triangle ``edge_tri`` that the segment crosses.  Pairs come in row-major
+        order of their first pixel, horizontal before vertical.
     """
-    n_views, height = rast.shape[0], rast.shape[1]
+    n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     counts = np.empty(n_views * height, np.int64)
-    _count_pairs(rast, has_silhouette, counts)
+    _count_pairs(rast, counts)
     starts = np.zeros_like(counts)
     np.cumsum(counts[:-1], out=starts[1:])
     total = int(counts.sum())
     front = np.empty(total, np.int64)
     other = np.empty(total, np.int64)
     horizontal = np.empty(total, np.bool_)
-    _fill_pairs(rast, has_silhouette, starts, front, other, horizontal)
-    return front, other, horizontal
+    _fill_pairs(rast, starts, front, other, horizontal)
+    start_tri = rast.reshape(-1, 4)[front, 3].astype(np.int64) - 1
+    hit_tri = np.empty(total, np.int64)
+    hit_edge = np.empty(total, np.int64)
+    _walk(xyw, tri, neighbour, silhouette, front, other, start_tri, height, width, hit_tri, hit_edge)
+    hit = hit_edge >= 0
+    return front[hit], other[hit], horizontal[hit], hit_tri[hit], hit_edge[hit]

@@ -2,21 +2,31 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import torch
 
 
-def antialias_construct_topology_hash(tri: torch.Tensor) -> torch.Tensor:
-    """Opposite vertex across every triangle edge (nvdiffrast's topology hash, here a
-    plain tensor).
+class EdgeTopology(NamedTuple):
+    """Who lies across each triangle edge (nvdiffrast's "topology hash").
 
     Edge ``k`` of triangle ``t`` is the one opposite its vertex ``k``, joining vertices
-    ``tri[t, (k+1)%3]`` and ``tri[t, (k+2)%3]``.  The result ``[T, 3]`` int64 holds the
-    vertex of the neighbouring triangle across that edge that is not on the edge, or -1 on
-    boundary edges.  Edges are matched by their (unordered) vertex pair; an edge shared by
-    more than two triangles pairs each triangle with one neighbour in sorted order.
+    ``tri[t, (k+1)%3]`` and ``tri[t, (k+2)%3]``.  Both fields are ``[T, 3]`` int64 with -1
+    on boundary edges:
 
-    Args:
-        tri: ``[T, 3]`` int32/int64 vertex indices.
+    - ``opposite``: the neighbouring triangle's vertex that is not on the edge;
+    - ``neighbour``: the neighbouring triangle's index.
+    """
+
+    opposite: torch.Tensor
+    neighbour: torch.Tensor
+
+
+def antialias_construct_topology_hash(tri: torch.Tensor) -> EdgeTopology:
+    """The :class:`EdgeTopology` of ``tri [T, 3]`` int32/int64.
+
+    Edges are matched by their (unordered) vertex pair; an edge shared by more than two
+    triangles pairs each triangle with one neighbour in sorted order.
     """
     tri = tri.long()
     n_tris = tri.shape[0]
@@ -35,8 +45,9 @@ def antialias_construct_topology_hash(tri: torch.Tensor) -> torch.Tensor:
     partner = torch.full_like(order, -1)
     has_partner = partner_pos >= 0
     partner[order[has_partner]] = order[partner_pos[has_partner]]
-    # the partner edge's opposite vertex: row 3t + k -> tri[t, k]
-    opposite = torch.full((n_tris * 3,), -1, dtype=torch.int64)
+    # the partner edge row 3n + k' belongs to triangle n, and its opposite vertex is tri[n, k']
     valid = partner >= 0
+    opposite = torch.full((n_tris * 3,), -1, dtype=torch.int64)
     opposite[valid] = tri.reshape(-1)[partner[valid]]
-    return opposite.reshape(n_tris, 3)
+    neighbour = torch.where(valid, partner // 3, -1)
+    return EdgeTopology(opposite.reshape(n_tris, 3), neighbour.reshape(n_tris, 3))
