@@ -146,9 +146,11 @@ def antialias(
 
     The pixel on whose side of the midpoint the edge crosses is blended with its neighbour:
     for ``alpha < 1/2`` ``C_f += (1/2 - alpha)(C_o - C_f)``, else ``C_o += (alpha - 1/2)
-    (C_f - C_o)``.  All blends use the input colours and add up; a pixel whose blend weights
-    sum past 1 (a sub-pixel piece of surface, its outline crossing the pixel on several
-    sides) has them scaled to sum to 1, so it stays a mix of its neighbours' colours.  Each
+    (C_f - C_o)``.  All blends use the input colours and add up: a pixel ``p`` blended with
+    sources ``s`` at weights ``w_s`` becomes ``(1 - sum w_s) C_p + sum w_s C_s``.  Where the
+    weights sum past 1 (a sub-pixel piece of surface, its outline crossing the pixel on
+    several sides) they are scaled to sum to 1, so the pixel stays a mix of its neighbours'
+    colours, computed as a sum of non-negative terms.  Each
     edge is handled only by the pairs running across it, horizontal pairs for edges closer to
     vertical and vertical pairs otherwise, so no coverage is counted twice.
 
@@ -206,9 +208,10 @@ def antialias(
     target = torch.where(into_front, front, other)
     source = torch.where(into_front, other, front)
     weight = (0.5 - alpha).abs()  # [K, 1]
-    total = weight.new_zeros(color.shape[:3].numel()).index_add(0, target, weight[:, 0])
-    scale = 1.0 / total.clamp_min(1.0)
-    weight = weight * scale.index_select(0, target)[:, None]
-    keep = (1.0 - total * scale).clamp_min(0.0)[:, None]  # [B*H*W, 1]: share of a pixel's own colour
+    blended, slot = torch.unique(target, return_inverse=True)  # [U] pixels, [K] -> index into them
+    total = weight.new_zeros(blended.shape[0], 1).index_add(0, slot, weight)  # [U, 1]
+    weight = weight / total.clamp_min(1.0).index_select(0, slot)
     flat_color = color.reshape(-1, n_channels)
-    return (flat_color * keep).index_add(0, target, weight * flat_color.index_select(0, source)).reshape(color.shape)
+    own = flat_color.index_select(0, blended) * (1.0 - total).clamp_min(0.0)  # a pixel's own share
+    mixed = own.index_add(0, slot, weight * flat_color.index_select(0, source))  # [U, C]
+    return flat_color.index_copy(0, blended, mixed).reshape(color.shape)
