@@ -84,13 +84,16 @@ def test_select_assets_keeps_the_benchmark_order_and_names_unknown_ones():
         quality.select_assets(["spot", "teapot"])
 
 
-def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, monkeypatch, capsys):
+def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, capsys):
     from lookalike.cli import main
 
     calls, assets = stub_simplify
-    monkeypatch.setattr(quality.run, "__defaults__", (None, None, quality.TIME_BUDGET_S, quality.ASSETS, assets))
-    assert main(["bench", "quality", "--asset", "spot", "--out", str(tmp_path / "out")]) == 0
+    assert main(["bench", "quality", "--asset", "spot", "--assets-dir", str(assets), "--out", str(tmp_path / "out")]) == 0
     assert [c.outdir.name for c in calls] == ["spot"]
     assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:3]] == ["spot"]
     assert main(["bench", "render", "--asset", "spot"]) != 0
     assert "--asset: bench render does not run the benchmark assets" in capsys.readouterr().err
+    assert main(["bench", "render", "--assets-dir", str(assets)]) != 0
+    assert "--assets-dir: bench render does not run the benchmark assets" in capsys.readouterr().err
+    assert main(["bench", "quality", "--assets-dir", str(tmp_path / "nowhere")]) != 0
+    assert "benchmark assets are missing: no folder" in capsys.readouterr().err

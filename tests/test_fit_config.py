@@ -5,9 +5,8 @@ from __future__ import annotations
 import pytest
 
 from lookalike.errors import ConfigError
-from lookalike.fit.config import (LR_POSITIONS_COLD, LR_POSITIONS_WARM, LR_TEXTURES_COLD, LR_TEXTURES_WARM, Config,
-                                  config_from_dict, learning_rates, load_config, outline_views, parse_duration,
-                                  to_toml)
+from lookalike.fit.config import (COLD_START, WARM_START, Config, config_from_dict, learning_rates, load_config,
+                                  outline_views, parse_duration, to_toml)
 
 
 def test_toml_round_trip_keeps_every_setting(tmp_path):
@@ -96,12 +95,11 @@ def test_the_command_offers_every_texture_start():
 
 
 @pytest.mark.parametrize("init, expected", [
-    ("bake", (LR_POSITIONS_WARM, LR_TEXTURES_WARM)), ("source", (LR_POSITIONS_WARM, LR_TEXTURES_WARM)),
-    ("average", (LR_POSITIONS_COLD, LR_TEXTURES_COLD)), ("random", (LR_POSITIONS_COLD, LR_TEXTURES_COLD)),
+    ("bake", WARM_START[:2]), ("source", WARM_START[:2]), ("average", COLD_START[:2]), ("random", COLD_START[:2]),
 ])
 def test_warm_starts_get_lower_learning_rates_unless_they_are_set(init, expected):
     assert learning_rates(config_from_dict({"latent": {"init": init}})) == expected
-    assert LR_POSITIONS_WARM < LR_POSITIONS_COLD and LR_TEXTURES_WARM < LR_TEXTURES_COLD
+    assert WARM_START.lr_positions < COLD_START.lr_positions and WARM_START.lr_textures < COLD_START.lr_textures
     given = config_from_dict({"latent": {"init": init}, "optim": {"lr_positions": 0.001}})
     assert learning_rates(given) == (0.001, expected[1])
     given = config_from_dict({"latent": {"init": init}, "optim": {"lr_textures": 0.02}})

@@ -93,7 +93,7 @@ def check_assets_dir(assets_dir: str | Path) -> Path:
     """``assets_dir`` as a path; ``ConfigError`` if it is not a folder."""
     assets_dir = Path(assets_dir)
     if not assets_dir.is_dir():
-        raise ConfigError(f"the benchmark assets are missing: no folder {assets_dir}")
+        raise ConfigError(f"the benchmark assets are missing: no folder {assets_dir} (point --assets-dir at them)")
     return assets_dir
 
 

@@ -23,6 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--asset", action="append", default=None, metavar="NAME",
                         help="run only this benchmark asset (repeatable; quality and warmstart): "
                              + ", ".join(case.name for case in ASSETS))
+    parser.add_argument("--assets-dir", default=None, metavar="DIR",
+                        help="folder holding the benchmark assets (quality and warmstart; default: "
+                             "../shared/assets beside the source checkout)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -30,10 +33,14 @@ def run(args: argparse.Namespace) -> int:
     kwargs = {} if args.repeats is None else {"repeats": args.repeats}
     if args.out is not None:
         kwargs["out"] = args.out
-    if args.asset:
-        if "assets" not in inspect.signature(module.run).parameters:
-            raise ConfigError(f"--asset: bench {args.name} does not run the benchmark assets")
-        kwargs["assets"] = select_assets(args.asset)
+    asset_options = {"--asset": ("assets", select_assets(args.asset) if args.asset else None),
+                     "--assets-dir": ("assets_dir", args.assets_dir)}
+    for flag, (parameter, value) in asset_options.items():
+        if value is None:
+            continue
+        if parameter not in inspect.signature(module.run).parameters:
+            raise ConfigError(f"{flag}: bench {args.name} does not run the benchmark assets")
+        kwargs[parameter] = value
     result = module.run(**kwargs)
     if args.json:
         print(json.dumps(result, indent=2))

@@ -25,7 +25,7 @@ import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import tomli_w
 
@@ -136,12 +136,12 @@ class OptimConfig:
         seed: seeds torch and numpy; same seed, same result.
         loss: image loss, one of ``LOSSES`` (see ``lookalike.fit.losses``).
         lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
-            radius; ``None`` picks ``LR_POSITIONS_COLD`` (the paper's [0.001, 0.003] for a
-            decimated start) where the textures start from scratch and ``LR_POSITIONS_WARM``
-            where they start close (see ``learning_rates``).
+            radius; ``None`` picks ``COLD_START``'s (the paper's [0.001, 0.003] for a
+            decimated start) where the textures start from scratch (``average``, ``random``)
+            and ``WARM_START``'s where they start close (``bake``, ``source``; see
+            ``learning_rates``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
-            ``LR_TEXTURES_COLD`` for textures that start from scratch (``average``, ``random``)
-            and ``LR_TEXTURES_WARM`` for textures that start close (``bake``, ``source``).
+            ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the paper's schedule over
             the run, k = 2 / iterations (see ``lookalike.fit.schedule``; the paper's 0.0002
             is that for its 10k steps).
@@ -368,10 +368,23 @@ def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config
     return config_from_dict(changes, base=config, origin="options")
 
 
-LR_POSITIONS_COLD, LR_TEXTURES_COLD = 0.002, 0.03
-"""lr_0 of positions and texels where the textures start from scratch."""
-LR_POSITIONS_WARM, LR_TEXTURES_WARM = 0.0003, 0.005
-"""lr_0 of positions and texels where the textures start from a bake or the input's own maps."""
+class StartDefaults(NamedTuple):
+    """Optimiser settings that depend on how close the textures start (``latent.init``)."""
+
+    lr_positions: float
+    lr_textures: float
+    outline_views: int
+
+
+COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, outline_views=0)
+"""Where the textures start from scratch (``average``, ``random``)."""
+WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, outline_views=2)
+"""Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
+
+
+def start_defaults(config: Config) -> StartDefaults:
+    """``WARM_START`` or ``COLD_START`` for ``config.latent.init``."""
+    return WARM_START if config.latent.init in WARM_INITS else COLD_START
 
 
 def learning_rates(config: Config) -> tuple[float, float]:
@@ -385,16 +398,14 @@ def learning_rates(config: Config) -> tuple[float, float]:
     vertices whose gradients are mostly view-to-view noise random-walk away from a surface
     whose shading is already right (with frozen texels too, and with the normal map held in
     object space), and texels jitter. The warm rates, 1/6 of the cold ones, keep the climb
-    monotone.
+    monotone. Re-measured once antialiasing gave the outline its full gradient (10-minute
+    stanford-bunny bake starts): positions at 0.001 reached the random start's best at step
+    450 against 425 at 0.0003, best validation PSNR 36.11 against 36.00, held-out 35.32
+    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays.
     """
-    opt = config.optim
-    warm = config.latent.init in WARM_INITS
-    return (opt.lr_positions if opt.lr_positions is not None else LR_POSITIONS_WARM if warm else LR_POSITIONS_COLD,
-            opt.lr_textures if opt.lr_textures is not None else LR_TEXTURES_WARM if warm else LR_TEXTURES_COLD)
-
-
-OUTLINE_VIEWS_COLD, OUTLINE_VIEWS_WARM = 0, 2
-"""Coverage-only views per step where the textures start from scratch / close."""
+    opt, default = config.optim, start_defaults(config)
+    return (default.lr_positions if opt.lr_positions is None else opt.lr_positions,
+            default.lr_textures if opt.lr_textures is None else opt.lr_textures)
 
 
 def outline_views(config: Config) -> int:
@@ -403,12 +414,13 @@ def outline_views(config: Config) -> int:
     Why: from a good bake the remaining error sits at the outline (``report.metrics``), which
     only vertex positions move, and one view per step gives them a noisy gradient (see
     ``learning_rates``). Two more views, coverage only (no shading; on stanford-bunny a step
-    takes 0.595 s instead of 0.537), make it steadier. In 10-minute runs of stanford-bunny's bake start, with
-    the antialiasing that finds sub-pixel outline triangles: best validation PSNR 35.90 and
-    held-out 35.23 with them, 35.74 and 35.02 without (784 against 890 steps); their coverage
-    at 1 sample per pixel instead of the latent's 2 x 2 scored the same and was not faster.
+    takes 0.595 s instead of 0.537), make it steadier. In 10-minute runs of stanford-bunny's
+    bake start, with the antialiasing that finds sub-pixel outline triangles: best validation
+    PSNR 35.90 and held-out 35.23 with them, 35.74 and 35.02 without (784 against 890 steps);
+    their coverage at 1 sample per pixel instead of the latent's 2 x 2 scored the same and
+    was not faster.
     Random starts keep the paper's loss: the term was not measured there.
     """
     if config.optim.outline_views is not None:
         return config.optim.outline_views
-    return OUTLINE_VIEWS_WARM if config.latent.init in WARM_INITS else OUTLINE_VIEWS_COLD
+    return start_defaults(config).outline_views
