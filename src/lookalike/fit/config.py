@@ -401,7 +401,9 @@ def learning_rates(config: Config) -> tuple[float, float]:
     monotone. Re-measured once antialiasing gave the outline its full gradient (10-minute
     stanford-bunny bake starts): positions at 0.001 reached the random start's best at step
     450 against 425 at 0.0003, best validation PSNR 36.11 against 36.00, held-out 35.32
-    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays.
+    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays. A decay of
+    one decade instead of two over the run (``optim.lr_decay`` 0.00115, 713 steps) reached it
+    at step 550, best 36.23, held-out 35.34 but FLIP 0.0132: kept at two.
     """
     opt, default = config.optim, start_defaults(config)
     return (default.lr_positions if opt.lr_positions is None else opt.lr_positions,
