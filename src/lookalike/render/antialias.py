@@ -191,9 +191,7 @@ def antialias(
     )
     front, other, horizontal, edge_tri, edge = (torch.from_numpy(a) for a in crossings)
     verts = triangle_vertices_xyw(views, tri, front // (height * width), edge_tri)  # [M, 3, 3]
-    ends = (edge[:, None] + torch.tensor([1, 2])) % 3
-    v_i, v_j = verts.gather(1, ends[:, :, None].expand(-1, -1, 3)).unbind(1)
-    c = torch.cross(v_i, v_j, dim=-1)  # the edge function's coefficients, [M, 3]
+    c = edge_coefficients(*verts.unbind(1))[torch.arange(edge.shape[0]), edge]  # the found edge's, [M, 3]
     # an edge is handled by the pairs running across it: horizontal pairs for edges closer
     # to vertical (normal (c.x / W, c.y / H) in pixel units mostly along x), vertical otherwise
     normal = c.detach()[:, :2].abs()
