@@ -26,9 +26,9 @@ def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
 def stub_simplify(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, init, force, progress, material_override):
+    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override):
         calls.append(SimpleNamespace(input=input, outdir=outdir, triangles=triangles, time_budget=time_budget,
-                                     material=material_override))
+                                     iterations=iterations, material=material_override))
         gain = 2.0 if "spot" in str(input) else 4.0
         return SimpleNamespace(metrics=_metrics(triangles, 27.0, 27.0 + gain))
 
@@ -42,7 +42,7 @@ def test_runs_every_asset_with_its_budget_and_material(stub_simplify, tmp_path):
     calls, assets = stub_simplify
     result = quality.run(out=tmp_path / "out", assets_dir=assets, time_budget=30.0)
     assert [c.triangles for c in calls] == [1500, 2000, 5000, 1000]
-    assert all(c.time_budget == 30.0 for c in calls)
+    assert all(c.time_budget == 30.0 and c.iterations is None for c in calls)
     assert [c.outdir.name for c in calls] == ["stanford-bunny", "nefertiti", "flight-helmet", "spot"]
     scans = [c.material for c in calls[:2]]
     assert all(m is not None and m.kd.data.flatten()[:3].tolist() == pytest.approx([0.75, 0.72, 0.68]) for m in scans)

@@ -97,13 +97,16 @@ def check_assets_dir(assets_dir: str | Path) -> Path:
     return assets_dir
 
 
-def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget: float, init: str | None = None):
-    """``simplify`` of one benchmark case with default settings (and ``init``) into ``outdir``;
-    returns its ``SimplifyResult``."""
+def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget: float, init: str | None = None,
+                  iterations: int | None = None):
+    """``simplify`` of one benchmark case with default settings (and ``init``, and a fixed
+    ``iterations`` count instead of the time budget where given) into ``outdir``; returns its
+    ``SimplifyResult``."""
     from ..fit.simplify import simplify
 
     return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget, init=init,
-                    force=True, progress=False, material_override=scan_material() if case.scan else None)
+                    iterations=iterations, force=True, progress=False,
+                    material_override=scan_material() if case.scan else None)
 
 
 def output_root(out: str | Path | None, scratch: str) -> Path:
