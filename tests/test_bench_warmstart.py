@@ -1,5 +1,5 @@
 """``lookalike bench warmstart``: its plumbing, the crossing iteration and its table, with
-``simplify`` stubbed out (the real benchmark takes eighty minutes and is run by hand)."""
+``simplify`` stubbed out (the real benchmark takes about 25 minutes per asset and is run by hand)."""
 
 from __future__ import annotations
 

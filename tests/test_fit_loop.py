@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from lookalike.fit.config import Config, config_from_dict
+from lookalike.fit.config import COLD_START, WARM_START, Config, config_from_dict
 from lookalike.fit.latent import Latent
 from lookalike.fit.optimize import SNAPSHOT_EVERY, Batch, Fitter, read_checkpoint
 from lookalike.shading.camera import Camera
@@ -107,6 +107,18 @@ def test_same_seed_same_result_and_another_seed_differs():
     assert a.losses == b.losses
     assert torch.equal(a.best.kd, b.best.kd) and torch.equal(a.best.v_pos, b.best.v_pos)
     assert a.losses != c.losses
+
+
+@pytest.mark.parametrize("init, decades", [("bake", WARM_START.lr_decades), ("random", COLD_START.lr_decades)])
+def test_the_learning_rates_fall_over_the_run_by_the_decades_of_the_start(init, decades):
+    cfg = config(iterations=100)
+    cfg.latent.init = init
+    fit = fitter(cfg)
+    for _ in range(51):
+        fit.step()
+    scale = 10 ** (-decades * 50 / 100)
+    assert [group["lr"] for group in fit.optimizer.param_groups] == pytest.approx([0.01 * scale, 0.05 * scale])
+    assert WARM_START.lr_decades < COLD_START.lr_decades
 
 
 def test_a_nan_step_rolls_back_lowers_the_learning_rate_and_carries_on():

@@ -83,6 +83,8 @@ def test_the_stretched_learning_rate_falls_a_hundredfold_over_the_run():
     assert schedule.learning_rate_decay(10_000) == pytest.approx(0.0002)  # the paper's k on its runs
     k = schedule.learning_rate_decay(700)
     assert schedule.learning_rate(0.03, 700, k) == pytest.approx(0.0003)
+    k = schedule.learning_rate_decay(700, decades=1.0)
+    assert schedule.learning_rate(0.03, 700, k) == pytest.approx(0.003)
 
 
 def test_laplacian_schedule_is_the_closed_form_of_the_papers_recursion():

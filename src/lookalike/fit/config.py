@@ -142,9 +142,10 @@ class OptimConfig:
             ``learning_rates``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
             ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
-        lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the paper's schedule over
-            the run, k = 2 / iterations (see ``lookalike.fit.schedule``; the paper's 0.0002
-            is that for its 10k steps).
+        lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
+            k = decades / iterations, with ``COLD_START``'s two decades (the paper's; its 0.0002
+            is that for its 10k steps) or ``WARM_START``'s one, as for ``lr_positions`` (see
+            ``lookalike.fit.schedule``).
         outline_views: extra views per step, drawn with the batch, on which only the latent's
             antialiased coverage is rendered and compared (L1) with the reference's: cheap
             gradients for the vertices on the outline. ``None`` picks the warm or cold default
@@ -369,16 +370,19 @@ def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config
 
 
 class StartDefaults(NamedTuple):
-    """Optimiser settings that depend on how close the textures start (``latent.init``)."""
+    """Optimiser settings that depend on how close the textures start (``latent.init``):
+    the learning rates' lr_0 (``learning_rates``), the decades they fall over the run
+    (``lookalike.fit.schedule.learning_rate_decay``) and the outline views (``outline_views``)."""
 
     lr_positions: float
     lr_textures: float
+    lr_decades: float
     outline_views: int
 
 
-COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, outline_views=0)
+COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0, outline_views=0)
 """Where the textures start from scratch (``average``, ``random``)."""
-WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, outline_views=2)
+WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
 
 

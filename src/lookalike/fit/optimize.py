@@ -41,7 +41,7 @@ from ..errors import ConfigError
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render_coverage
-from .config import Config, config_from_dict, config_to_dict, learning_rates, outline_views
+from .config import Config, config_from_dict, config_to_dict, learning_rates, outline_views, start_defaults
 from .latent import Latent
 from .losses import composite, image_loss
 from .outdir import atomic_path
@@ -204,7 +204,7 @@ class Fitter:
         reduction after rollbacks."""
         p, k = self.progress, self.config.optim.lr_decay
         if k is None:
-            k = 0.0 if p.total is None else learning_rate_decay(p.total)
+            k = 0.0 if p.total is None else learning_rate_decay(p.total, start_defaults(self.config).lr_decades)
         for group in self.optimizer.param_groups:
             group["lr"] = learning_rate(group["lr_0"], p.iteration, k) * p.lr_scale
 

@@ -3,8 +3,9 @@
 Learning rate: lr_t = lr_0 * 10^(-k t). The paper uses k = 0.0002 on 10k-step runs, so its
 learning rate ends 100 times lower than it starts. Our CPU runs are ten times shorter, and
 k = 0.0002 would leave the rate nearly constant (the textures then keep jittering at the
-end), so by default k is stretched over the run the same way: k = 2 / total
-(``learning_rate_decay``), the paper's k exactly for 10k steps.
+end), so by default k is stretched over the run: k = decades / total (``learning_rate_decay``),
+with the paper's two decades (its k exactly for 10k steps) from scratch and one from a warm
+start (``lookalike.fit.config.StartDefaults``).
 
 Laplacian weight: the paper updates lambda_t = (lambda_{t-1} - lambda_min) * 10^(-k t) + lambda_min
 with k = 1e-6 and lambda_min = 0.02 lambda_0. Unrolled, that is
@@ -30,9 +31,10 @@ PAPER_LR_DECADES = 2.0
 """Decades the paper's learning rate falls over its run (k = 0.0002 times 10k steps)."""
 
 
-def learning_rate_decay(total: int) -> float:
-    """k = PAPER_LR_DECADES / total: the learning rate falls a hundredfold over ``total`` steps."""
-    return PAPER_LR_DECADES / max(total, 1)
+def learning_rate_decay(total: int, decades: float = PAPER_LR_DECADES) -> float:
+    """k = decades / total: the learning rate falls by 10^decades over ``total`` steps (a
+    hundredfold by default)."""
+    return decades / max(total, 1)
 
 
 def laplacian_decay_rate(total: int, decay_fraction: float = 0.2) -> float:
