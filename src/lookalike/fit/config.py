@@ -405,9 +405,17 @@ def learning_rates(config: Config) -> tuple[float, float]:
     monotone. Re-measured once antialiasing gave the outline its full gradient (10-minute
     stanford-bunny bake starts): positions at 0.001 reached the random start's best at step
     450 against 425 at 0.0003, best validation PSNR 36.11 against 36.00, held-out 35.32
-    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays. A decay of
-    one decade instead of two over the run (``optim.lr_decay`` 0.00115, 713 steps) reached it
-    at step 550, best 36.23, held-out 35.34 but FLIP 0.0132: kept at two.
+    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays.
+
+    Why warm rates fall one decade over the run (``StartDefaults.lr_decades``), not two:
+    stanford-bunny's bake start given half the random start's 1,006 steps (503, fixed) ended
+    at best validation PSNR 35.50 with two decades, below the random start's 35.63: after
+    step 300 its rates were too small to move the outline (35.36 -> 35.50 over the last 200
+    steps). With one decade: 35.71 (held-out 35.14 against the random start's 34.94). Other
+    503-step variants, each with two decades unless said: positions at 0.001, 35.58 (it
+    drops to 34.02 at step 50); 4 outline views, 35.71; positions at 0.002 rising linearly
+    over the first 100 steps, 35.55 (34.35 at step 150); one decade with 4 outline views,
+    35.78, within noise of one decade alone, at 10 % more time per step.
     """
     opt, default = config.optim, start_defaults(config)
     return (default.lr_positions if opt.lr_positions is None else opt.lr_positions,
