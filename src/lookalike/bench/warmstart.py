@@ -12,13 +12,12 @@ All runs score their states on the same validation views every ``optim.validate_
 Bar (issue 5: "starting from the bake reaches the result of a random start in at most half the
 iterations"): the ``bake-half`` run ends at least as good as the random start, both in best
 validation PSNR and in held-out PSNR. A run of half the steps is what a user with half the
-budget gets: the learning rate falls a hundredfold over whatever length a run has
-(``lookalike.fit.schedule``), so such a run anneals by its end.
+budget gets: the learning-rate and Laplacian schedules stretch over whatever length a run has
+(``lookalike.fit.schedule``), so the state half-way through a longer run is not that result.
 
-The table also keeps the stricter in-run figure: the first scored iteration at which the
-full-length ``bake`` run reaches the random start's best validation PSNR, as a fraction of the
-random start's steps. Half-way through a run the learning rate is still ten times its final
-value, so this compares a state that has not annealed with one that has.
+The table also keeps the in-run figure: the first scored iteration at which the full-length
+``bake`` run reaches the random start's best validation PSNR, as a fraction of the random
+start's steps.
 
 The ``bake`` runs are the default ``simplify`` runs, so their rows of the ``bench quality``
 table come with the result.
