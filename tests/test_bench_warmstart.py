@@ -15,7 +15,7 @@ from lookalike.bench import warmstart
 def _metrics(init: str, asset: str, iterations: int | None) -> dict:
     """Random starts climb from 20 to 30 dB over 1,000 steps. Bake starts begin at 28 dB and
     climb 1 dB per 100 steps, except on spot, where they stay at 28 dB; a fixed-length run
-    (the half run) ends 1 dB higher than a full-length run at the same step, as it anneals.
+    (the half run) ends 1 dB higher than a full-length run at the same step.
     Held-out PSNR is the last validation score + 0.5, except nefertiti's half run: 4 dB lower."""
     steps = list(range(0, (iterations or 1000) + 1, 100))
     if init == "random":
