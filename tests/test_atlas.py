@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from io_factory import two_material_asset
-from lookalike.asset.atlas import merge_materials
+from lookalike.asset.frames import our_corner_frame, texel_frames
 from lookalike.asset.uv_raster import dilate, rasterize_uv, sample_bilinear
-from lookalike.io.normal_frames import our_corner_frame, texel_frames
+from lookalike.init.atlas import merge_materials
 
 
 def naive_rasterize(uv, height, width):

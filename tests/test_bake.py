@@ -15,13 +15,14 @@ from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.uv_raster import sample_bilinear
 from lookalike.cli import main
 from lookalike.errors import ConfigError
-from lookalike.init import icosphere, unwrap
+from lookalike.init import unwrap
 from lookalike.init.bake import atlas_texels, bake, project_along_normals
 from lookalike.init.bake_job import bake_asset
 from lookalike.init import raycast
-from lookalike.init.raycast import RayCaster, intersect_reference
+from lookalike.init.raycast import RayCaster, intersect_python
 from lookalike.shading import render
-from lookalike.shading.views import random_lights, random_views
+from lookalike.shading.view_sampling import random_lights, random_views
+from mesh_factory import icosphere
 
 
 def texel_values(texture: Texture, texels) -> np.ndarray:
@@ -65,7 +66,7 @@ def test_raycaster_matches_brute_force_twin(monkeypatch):
     directions = g.normal(size=(3000, 3))
     t_max = g.uniform(0.1, 3.0, size=3000)
     fast = RayCaster(v_pos, t_pos_idx).intersect(origins, directions, t_max)
-    slow = intersect_reference(v_pos, t_pos_idx, origins, directions, t_max)
+    slow = intersect_python(v_pos, t_pos_idx, origins, directions, t_max)
     assert 0.2 < slow.hit.mean() < 0.9  # both hits and misses are exercised
     # rays that graze an edge or end right at a surface may go either way in float32
     inner = np.minimum(slow.barycentric.min(axis=1), fast.barycentric.min(axis=1))

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookalike.init import icosphere
 from lookalike.init.closest_point import SurfaceQuery, _best_candidates, closest_barycentric
+from mesh_factory import icosphere
 
 
 def _random_triangles(rng, n):

@@ -10,9 +10,10 @@ from scipy.sparse.csgraph import connected_components
 
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
-from lookalike.init import decimate, icosphere
+from lookalike.init import decimate
 from lookalike.init.decimate import clean_triangles
 from lookalike.init.weld import weld_vertices
+from mesh_factory import icosphere
 
 
 def _edge_uses(t_pos_idx: np.ndarray) -> np.ndarray:

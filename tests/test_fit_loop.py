@@ -196,7 +196,7 @@ class PositionTarget:
 def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
     from lookalike.fit.targets import ViewPool
     from lookalike.fit.views import view_sampler
-    from lookalike.init import icosphere
+    from mesh_factory import icosphere
 
     sampler = view_sampler(icosphere(1))
     pool = ViewPool(PositionTarget(), sampler, size=4, seed=(7, 1), refresh_every=2)

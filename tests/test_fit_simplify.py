@@ -14,7 +14,7 @@ from lookalike.errors import ConfigError
 from lookalike.fit.config import config_from_dict, load_config
 from lookalike.fit.optimize import Fitter
 from lookalike.fit.simplify import simplify
-from lookalike.init import icosphere
+from mesh_factory import icosphere
 
 TINY = {"views": {"pool_size": 16, "refresh_every": 2, "heldout": 16, "batch_size": 2},
         "render": {"resolution": 64}, "latent": {"texture_size": 64},

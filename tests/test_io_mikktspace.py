@@ -13,9 +13,10 @@ import torch
 
 from io_factory import bumpy_normal_map, mirrored_plane, npm_package, uv_sphere
 from lookalike.asset import Texture
+from lookalike.asset.frames import our_corner_frame
 from lookalike.asset.normals import vertex_normals
 from lookalike.io.mikktspace import mikktspace_tangents
-from lookalike.io.normal_frames import our_corner_frame, reexpress_normal_map, reexpress_normal_map_reference
+from lookalike.io.normal_frames import reexpress_normal_map, reexpress_normal_map_python
 
 SCRIPT = Path(__file__).with_name("mikktspace_reference.js")
 
@@ -120,7 +121,7 @@ def test_compiled_conversion_matches_numpy_twin():
     dst = our_corner_frame(mesh, 0)
     pixels = bumpy_normal_map(48).numpy()
     fast = reexpress_normal_map(pixels, uvs, src, dst, gutter=2)
-    slow = reexpress_normal_map_reference(pixels, uvs, src, dst, gutter=2)
+    slow = reexpress_normal_map_python(pixels, uvs, src, dst, gutter=2)
     assert np.abs(fast - pixels).max() > 0.1
     assert np.abs(fast - slow).max() < 1e-5
 

@@ -8,8 +8,7 @@ import math
 import pytest
 import torch
 
-from lookalike.asset import Mesh, Texture
-from lookalike.asset.displace import displace
+from lookalike.asset import Mesh
 from lookalike.asset.laplacian import UniformLaplacian, laplacian_differentials, laplacian_loss, unique_edges
 from lookalike.asset.normals import vertex_normals
 from lookalike.asset.subdivide import EdgeMidpointTopology, MeshSubdivision, subdivide
@@ -198,54 +197,3 @@ def test_subdivision_gradient():
 def test_subdivision_rejects_other_topology():
     with pytest.raises(ValueError):
         MeshSubdivision(grid_mesh(3))(grid_mesh(4))
-
-
-def naive_bilinear(data, u, v):
-    """Bilinear lookup with wrapping, texel (r, c) centred at ((c + .5) / W, (r + .5) / H)."""
-    height, width = data.shape[:2]
-    x, y = u * width - 0.5, v * height - 0.5
-    x0, y0 = math.floor(x), math.floor(y)
-    fx, fy = x - x0, y - y0
-    value = 0.0
-    for dy, wy in ((0, 1 - fy), (1, fy)):
-        for dx, wx in ((0, 1 - fx), (1, fx)):
-            value += wy * wx * data[(y0 + dy) % height, (x0 + dx) % width, 0].item()
-    return value
-
-
-def test_displacement_matches_loop():
-    mesh = grid_mesh(4)
-    texture = Texture(torch.rand(5, 7, 1, dtype=torch.float64))
-    normals = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
-    v_tex, t_tex_idx = mesh.uv[0]
-    got = displace(mesh.v_pos, normals, mesh.t_pos_idx, v_tex, t_tex_idx, texture)
-    for i in range(mesh.num_vertices):
-        corners = [(t, k) for t in range(mesh.num_triangles) for k in range(3) if mesh.t_pos_idx[t, k] == i]
-        d = sum(naive_bilinear(texture.data, *v_tex[t_tex_idx[t, k]].tolist()) for t, k in corners) / len(corners)
-        assert torch.allclose(got[i], mesh.v_pos[i] + d * normals[i], atol=1e-10)
-
-
-def test_displacement_gradient():
-    mesh = grid_mesh(3)
-    v_tex, t_tex_idx = mesh.uv[0]
-    data = torch.rand(4, 4, 1, dtype=torch.float64, requires_grad=True)
-    pos = mesh.v_pos.clone().requires_grad_(True)
-    normals = vertex_normals(mesh.v_pos, mesh.t_pos_idx).requires_grad_(True)
-    uv = (v_tex * 0.9 + 0.05).requires_grad_(True)  # away from texel-centre kinks
-
-    def displaced(p, n, t, d):
-        return displace(p, n, mesh.t_pos_idx, t, t_tex_idx, Texture(d))
-
-    assert torch.autograd.gradcheck(displaced, (pos, normals, uv, data), atol=1e-6, fast_mode=True)
-
-
-def test_subdivide_then_displace_is_watertight():
-    mesh = grid_mesh(3)
-    coarse_normals = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
-    subdivision = MeshSubdivision(mesh)
-    fine = subdivision(mesh)
-    normals = subdivision.positions(coarse_normals)
-    texture = Texture(torch.rand(8, 8, 1, dtype=torch.float64))
-    out = displace(fine.v_pos, normals, fine.t_pos_idx, fine.uv[0][0], fine.uv[0][1], texture)
-    assert out.shape == fine.v_pos.shape and torch.isfinite(out).all()
-    assert not torch.allclose(out, fine.v_pos)

@@ -9,10 +9,10 @@ import pytest
 import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
-from lookalike.init import icosphere
 from lookalike.shading import Camera, PointLight, look_at, perspective, render
 from lookalike.shading.pipeline import render_coverage
 from lookalike.shading.texturing import TextureSampler, sample_texture
+from mesh_factory import icosphere
 
 NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
 
@@ -396,7 +396,7 @@ SHARED_ASSETS = [
 @pytest.mark.parametrize("relative", SHARED_ASSETS, ids=lambda p: p.split("/")[0])
 def test_renders_shared_asset(shared_assets, relative):
     from lookalike import io
-    from lookalike.shading.views import random_lights, random_views
+    from lookalike.shading.view_sampling import random_lights, random_views
 
     asset = io.load(shared_assets / relative)
     centre, radius = asset.mesh.bounding_sphere()

@@ -8,7 +8,7 @@ import torch
 from torch.autograd import gradcheck
 
 import lookalike.render as dr
-from lookalike.render.barycentrics import barycentrics, pixel_ndc
+from lookalike.render.barycentrics import barycentrics_python, pixel_ndc
 
 
 def perspective_triangles(n_views: int = 2) -> tuple[torch.Tensor, torch.Tensor]:
@@ -48,7 +48,7 @@ def test_barycentric_and_derivative_gradients_match_finite_differences():
     view = flat // 120
     p = pixel_ndc(flat, 12, 10, torch.float64)
     pos.requires_grad_(True)
-    assert gradcheck(lambda q: barycentrics(q, tri.long(), view, tri_idx, p, (12, 10)), (pos,))
+    assert gradcheck(lambda q: barycentrics_python(q, tri.long(), view, tri_idx, p, (12, 10)), (pos,))
 
 
 def test_rast_db_is_the_pixel_derivative_of_the_barycentrics():
@@ -61,7 +61,7 @@ def test_rast_db_is_the_pixel_derivative_of_the_barycentrics():
     h = 1e-5  # pixels
     step_x = torch.tensor([2 * h / 16, 0.0, 0.0], dtype=torch.float64)
     step_y = torch.tensor([0.0, 2 * h / 16, 0.0], dtype=torch.float64)
-    bary = lambda q: barycentrics(pos, tri.long(), view, tri_idx, q, (16, 16), with_db=False)[0]  # noqa: E731
+    bary = lambda q: barycentrics_python(pos, tri.long(), view, tri_idx, q, (16, 16), with_db=False)[0]  # noqa: E731
     d_dx = (bary(p + step_x) - bary(p - step_x)) / (2 * h)
     d_dy = (bary(p + step_y) - bary(p - step_y)) / (2 * h)
     expected = torch.stack([d_dx[:, 0], d_dy[:, 0], d_dx[:, 1], d_dy[:, 1]], -1)

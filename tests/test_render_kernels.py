@@ -8,13 +8,13 @@ import pytest
 import torch
 
 import lookalike.render as dr
-from lookalike.init import icosphere
-from lookalike.render.antialias import neighbour_pairs_reference, outline_walk_reference, silhouette_edges
-from lookalike.render.barycentrics import barycentrics, pixel_ndc
-from lookalike.render.interpolate import interpolate_reference
+from lookalike.render.antialias import neighbour_pairs_python, outline_walk_python, silhouette_edges
+from lookalike.render.barycentrics import barycentrics_python, pixel_ndc
+from lookalike.render.interpolate import interpolate_python
 from lookalike.render.mipmap import build_pyramid
-from lookalike.render.pair_kernels import outline_crossings
-from lookalike.render.texture import texture_reference
+from lookalike.render.antialias_kernels import outline_crossings
+from lookalike.render.texture import texture_python
+from mesh_factory import icosphere
 
 
 def random_mesh(n_views: int = 2, n_verts: int = 40, n_tris: int = 60):
@@ -37,7 +37,7 @@ def test_pixel_barycentrics_match_torch_twin():
     rast, rast_db = dr.rasterize(None, pos, tri, (18, 22))
     flat = torch.nonzero(rast[..., 3].detach().reshape(-1)).squeeze(1)
     tri_idx = rast[..., 3].detach().reshape(-1)[flat].long() - 1
-    uv, db = barycentrics(pos, tri, flat // (18 * 22), tri_idx, pixel_ndc(flat, 18, 22, torch.float64), (18, 22))
+    uv, db = barycentrics_python(pos, tri, flat // (18 * 22), tri_idx, pixel_ndc(flat, 18, 22, torch.float64), (18, 22))
     torch.testing.assert_close(rast.reshape(-1, 4)[flat, :2], uv)
     torch.testing.assert_close(rast_db.reshape(-1, 4)[flat], db)
     fast = gradients([rast.reshape(-1, 4)[flat, :2], rast_db.reshape(-1, 4)[flat]], pos)
@@ -52,7 +52,7 @@ def test_interpolate_matches_torch_twin(shared_attr, diff_attrs):
     rast, rast_db = rast.requires_grad_(True), rast_db.requires_grad_(True)
     attr = torch.randn(*(() if shared_attr else (2,)), 40, 3, dtype=torch.float64, requires_grad=True)
     fast = dr.interpolate(attr, rast, tri, rast_db, diff_attrs=diff_attrs)
-    slow = interpolate_reference(attr, rast, tri, rast_db, diff_attrs=diff_attrs)
+    slow = interpolate_python(attr, rast, tri, rast_db, diff_attrs=diff_attrs)
     torch.testing.assert_close(fast, slow)
     torch.testing.assert_close(gradients(fast, (attr, rast, rast_db)), gradients(slow, (attr, rast, rast_db)))
 
@@ -71,7 +71,7 @@ def test_texture_matches_torch_twin(filter_mode, boundary_mode, per_view, user_m
     inputs = [tex, uv, uv_da, bias, *(mips or [])]
     args = dict(mip=mips, filter_mode=filter_mode, boundary_mode=boundary_mode)
     fast = dr.texture(tex, uv, uv_da, bias, **args)
-    slow = texture_reference(tex, uv, uv_da, bias, **args)
+    slow = texture_python(tex, uv, uv_da, bias, **args)
     torch.testing.assert_close(fast, slow)
     torch.testing.assert_close(gradients([fast], inputs), gradients([slow], inputs))
 
@@ -109,10 +109,10 @@ def test_outline_kernel_matches_torch_twin():
     silhouette = silhouette_edges(pos, tri, topology.opposite)
     fast = outline_crossings(rast.numpy(), pos[..., [0, 1, 3]].contiguous().numpy(), tri.numpy(),
                              topology.neighbour.numpy(), silhouette.numpy())
-    front, other, start_tri, horizontal = neighbour_pairs_reference(rast[..., 3].long(), rast[..., 2])
+    front, other, start_tri, horizontal = neighbour_pairs_python(rast[..., 3].long(), rast[..., 2])
     assert torch.equal(rast[..., 3].reshape(-1)[front].long() - 1, start_tri)
-    edge_tri, edge = outline_walk_reference(pos, tri, topology.neighbour, silhouette, front, other, start_tri,
-                                            height, width)
+    edge_tri, edge = outline_walk_python(pos, tri, topology.neighbour, silhouette, front, other, start_tri,
+                                         height, width)
     hit = edge >= 0
     slow = (front[hit], other[hit], horizontal[hit], edge_tri[hit], edge[hit])
     assert sorted(zip(*(a.tolist() for a in fast))) == sorted(zip(*(a.tolist() for a in slow)))

@@ -1,4 +1,4 @@
-"""The compiled visibility kernel against the pure-torch reference, and rasterize's
+"""The compiled visibility kernel against its plain-torch twin, and rasterize's
 conventions (pixel centres, row order, clipping, batching modes)."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 import torch
 
 import lookalike.render as dr
-from lookalike.render.reference import reference_visibility
 from lookalike.render import visibility
 from lookalike.render.visibility import TILE, visible_triangles
+from lookalike.render.visibility_python import visibility_python
 
 
 def perspective(fovy: float = 1.0, near: float = 0.1, far: float = 100.0) -> torch.Tensor:
@@ -39,14 +39,14 @@ def random_scene(n_views: int, n_tris: int) -> tuple[torch.Tensor, torch.Tensor]
     return pos, tri
 
 
-def test_kernel_agrees_with_reference_on_random_scenes():
+def test_kernel_agrees_with_python_twin_on_random_scenes():
     pos, tri = random_scene(3, 150)
     w_signs = pos[:, tri, 3].gt(0).sum(-1)
     near = (pos[:, tri, 2] + pos[:, tri, 3]).gt(0).sum(-1)
     assert (w_signs == 0).any() and ((near > 0) & (near < 3) & (w_signs == 3)).any()
     tri_range = torch.tensor([[0, 150]] * 3)
     ids, depth = visible_triangles(pos.numpy(), tri.int().numpy(), tri_range.numpy(), 70, 90)
-    ref_ids, ref_depth = reference_visibility(pos, tri, (70, 90))
+    ref_ids, ref_depth = visibility_python(pos, tri, (70, 90))
     ids, depth = torch.from_numpy(ids), torch.from_numpy(depth)
     agree = ids == ref_ids
     assert agree.float().mean() >= 0.999
@@ -55,11 +55,11 @@ def test_kernel_agrees_with_reference_on_random_scenes():
     torch.testing.assert_close(depth[covered], ref_depth[covered], atol=1e-4, rtol=1e-4)
 
 
-def test_single_view_uses_tiles_and_matches_reference():
+def test_single_view_uses_tiles_and_matches_python_twin():
     pos, tri = random_scene(1, 400)
     height, width = 3 * TILE + 5, 2 * TILE + 7  # partial tiles on both axes
     rast, _ = dr.rasterize(None, pos, tri.int(), (height, width))
-    ref_ids, _ = reference_visibility(pos, tri, (height, width))
+    ref_ids, _ = visibility_python(pos, tri, (height, width))
     assert (rast[..., 3].int() == ref_ids).float().mean() >= 0.999
 
 
@@ -69,7 +69,7 @@ def test_triangle_crossing_near_plane_draws_its_visible_part():
     pos = (floor @ perspective().T)[None]
     assert pos[0, :2, 3].lt(0).all() and pos[0, 2, 3] > 0
     rast, _ = dr.rasterize(dr.RasterizeContext(), pos, torch.tensor([[0, 1, 2]], dtype=torch.int32), (32, 32))
-    ref_ids, ref_depth = reference_visibility(pos, torch.tensor([[0, 1, 2]]), (32, 32))
+    ref_ids, ref_depth = visibility_python(pos, torch.tensor([[0, 1, 2]]), (32, 32))
     assert torch.equal(rast[..., 3].int(), ref_ids)
     # below the horizon (row 0 = bottom) the floor is seen, above it nothing
     assert rast[0, :8, :, 3].eq(1).all() and rast[0, 16:, :, 3].eq(0).all()
@@ -101,7 +101,7 @@ def test_far_plane_clips_per_pixel():
     # depth z/w runs from -0.5 at the left edge to 1.5 at the right edge: right quarter clipped
     pos = torch.tensor([[[-1.0, -3.0, -0.5, 1.0], [-1.0, 3.0, -0.5, 1.0], [1.0, 0.0, 1.5, 1.0]]])
     rast, _ = dr.rasterize(None, pos, torch.tensor([[0, 1, 2]]), (16, 16))
-    ref_ids, _ = reference_visibility(pos, torch.tensor([[0, 1, 2]]), (16, 16))
+    ref_ids, _ = visibility_python(pos, torch.tensor([[0, 1, 2]]), (16, 16))
     assert torch.equal(rast[..., 3].int(), ref_ids)
     row = rast[0, 8, :, 3]
     assert row[:11].eq(1).all() and row[13:].eq(0).all()

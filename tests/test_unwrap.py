@@ -10,7 +10,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from lookalike.errors import ConfigError
-from lookalike.init import decimate, icosphere, unwrap
+from lookalike.init import decimate, unwrap
+from mesh_factory import icosphere
 
 
 def _texel_coverage(uv_corners: np.ndarray, size: int, shrink: float = 1e-3) -> np.ndarray:

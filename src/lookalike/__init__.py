@@ -8,20 +8,21 @@ Packages, each with one job (``render`` knows nothing of assets, ``asset`` nothi
 optimisation, ``fit`` composes them):
 
 - ``lookalike.render``  differentiable rasterizer with nvdiffrast's contracts
+- ``lookalike.colour``  sRGB encoding and the paper's tone map
 - ``lookalike.asset``   Mesh, Material, Skin, Asset and differentiable mesh operations
 - ``lookalike.io``      file formats (glTF, OBJ, PLY), registered by extension
 - ``lookalike.shading`` BSDF, cameras, lights and the deferred rendering pipeline
-- ``lookalike.init``    initial guesses (decimation, UV atlas)
+- ``lookalike.init``    initial guesses (decimation, UV atlas, material atlas, bake)
 - ``lookalike.fit``     targets, losses, schedules and the optimisation loop
 - ``lookalike.report``  metrics, pictures and the HTML report
 """
 
-__version__ = "0.1.0"
+from .version import __version__  # noqa: F401  (re-exported)
 
 
 def __getattr__(name: str):
     """``lookalike.simplify`` is imported on first use, so that ``import lookalike`` stays light."""
     if name == "simplify":
-        from .fit.simplify import simplify
+        from .jobs.simplify import simplify
         return simplify
     raise AttributeError(f"module 'lookalike' has no attribute {name!r}")

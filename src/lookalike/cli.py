@@ -7,9 +7,9 @@ import argparse
 import importlib
 import sys
 
-from . import __version__
 from .commands import command_modules
 from .errors import LookalikeError
+from .version import __version__
 
 
 def build_parser() -> argparse.ArgumentParser:

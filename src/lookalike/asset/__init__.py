@@ -1,5 +1,6 @@
-"""Assets: Mesh, Material, Skin, Asset; differentiable mesh operations live in the sibling modules
-(normals, tangents, laplacian, subdivide, displace, skinning)."""
+"""Assets: Mesh, Material, Skin, Asset; mesh maths lives in the sibling modules: differentiable
+operations (normals, tangents, edges, laplacian, subdivide, skinning) and NumPy texture-space
+geometry (frames, uv_raster)."""
 
 from .asset import Asset
 from .material import ALPHA_MODES, Material, Texture

@@ -102,7 +102,7 @@ def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget:
     """``simplify`` of one benchmark case with default settings (and ``init``, and a fixed
     ``iterations`` count instead of the time budget where given) into ``outdir``; returns its
     ``SimplifyResult``."""
-    from ..fit.simplify import simplify
+    from ..jobs.simplify import simplify
 
     return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget, init=init,
                     iterations=iterations, force=True, progress=False,

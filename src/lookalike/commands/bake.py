@@ -1,5 +1,5 @@
 """``lookalike bake INPUT``: the classic pipeline (decimate, unwrap, projection-bake the input's
-normals and materials), a thin layer over ``lookalike.init.bake_job.bake_asset``."""
+normals and materials), a thin layer over ``lookalike.jobs.bake.bake_asset``."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..init.bake_job import bake_asset
+    from ..jobs.bake import bake_asset
 
     result = bake_asset(args.input, args.output, triangles=args.triangles, ratio=args.ratio,
                         texture_size=args.texture_size, cage=args.cage, force=args.force)

@@ -1,7 +1,7 @@
 """``lookalike convert INPUT OUTPUT``: read an asset in any readable format (.gltf, .glb, .obj,
 .ply) and write it as ``.glb`` or ``.obj`` (+ .mtl + PNGs). Refuses to overwrite an existing
 OUTPUT unless ``--force``. ``--atlas SIZE`` first merges all materials into one material with a
-``SIZE x SIZE`` texture atlas (``lookalike.asset.atlas``)."""
+``SIZE x SIZE`` texture atlas (``lookalike.init.atlas``)."""
 
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"the folder of {args.output} does not exist")
     asset = load(args.input)
     if args.atlas is not None:
-        from ..asset.atlas import merge_materials
+        from ..init.atlas import merge_materials
 
         asset = merge_materials(asset, args.atlas)
     save(asset, args.output)

@@ -1,5 +1,6 @@
 """``lookalike demo``: the whole job on the bundled default asset (a generated, painted,
-bumpy torus knot of 100k triangles) in a few minutes, then where to look."""
+bumpy torus knot of 100k triangles) in a few minutes, then where to look; a thin layer over
+``lookalike.jobs.demo``."""
 
 from __future__ import annotations
 
@@ -7,9 +8,6 @@ import argparse
 
 HELP = "simplify the bundled default asset (100k-triangle painted knot -> 2,000 triangles) in ~4 minutes"
 
-DEMO_TRIANGLES = 2000
-DEMO_TEXTURE_SIZE = 512
-DEMO_RESOLUTION = 256
 DEMO_TIME_BUDGET = "4m"
 
 
@@ -23,23 +21,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import tempfile
-    from pathlib import Path
-
-    from .. import io
-    from ..fit.config import parse_duration
-    from ..fit.demo_asset import demo_asset
-    from ..fit.simplify import simplify
+    from ..fit.config_file import parse_duration
+    from ..jobs.demo import DEMO_TRIANGLES, demo
 
     time_budget = parse_duration(args.time_budget)
     print(f"lookalike demo: simplifying a generated 100,000-triangle painted knot to {DEMO_TRIANGLES:,} "
           f"triangles in {args.time_budget} ...")
-    with tempfile.TemporaryDirectory(prefix="lookalike-demo-") as folder:
-        source = Path(folder) / "painted-knot.glb"
-        io.save(demo_asset(), source)
-        result = simplify(source, args.output, triangles=DEMO_TRIANGLES, texture_size=DEMO_TEXTURE_SIZE,
-                          resolution=DEMO_RESOLUTION, time_budget=time_budget, force=args.force,
-                          progress=not args.quiet)
+    result = demo(args.output, time_budget=time_budget, force=args.force, progress=not args.quiet)
     print(result.summary())
     print(f"\nOpen {result.report} in a browser to compare the reference, plain decimation, the classic bake and ours.")
     return 130 if result.interrupted else 0

@@ -1,5 +1,5 @@
 """``lookalike render INPUT -o DIR``: pictures of an asset from random views around its
-bounding sphere, each lit by a random point light (``lookalike.shading.views``), as PNGs
+bounding sphere, each lit by a random point light (``lookalike.shading.view_sampling``), as PNGs
 ``view_000.png`` ... plus a contact sheet ``sheet.png``.
 
 Tone mapping: linear radiance is clamped to [0, 1] and sRGB-encoded; alpha is kept (the
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from .. import io
     from ..io.images import write_png
     from ..shading import render
-    from ..shading.views import random_lights, random_views
+    from ..shading.view_sampling import random_lights, random_views
 
     for name in ("views", "resolution", "spp"):
         if getattr(args, name) < 1:

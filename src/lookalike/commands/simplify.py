@@ -1,4 +1,4 @@
-"""``lookalike simplify INPUT``: the whole job, a thin layer over ``lookalike.fit.simplify``."""
+"""``lookalike simplify INPUT``: the whole job, a thin layer over ``lookalike.jobs.simplify``."""
 
 from __future__ import annotations
 
@@ -21,6 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     length.add_argument("--iterations", type=int, metavar="N", help="number of optimisation steps (overrides the budget)")
     parser.add_argument("--init", choices=INITS, help="how the textures start: the classic projection bake (default), "
                         "the input's own maps, its mean material, or noise as in the paper")
+    parser.add_argument("--init-mesh", metavar="LOD", help="start from this low-poly mesh (e.g. an existing LOD that "
+                        "looks wrong) instead of our decimation; its UVs and textures are kept where they form an atlas")
     parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0): same seed, same result")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file (e.g. a previous run's config.toml)")
     parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
@@ -30,14 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fit.config import parse_duration
-    from ..fit.simplify import simplify
+    from ..fit.config_file import parse_duration
+    from ..jobs.simplify import simplify
 
     result = simplify(
         args.input, args.output,
         triangles=args.triangles, ratio=args.ratio, texture_size=args.texture_size, resolution=args.resolution,
         time_budget=None if args.time_budget is None else parse_duration(args.time_budget),
-        iterations=args.iterations, init=args.init, seed=args.seed, config=args.config, resume=args.resume, force=args.force,
+        iterations=args.iterations, init=args.init, init_mesh=args.init_mesh, seed=args.seed, config=args.config, resume=args.resume, force=args.force,
         export_obj=True if args.obj else None, progress=not args.quiet,
     )
     print(result.summary())

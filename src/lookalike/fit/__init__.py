@@ -1,13 +1,12 @@
-"""Appearance-driven optimisation of a low-poly latent model (paper Sec. 4 and 6).
+"""Appearance-driven optimisation of a latent model (paper Sec. 4 and 6), in parts that every
+application composes:
 
-Modules, each with one job: ``config`` (every setting), ``losses`` (image losses),
-``schedule`` (learning rate and Laplacian weight), ``latent`` (the trainable model),
-``initial`` (initial guess and the decimation baseline), ``views`` (random cameras and
-lights), ``targets`` (reference images), ``optimize`` (the loop), ``evaluate`` (held-out
-scores), ``outdir`` (atomic outputs), ``simplify`` (the whole job), ``demo_asset``.
+- ``reference``: the ``Reference`` protocol (renders target images) and ``MeshReference``;
+- ``training_views``: random views and the pool of reference images the steps draw from;
+- ``latent``: the ``Latent`` protocol; ``textured_mesh``: ``TexturedMesh``, the mesh with PBR
+  textures that ``simplify`` optimises;
+- ``objective``: image loss + outline loss + scheduled regularisers (``losses``, ``schedule``);
+- ``loop``: ``Fitter``, stepping, rollback, best-state keeping and the time budget;
+  ``checkpoint``: writing and reading its state;
+- ``config``: every setting, with its defaults; ``config_file``: TOML and option overrides.
 """
-
-from .config import Config, load_config
-from .simplify import SimplifyResult, simplify
-
-__all__ = ["Config", "SimplifyResult", "load_config", "simplify"]

@@ -1,7 +1,7 @@
-"""Every setting of a ``simplify`` run, with all defaults in one place.
+"""Every setting of a run, with all defaults in one place.
 
 A run is described by :class:`Config`, a tree of small dataclasses that maps one to one onto
-a TOML file (one table per section)::
+a TOML file (one table per section; ``lookalike.fit.config_file`` reads and writes it)::
 
     [latent]
     triangles = 1500
@@ -10,28 +10,21 @@ a TOML file (one table per section)::
     [optim]
     time_budget = 600.0
 
-``None`` means "not set" and is simply left out of the TOML file (TOML has no null).
-Every run writes its complete configuration to ``OUTDIR/config.toml``; passing that file back
-with ``--config`` repeats the run.
+``None`` means "not set". Every run writes its complete configuration to
+``OUTDIR/config.toml``; passing that file back with ``--config`` repeats the run.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import re
-import tomllib
-import types
-import typing
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, NamedTuple
-
-import tomli_w
+from typing import NamedTuple
 
 from ..errors import ConfigError
+from .loop import LoopSettings
+from .losses import IMAGE_LOSSES
+from .objective import Objective
 
-LOSSES = ("l1-tonemapped", "l2", "smape", "relative-l2")
+LOSSES = tuple(IMAGE_LOSSES)
 INITS = ("bake", "source", "average", "random")
 WARM_INITS = ("bake", "source")
 
@@ -42,11 +35,15 @@ class IOConfig:
 
     Attributes:
         input: the asset to simplify (any format ``lookalike.io.load`` reads).
+        init_mesh: a low-poly mesh of the user's to start from instead of our decimation
+            (its UVs and textures are kept where it has a usable atlas; else a fresh atlas is
+            unwrapped and baked); empty for our decimation.
         outdir: where ``model.glb``, ``report.html``, ``metrics.json``, ``config.toml`` go.
         export_obj: also write ``model.obj`` (with ``.mtl`` and PNG textures).
     """
 
     input: str = ""
+    init_mesh: str = ""
     outdir: str = ""
     export_obj: bool = False
 
@@ -99,8 +96,8 @@ class ViewsConfig:
     """Cameras and lights.
 
     Attributes:
-        batch_size: views per optimisation step (the paper uses 1 to 8; on two CPU cores at
-            512 px, more single-view steps beat fewer two-view ones in the same time).
+        batch_size: views per optimisation step (the paper uses 1 to 8; on a CPU, more
+            single-view steps beat fewer larger ones in the same time).
         pool_size: reference images rendered before optimising, from which mini-batches are
             drawn; 0 renders fresh random views at every step instead.
         refresh_every: steps between renders of one new view into the pool (replacing its
@@ -252,123 +249,6 @@ class Config:
         return self
 
 
-def parse_duration(text: str | float | int) -> float:
-    """Seconds in ``"90"``, ``"90s"``, ``"10m"``, ``"1h"``, ``"1h30m"`` or a number.
-
-    Raises ``ConfigError`` for anything else or for a duration that is not positive.
-    """
-    if isinstance(text, (int, float)) and not isinstance(text, bool):
-        seconds = float(text)
-    else:
-        s = str(text).strip().lower()
-        parts = re.fullmatch(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?", s)
-        if not s or parts is None:
-            raise ConfigError(f"cannot read the duration {text!r}: use e.g. 90, 90s, 10m or 1h")
-        h, m, sec = (float(p) if p else 0.0 for p in parts.groups())
-        seconds = 3600 * h + 60 * m + sec
-    if not math.isfinite(seconds) or seconds <= 0:
-        raise ConfigError(f"the duration {text!r} must be positive")
-    return seconds
-
-
-def config_to_dict(config: Config) -> dict[str, dict[str, Any]]:
-    """Nested plain dict of ``config`` without ``None`` values (tuples become lists)."""
-    out = {}
-    for section in dataclasses.fields(config):
-        values = dataclasses.asdict(getattr(config, section.name))
-        out[section.name] = {k: list(v) if isinstance(v, tuple) else v for k, v in values.items() if v is not None}
-    return out
-
-
-def to_toml(config: Config) -> str:
-    """The TOML text of ``config`` (every setting, defaults included)."""
-    return tomli_w.dumps(config_to_dict(config))
-
-
-def config_from_dict(data: dict[str, Any], base: Config | None = None, origin: str = "configuration") -> Config:
-    """``base`` (default: all defaults) with the values of ``{section: {key: value}}`` applied.
-
-    Raises ``ConfigError`` naming ``origin`` for an unknown section or key or a value of
-    the wrong type; the result is validated.
-    """
-    config = dataclasses.replace(base) if base is not None else Config()
-    sections = {f.name: f for f in dataclasses.fields(Config)}
-    for name, values in data.items():
-        if name not in sections:
-            raise ConfigError(f"{origin}: unknown section [{name}]; known: {', '.join(sections)}")
-        if not isinstance(values, dict):
-            raise ConfigError(f"{origin}: [{name}] must be a table")
-        current = getattr(config, name)
-        setattr(config, name, _apply(current, values, f"{origin}: [{name}]"))
-    return config.validate()
-
-
-def _apply(section, values: dict[str, Any], where: str):
-    """A copy of the dataclass ``section`` with ``values`` set, each checked against its field's type."""
-    hints = typing.get_type_hints(type(section))
-    known = [f.name for f in dataclasses.fields(section)]
-    changes = {}
-    for key, value in values.items():
-        if key not in known:
-            raise ConfigError(f"{where}: unknown key {key!r}; known: {', '.join(known)}")
-        changes[key] = _coerce(key, value, hints[key], where)
-    return dataclasses.replace(section, **changes)
-
-
-def _coerce(key: str, value: Any, hint: Any, where: str) -> Any:
-    """``value`` checked against the annotation ``hint`` (ints are accepted for floats)."""
-    if key == "time_budget":
-        return parse_duration(value)
-    options = typing.get_args(hint) if typing.get_origin(hint) in (types.UnionType, typing.Union) else (hint,)
-    if value is None and type(None) in options:
-        return None
-    for option in options:
-        if typing.get_origin(option) is tuple:
-            n = len(typing.get_args(option))
-            if isinstance(value, (list, tuple)) and len(value) == n and all(_is_number(v) for v in value):
-                return tuple(float(v) for v in value)
-        elif option is float and _is_number(value):
-            return float(value)
-        elif option in (int, str, bool) and type(value) is option:
-            return value
-    raise ConfigError(f"{where}: {key} = {value!r} has the wrong type (expected {hint})")
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def load_config(path: str | Path) -> Config:
-    """Read a run's TOML file (missing settings keep their defaults)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such configuration file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{path}: not a valid TOML file: {e}") from None
-    return config_from_dict(data, origin=str(path))
-
-
-def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config:
-    """``base`` (a ``Config``, a TOML file, or ``None`` for the defaults) with the non-``None``
-    ``overrides`` applied, each named after a field of one section (``triangles`` sets
-    ``latent.triangles``; command-line options and keyword arguments map this way). Setting
-    ``triangles`` clears a configured ``ratio`` and vice versa. Validated."""
-    config = load_config(base) if isinstance(base, (str, Path)) else dataclasses.replace(base or Config())
-    section_of = {key.name: section.name for section in dataclasses.fields(config)
-                  for key in dataclasses.fields(getattr(config, section.name))}
-    changes: dict[str, dict[str, Any]] = {}
-    for key, value in overrides.items():
-        if value is not None:
-            changes.setdefault(section_of[key], {})[key] = value
-    if "triangles" in changes.get("latent", {}):
-        config.latent = dataclasses.replace(config.latent, ratio=None)
-    if "ratio" in changes.get("latent", {}):
-        config.latent = dataclasses.replace(config.latent, triangles=None)
-    return config_from_dict(changes, base=config, origin="options")
-
-
 class StartDefaults(NamedTuple):
     """Optimiser settings that depend on how close the textures start (``latent.init``):
     the learning rates' lr_0 (``learning_rates``), the decades they fall over the run
@@ -395,27 +275,11 @@ def learning_rates(config: Config) -> tuple[float, float]:
     """Adam's ``(lr_0 of positions, lr_0 of texels)``: ``optim.lr_positions`` and
     ``optim.lr_textures`` where set, else the warm or cold defaults for ``latent.init``.
 
-    Why two sets: with one-view batches, Adam moves every parameter by a fraction of its
-    learning rate at each step whatever the gradient's size, so the rate sets a noise floor.
-    From scratch, the cold rates climb fastest. From a good bake, they first push the model
-    down to their noise floor (1-2 dB below the bake on stanford-bunny within 25-100 steps):
-    vertices whose gradients are mostly view-to-view noise random-walk away from a surface
-    whose shading is already right (with frozen texels too, and with the normal map held in
-    object space), and texels jitter. The warm rates, 1/6 of the cold ones, keep the climb
-    monotone. Re-measured once antialiasing gave the outline its full gradient (10-minute
-    stanford-bunny bake starts): positions at 0.001 reached the random start's best at step
-    450 against 425 at 0.0003, best validation PSNR 36.11 against 36.00, held-out 35.32
-    against 35.26 with FLIP 0.0125 both; within run-to-run noise, so 0.0003 stays.
-
-    Why warm rates fall one decade over the run (``StartDefaults.lr_decades``), not two:
-    stanford-bunny's bake start given half the random start's 1,006 steps (503, fixed) ended
-    at best validation PSNR 35.50 with two decades, below the random start's 35.63: after
-    step 300 its rates were too small to move the outline (35.36 -> 35.50 over the last 200
-    steps). With one decade: 35.71 (held-out 35.14 against the random start's 34.94). Other
-    503-step variants, each with two decades unless said: positions at 0.001, 35.58 (it
-    drops to 34.02 at step 50); 4 outline views, 35.71; positions at 0.002 rising linearly
-    over the first 100 steps, 35.55 (34.35 at step 150); one decade with 4 outline views,
-    35.78, within noise of one decade alone, at 10 % more time per step.
+    Why two sets: Adam moves every parameter by about its learning rate at each step whatever
+    the gradient's size, so the rate sets a noise floor; from a good bake the cold rates first
+    push the model down to that floor, while the warm ones keep the climb monotone. Warm rates
+    fall one decade over the run, not two, so that the outline still moves late in short runs
+    (measurements: ``docs/benchmarks.md``).
     """
     opt, default = config.optim, start_defaults(config)
     return (default.lr_positions if opt.lr_positions is None else opt.lr_positions,
@@ -425,16 +289,35 @@ def learning_rates(config: Config) -> tuple[float, float]:
 def outline_views(config: Config) -> int:
     """``optim.outline_views`` where set, else the warm or cold default for ``latent.init``.
 
-    Why: from a good bake the remaining error sits at the outline (``report.metrics``), which
-    only vertex positions move, and one view per step gives them a noisy gradient (see
-    ``learning_rates``). Two more views, coverage only (no shading; on stanford-bunny a step
-    takes 0.595 s instead of 0.537), make it steadier. In 10-minute runs of stanford-bunny's
-    bake start, with the antialiasing that finds sub-pixel outline triangles: best validation
-    PSNR 35.90 and held-out 35.23 with them, 35.74 and 35.02 without (784 against 890 steps);
-    their coverage at 1 sample per pixel instead of the latent's 2 x 2 scored the same and
-    was not faster.
-    Random starts keep the paper's loss: the term was not measured there.
+    Why: from a good bake the remaining error sits at the outline, which only vertex positions
+    move, and one view per step gives them a noisy gradient; a few cheap coverage-only views make
+    it steadier (measurements: ``docs/benchmarks.md``). Random starts keep the paper's loss.
     """
     if config.optim.outline_views is not None:
         return config.optim.outline_views
     return start_defaults(config).outline_views
+
+
+def loop_settings(config: Config, outline: bool) -> LoopSettings:
+    """The loop's settings for ``config``: learning rates of the ``"positions"`` and
+    ``"textures"`` groups, and the outline views per step on top of the batch where
+    ``outline`` (a latent whose coverage is geometry's alone), at most the pool's views besides
+    the batch."""
+    opt, views = config.optim, config.views
+    lr_positions, lr_textures = learning_rates(config)
+    count = outline_views(config) if outline else 0
+    if views.pool_size:
+        count = min(count, views.pool_size - views.batch_size)
+    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures},
+                        views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
+                        lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
+                        validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,
+                        max_rollbacks=opt.max_rollbacks)
+
+
+def objective(config: Config) -> Objective:
+    """The objective of ``config``: its image loss, outline weight and Laplacian schedule."""
+    opt = config.optim
+    return Objective(opt.loss, config.views.batch_size, outline_weight=opt.outline_weight,
+                     regularizer_weight=opt.laplacian_weight, min_fraction=opt.laplacian_min_fraction,
+                     decay_fraction=opt.laplacian_decay_fraction)

@@ -1,135 +1,65 @@
-"""The latent model: a low-poly mesh with one PBR material whose textures are trainable.
+"""What the loop optimises: the ``Latent`` protocol (paper Sec. 4, the latent representation).
 
-Positions are stored in the unit frame of the reference's bounding sphere,
-``world = centre + radius * v_pos``, so that learning rates mean the same on a model in
-millimetres and one in metres; :meth:`Latent.as_asset` returns world coordinates, i.e. the
-input's own frame and units.
+A latent model owns its trainable tensors, grouped so that each group gets its own learning
+rate; renders itself (colour, and coverage alone for outline views); projects its tensors back
+onto their valid ranges; states its regularisers; exports itself as an ``Asset``; and saves and
+restores its state. ``lookalike.fit.textured_mesh.TexturedMesh`` is the one implementation
+today; skinned meshes, cards with alpha and meshes with displacement follow the same protocol.
 """
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import torch
 
-from ..asset import Asset, Material, Mesh, Texture
-from .config import ClampConfig
+from ..asset import Asset
+from ..shading.camera import Camera
+from ..shading.light import PointLight
 
 
-class Latent(torch.nn.Module):
-    """Trainable mesh and textures.
+class Latent(Protocol):
+    """A trainable model (a ``torch.nn.Module`` in practice)."""
 
-    Parameters (float32):
-        v_pos: ``[V, 3]`` positions in the unit frame.
-        kd: ``[S, S, 4]`` base colour + alpha when alpha is trained, else ``[S, S, 3]``
-            (alpha is then 1).
-        ks: ``[S, S, 3]`` (gamma, roughness, metalness).
-        normal: ``[S, S, 2]`` slopes (x, y) of the tangent-space normal, which is
-            normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and two
-            parameters per texel instead of three with a unit-length constraint.
+    def parameter_groups(self) -> dict[str, list[torch.nn.Parameter]]:
+        """Trainable tensors by group name (e.g. ``"positions"``, ``"textures"``); the loop
+        gives each group its own learning rate."""
+        ...
 
-    Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``v_tex [VT, 2]`` float32 and
-    ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32.
+    def parameters(self):
+        """Every trainable tensor (as ``torch.nn.Module.parameters``)."""
+        ...
 
-    Args:
-        mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0.
-        kd, ks: initial textures as above.
-        normal: initial ``[S, S, 3]`` tangent-space normals (z > 0), converted to slopes.
-        centre, radius: the unit frame.
-        alpha_mode: the material's glTF alpha mode (``"OPAQUE"`` unless alpha is trained).
-        double_sided: whether the material renders back faces.
-        wrap: texture boundary mode, ``"clamp"`` for an atlas or the input's own mode when
-            the latent reuses its UVs.
-    """
+    def render(self, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+        """``[B, H, W, 4]`` linear RGB weighted by coverage, and coverage (H = W =
+        ``resolution``, row 0 at the top); differentiable."""
+        ...
 
-    def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
-                 centre: torch.Tensor, radius: float | torch.Tensor, alpha_mode: str = "OPAQUE",
-                 double_sided: bool = False, wrap: str = "clamp"):
-        super().__init__()
-        centre = torch.as_tensor(centre, dtype=torch.float32)
-        radius = torch.as_tensor(radius, dtype=torch.float32)
-        self.register_buffer("centre", centre.clone())
-        self.register_buffer("radius", radius.clone())
-        self.register_buffer("t_pos_idx", mesh.t_pos_idx.clone())
-        self.register_buffer("v_tex", mesh.v_tex.clone())
-        self.register_buffer("t_tex_idx", mesh.t_tex_idx.clone())
-        self.v_pos = torch.nn.Parameter((mesh.v_pos.float() - centre) / radius)
-        self.kd = torch.nn.Parameter(kd.float().clone())
-        self.ks = torch.nn.Parameter(ks.float().clone())
-        self.normal = torch.nn.Parameter(normal_to_slopes(normal.float()))
-        self.alpha_mode = alpha_mode
-        self.double_sided = double_sided
-        self.wrap = wrap
+    def coverage(self, camera: Camera, resolution: int) -> torch.Tensor | None:
+        """``[B, H, W]`` antialiased coverage alone (differentiable in the geometry), or
+        ``None`` where coverage is not geometry's alone (alpha), so outline views do not apply."""
+        ...
 
-    @classmethod
-    def from_state_dict(cls, state: dict) -> "Latent":
-        """Rebuild a latent model from ``state_dict()`` (as stored in a checkpoint)."""
-        mesh = Mesh(v_pos=state["centre"] + state["radius"] * state["v_pos"], t_pos_idx=state["t_pos_idx"],
-                    uv=[(state["v_tex"], state["t_tex_idx"])])
-        latent = cls(mesh, state["kd"], state["ks"], slopes_to_normal(state["normal"]), state["centre"], state["radius"])
-        latent.load_state_dict(state)
-        return latent
+    def clamp_(self) -> None:
+        """Project the trainable tensors onto their valid ranges, in place."""
+        ...
 
-    def get_extra_state(self) -> dict:
-        return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided, "wrap": self.wrap}
+    def regularizers(self) -> dict[str, torch.Tensor]:
+        """Scalar regulariser terms by name (differentiable)."""
+        ...
 
-    def set_extra_state(self, state: dict) -> None:
-        self.alpha_mode = state["alpha_mode"]
-        self.double_sided = state["double_sided"]
-        self.wrap = state["wrap"]
+    def regularizer_scales(self) -> dict[str, float]:
+        """For each regulariser, the size of the quantity it constrains at the start (e.g. the
+        absolute Laplacian energy of the initial mesh), against which the objective sets its
+        weight when none is configured."""
+        ...
 
-    @property
-    def trains_alpha(self) -> bool:
-        return self.kd.shape[-1] == 4
+    def export(self) -> Asset:
+        """The model as a detached ``Asset`` in the input's frame and units."""
+        ...
 
-    def position_parameters(self) -> list[torch.nn.Parameter]:
-        return [self.v_pos]
+    def state_dict(self) -> dict:
+        ...
 
-    def texture_parameters(self) -> list[torch.nn.Parameter]:
-        return [self.kd, self.ks, self.normal]
-
-    def world_positions(self) -> torch.Tensor:
-        """``[V, 3]`` positions in the input's frame: centre + radius * v_pos (differentiable)."""
-        return self.centre + self.radius * self.v_pos
-
-    def base_color(self) -> torch.Tensor:
-        """``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained)."""
-        if self.trains_alpha:
-            return self.kd
-        return torch.cat([self.kd, torch.ones_like(self.kd[..., :1])], dim=-1)
-
-    def unit_normal(self) -> torch.Tensor:
-        """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
-        return slopes_to_normal(self.normal)
-
-    def as_asset(self) -> Asset:
-        """The model as an ``Asset`` in world coordinates, differentiable with respect to the
-        parameters (detach it, or call under ``torch.no_grad()``, for export)."""
-        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)])
-        material = Material(
-            name="lookalike",
-            kd=Texture(self.base_color(), wrap=self.wrap),
-            ks=Texture(self.ks, wrap=self.wrap),
-            normal=Texture(self.unit_normal(), wrap=self.wrap),
-            alpha_mode=self.alpha_mode,
-            double_sided=self.double_sided,
-        )
-        return Asset(mesh=mesh, materials=[material])
-
-    @torch.no_grad()
-    def clamp_(self, limits: ClampConfig) -> None:
-        """Project the textures onto their valid ranges in place: kd into ``limits.kd``, each
-        specular channel into its range, each normal slope into
-        [-limits.normal_max_slope, limits.normal_max_slope]."""
-        self.kd.clamp_(*limits.kd)
-        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=self.ks.dtype)
-        self.ks.clamp_(min=ranges[:, 0], max=ranges[:, 1])
-        self.normal.clamp_(-limits.normal_max_slope, limits.normal_max_slope)
-
-
-def normal_to_slopes(normal: torch.Tensor) -> torch.Tensor:
-    """``[..., 2]`` slopes (x / z, y / z) of tangent-space normals ``[..., 3]`` (z > 0)."""
-    return normal[..., :2] / normal[..., 2:].clamp(min=1e-6)
-
-
-def slopes_to_normal(slopes: torch.Tensor) -> torch.Tensor:
-    """``[..., 3]`` unit normals normalize(x, y, 1) of slopes ``[..., 2]`` (differentiable)."""
-    return torch.nn.functional.normalize(torch.cat([slopes, torch.ones_like(slopes[..., :1])], dim=-1), dim=-1)
+    def load_state_dict(self, state: dict) -> None:
+        ...

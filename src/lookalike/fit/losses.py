@@ -11,22 +11,10 @@ from typing import Callable
 
 import torch
 
-SRGB_A = 0.055
-SRGB_LINEAR_LIMIT = 0.0031308
+from ..colour import tonemap
+
 SMAPE_EPS = 1e-2
 RELATIVE_L2_EPS = 1e-2
-
-
-def srgb(x: torch.Tensor) -> torch.Tensor:
-    """The sRGB transfer function Gamma (elementwise, any shape):
-    Gamma(x) = 12.92 x for x <= 0.0031308, else (1 + a) x^(1/2.4) - a with a = 0.055."""
-    curve = (1 + SRGB_A) * torch.clamp(x, min=SRGB_LINEAR_LIMIT) ** (1 / 2.4) - SRGB_A
-    return torch.where(x <= SRGB_LINEAR_LIMIT, 12.92 * x, curve)
-
-
-def tonemap(x: torch.Tensor) -> torch.Tensor:
-    """The paper's HDR tone map x' = Gamma(log(x + 1)) (elementwise, x >= 0)."""
-    return srgb(torch.log1p(torch.clamp(x, min=0)))
 
 
 def l1_tonemapped(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -60,7 +48,7 @@ IMAGE_LOSSES: dict[str, Callable[[torch.Tensor, torch.Tensor], torch.Tensor]] = 
 
 
 def image_loss(name: str) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
-    """The loss function registered under ``name`` (one of ``lookalike.fit.config.LOSSES``)."""
+    """The loss function registered under ``name`` (a key of ``IMAGE_LOSSES``)."""
     return IMAGE_LOSSES[name]
 
 

@@ -3,7 +3,7 @@ high-poly reference (what Simplygon, Substance, Marmoset or Blender's "selected 
 
 For every atlas texel (UV set 0 of the low-poly mesh; ``lookalike.asset.uv_raster``) the low-poly
 surface point ``p`` and its smooth interpolated unit normal ``n`` (our tangent frame ``t, b, n``,
-``lookalike.io.normal_frames``) are found. Two rays leave ``p``: along ``+n`` and along ``-n``,
+``lookalike.asset.frames``) are found. Two rays leave ``p``: along ``+n`` and along ``-n``,
 each reaching ``cage`` (default ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box
 diagonal). Each starts ``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p``
 itself is found. Only surfaces seen from outside count, as a viewer looking down ``-n`` would
@@ -35,13 +35,13 @@ import torch
 from scipy.ndimage import distance_transform_edt
 
 from ..asset.asset import Asset
-from ..asset.atlas import merged_modes
+from ..asset.frames import our_corner_frame, texel_frames
 from ..asset.material import Material, Texture
 from ..asset.mesh import Mesh
 from ..asset.normals import face_normals, safe_normalize
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
-from ..io.normal_frames import our_corner_frame, texel_frames
+from .atlas import merged_modes
 from .closest_point import SurfaceQuery
 from .raycast import RayCaster, RayHits
 from .reference_surface import ReferenceSurface

@@ -3,7 +3,7 @@
 A ray is ``o + t d`` for ``0 <= t <= t_max``; its hit is the intersection with the smallest
 ``t`` over all triangles (front and back faces alike), given as the triangle, the barycentric
 weights ``(1 - u - v, u, v)`` of its corners (so the point is ``w0 p0 + w1 p1 + w2 p2``) and
-``t``. ``RayCaster`` traces with Embree's BVH; ``intersect_reference`` is its slow, plain NumPy
+``t``. ``RayCaster`` traces with Embree's BVH; ``intersect_python`` is its slow, plain NumPy
 twin (Moeller-Trumbore against every triangle), kept to test it against.
 """
 
@@ -89,8 +89,8 @@ class RayCaster:
         return triangle, out["u"].astype(np.float64), out["v"].astype(np.float64), out["tfar"].astype(np.float64)
 
 
-def intersect_reference(v_pos: np.ndarray, t_pos_idx: np.ndarray, origins: np.ndarray, directions: np.ndarray,
-                        t_max: np.ndarray) -> RayHits:
+def intersect_python(v_pos: np.ndarray, t_pos_idx: np.ndarray, origins: np.ndarray, directions: np.ndarray,
+                     t_max: np.ndarray) -> RayHits:
     """``RayCaster(v_pos, t_pos_idx).intersect(origins, directions, t_max)`` by brute force in
     float64: Moeller-Trumbore for every ray against every triangle, ``u, v >= 0``,
     ``u + v <= 1``, ``0 <= t <= t_max``; the smallest ``t`` wins (the lowest triangle index on

@@ -1,9 +1,10 @@
-"""Image files in and out (PNG, JPEG, anything Pillow reads), and the sRGB transfer function.
+"""Image files in and out (PNG, JPEG, anything Pillow reads), and sRGB at the file boundary.
 
 Arrays are ``[H, W, C]`` float32 in ``[0, 1]``, row 0 at the top of the image. Colour inside
 lookalike is linear; files hold sRGB-encoded colour (glTF base colour and emissive, OBJ
 ``map_Kd``), so readers call ``srgb_to_linear`` and writers ``linear_to_srgb`` on colour
-channels only (never on alpha, roughness, metalness or normals).
+channels only (never on alpha, roughness, metalness or normals). Both clamp to ``[0, 1]`` and
+apply the transfer functions of ``lookalike.colour``.
 """
 
 from __future__ import annotations
@@ -14,23 +15,22 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
+from ..colour import srgb_decode, srgb_encode
 from ..errors import AssetError
 
 _SIXTEEN_BIT_MODES = ("I;16", "I;16B", "I;16L", "I")
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    """sRGB electro-optical transfer (IEC 61966-2-1), elementwise on any shape:
-    ``c / 12.92`` for ``c <= 0.04045``, else ``((c + 0.055) / 1.055) ** 2.4``."""
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    """Linear float32 colour of sRGB-encoded ``c`` (any shape): ``lookalike.colour.srgb_decode``
+    of ``c`` clamped to ``[0, 1]``."""
+    return srgb_decode(np.clip(c, 0.0, 1.0)).astype(np.float32)
 
 
 def linear_to_srgb(c: np.ndarray) -> np.ndarray:
-    """Inverse of ``srgb_to_linear``: ``12.92 c`` for ``c <= 0.0031308``, else
-    ``1.055 c ** (1 / 2.4) - 0.055``; input clamped to ``[0, 1]``."""
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1.0 / 2.4) - 0.055).astype(np.float32)
+    """sRGB-encoded float32 colour of linear ``c`` (any shape): ``lookalike.colour.srgb_encode``
+    of ``c`` clamped to ``[0, 1]``."""
+    return srgb_encode(np.clip(c, 0.0, 1.0)).astype(np.float32)
 
 
 def decode_image(data: bytes, source: str | Path) -> np.ndarray:

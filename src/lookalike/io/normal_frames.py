@@ -1,20 +1,16 @@
-"""Re-expressing tangent-space normal maps between tangent frames, texel by texel.
+"""Re-expressing tangent-space normal maps between tangent frames, texel by texel, for files.
 
-Inside lookalike a normal map lives in our frame (``lookalike.asset.tangents.vertex_tangents``
-on the smooth normals of ``lookalike.asset.normals.vertex_normals``). Files use another frame:
-the TANGENT attribute where present, else MikkTSpace of the mesh as stored (what Blender always
-does and what the glTF specification prescribes). Readers convert file -> ours, writers ours ->
-MikkTSpace of the written mesh.
+Inside lookalike a normal map lives in our frame (``lookalike.asset.frames``: ``vertex_tangents``
+on the smooth normals of ``vertex_normals``). Files use another frame: the TANGENT attribute
+where present, else MikkTSpace of the mesh as stored (what Blender always does and what the glTF
+specification prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the
+written mesh.
 
-A frame is given per triangle corner: normals ``[T, 3, 3]`` and tangents ``[T, 3, 4]`` (xyz, w).
-At a texel covered by triangle ``f`` with barycentrics ``l``, a renderer interpolates
-``n = normalize(sum l_k n_k)``, ``t = normalize(T - n (n . T))`` with ``T = sum l_k t_k``,
-``b = sign(w) cross(n, t)``; the texel value ``m`` means ``m.x t + m.y b + m.z n``. Conversion maps
-``m_src`` to ``m_dst = (s . t_dst, s . b_dst, s . n_dst)`` with ``s`` that surface normal in the
-source frame, then normalises. Texels no triangle covers take the mean of converted neighbours up
-to ``GUTTER_TEXELS`` deep (dilation) and keep their value further out. A texture transform
-(KHR_texture_transform) moves where the triangles land in the texture; both frames are built
-from the untransformed UVs.
+Frames are given per triangle corner and interpolated, and values re-expressed, as
+``lookalike.asset.frames`` describes. Texels no triangle covers take the mean of converted
+neighbours up to ``GUTTER_TEXELS`` deep (dilation) and keep their value further out. A texture
+transform (KHR_texture_transform) moves where the triangles land in the texture; both frames are
+built from the untransformed UVs.
 """
 
 from __future__ import annotations
@@ -26,8 +22,7 @@ import torch
 from numba import njit
 
 from ..asset import Material, Mesh
-from ..asset.normals import vertex_normals
-from ..asset.tangents import vertex_tangents
+from ..asset.frames import corner_uvs, frame_at, our_corner_frame, reexpress_texels, smooth_corner_normals, unit
 from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
 from .mikktspace import mikktspace_tangents
 
@@ -36,37 +31,14 @@ GUTTER_TEXELS = 2
 """Texels past the triangles' coverage that file-format conversions also convert (by dilation)."""
 
 
-def _unit(x: np.ndarray) -> np.ndarray:
-    return x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-30)
-
-
-def texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bary: np.ndarray):
-    """Per-texel orthonormal ``(t, b, n)``, each ``[K, 3]``, interpolated as a renderer does (module
-    docstring); a tangent that vanishes after Gram-Schmidt falls back to ``cross(axis, n)``."""
-    n = _unit(np.einsum("kc,kcd->kd", bary, normals[tri]))
-    t4 = np.einsum("kc,kcd->kd", bary, tangents[tri])
-    t = t4[:, :3] - n * (n * t4[:, :3]).sum(-1, keepdims=True)
-    axis = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    weak = np.linalg.norm(t, axis=-1) < 1e-6
-    t = np.where(weak[:, None], np.cross(axis, n), t)
-    t = _unit(t)
-    b = np.where(t4[:, 3:] < 0, -1.0, 1.0) * np.cross(n, t)
-    return t, b, n
-
-
-def reexpress_normal_map_reference(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
-                                   dst: tuple[np.ndarray, np.ndarray], gutter: int = 0) -> np.ndarray:
+def reexpress_normal_map_python(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarray, np.ndarray],
+                                dst: tuple[np.ndarray, np.ndarray], gutter: int = 0) -> np.ndarray:
     """Plain NumPy twin of ``reexpress_normal_map`` (same arguments and result), built on
     ``rasterize_uv``; slow on large textures, kept to test the compiled kernel against."""
     height, width = pixels.shape[:2]
     rows, cols, tri, bary = rasterize_uv(uv, height, width)
-    m = pixels[rows, cols].astype(np.float64)
-    t1, b1, n1 = texel_frames(*src, tri, bary)
-    surface = m[:, :1] * t1 + m[:, 1:2] * b1 + m[:, 2:] * n1
-    t2, b2, n2 = texel_frames(*dst, tri, bary)
-    converted = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
     out = pixels.astype(np.float64, copy=True)
-    out[rows, cols] = _unit(converted)
+    out[rows, cols] = reexpress_texels(pixels[rows, cols].astype(np.float64), src, dst, tri, bary)
     covered = np.zeros((height, width), bool)
     covered[rows, cols] = True
     return _extend_into_gutter(out, covered, gutter)
@@ -78,36 +50,8 @@ def _extend_into_gutter(out: np.ndarray, covered: np.ndarray, gutter: int) -> np
     keep their value."""
     grown_values, grown = dilate(out, covered, gutter)
     ring = grown & ~covered
-    out[ring] = _unit(grown_values[ring].astype(np.float64))
+    out[ring] = unit(grown_values[ring].astype(np.float64))
     return out.astype(np.float32)
-
-
-@njit(cache=True, inline="always")
-def _frame_at(normals, tangents, f, l0, l1, l2):
-    """Orthonormal frame ``(t, b, n)`` of triangle ``f`` at barycentrics ``(l0, l1, l2)`` as nine
-    scalars ``tx, ty, tz, bx, by, bz, nx, ny, nz`` (the same computation as ``texel_frames``)."""
-    nx = l0 * normals[f, 0, 0] + l1 * normals[f, 1, 0] + l2 * normals[f, 2, 0]
-    ny = l0 * normals[f, 0, 1] + l1 * normals[f, 1, 1] + l2 * normals[f, 2, 1]
-    nz = l0 * normals[f, 0, 2] + l1 * normals[f, 1, 2] + l2 * normals[f, 2, 2]
-    length = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-30)
-    nx, ny, nz = nx / length, ny / length, nz / length
-    tx = l0 * tangents[f, 0, 0] + l1 * tangents[f, 1, 0] + l2 * tangents[f, 2, 0]
-    ty = l0 * tangents[f, 0, 1] + l1 * tangents[f, 1, 1] + l2 * tangents[f, 2, 1]
-    tz = l0 * tangents[f, 0, 2] + l1 * tangents[f, 1, 2] + l2 * tangents[f, 2, 2]
-    tw = l0 * tangents[f, 0, 3] + l1 * tangents[f, 1, 3] + l2 * tangents[f, 2, 3]
-    d = nx * tx + ny * ty + nz * tz
-    tx, ty, tz = tx - d * nx, ty - d * ny, tz - d * nz
-    length = np.sqrt(tx * tx + ty * ty + tz * tz)
-    if length < 1e-6:  # fallback: cross(axis, n) with axis = x, or y where n is close to x
-        if abs(nx) < 0.9:
-            tx, ty, tz = 0.0, -nz, ny
-        else:
-            tx, ty, tz = nz, 0.0, -nx
-        length = np.sqrt(tx * tx + ty * ty + tz * tz)
-    tx, ty, tz = tx / length, ty / length, tz / length
-    sign = -1.0 if tw < 0 else 1.0
-    bx, by, bz = sign * (ny * tz - nz * ty), sign * (nz * tx - nx * tz), sign * (nx * ty - ny * tx)
-    return tx, ty, tz, bx, by, bz, nx, ny, nz
 
 
 @njit(cache=True)
@@ -129,8 +73,8 @@ def _reexpress_kernel(pixels, out, covered, xy, src_n, src_t, dst_n, dst_t):
                 if l0 < -1e-9 or l1 < -1e-9 or l2 < -1e-9:
                     continue
                 r, c = row % height, col % width
-                t1x, t1y, t1z, b1x, b1y, b1z, n1x, n1y, n1z = _frame_at(src_n, src_t, f, l0, l1, l2)
-                t2x, t2y, t2z, b2x, b2y, b2z, n2x, n2y, n2z = _frame_at(dst_n, dst_t, f, l0, l1, l2)
+                t1x, t1y, t1z, b1x, b1y, b1z, n1x, n1y, n1z = frame_at(src_n, src_t, f, l0, l1, l2)
+                t2x, t2y, t2z, b2x, b2y, b2z, n2x, n2y, n2z = frame_at(dst_n, dst_t, f, l0, l1, l2)
                 m0, m1, m2 = pixels[r, c, 0], pixels[r, c, 1], pixels[r, c, 2]
                 sx = m0 * t1x + m1 * b1x + m2 * n1x
                 sy = m0 * t1y + m1 * b1y + m2 * n1y
@@ -164,28 +108,6 @@ def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarr
     f64 = [np.ascontiguousarray(a, np.float64) for a in (*src, *dst)]
     _reexpress_kernel(source, out, covered, xy, *f64)
     return _extend_into_gutter(out, covered, gutter)
-
-
-def smooth_corner_normals(mesh: Mesh) -> np.ndarray:
-    """``[T, 3, 3]`` float64 corner normals: ``vertex_normals`` (float32, as renderers and writers
-    use them) at each corner."""
-    v_nrm = vertex_normals(mesh.v_pos.detach().float(), mesh.t_pos_idx)
-    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64)
-
-
-def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
-    """Our frame per corner: smooth normals ``[T, 3, 3]`` and ``vertex_tangents`` ``[T, 3, 4]``."""
-    v_pos = mesh.v_pos.detach().float()
-    v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
-    v_tex, t_tex_idx = mesh.uv[uv_set]
-    v_tng, t_tng_idx = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex.detach().float(), t_tex_idx, v_nrm)
-    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64), v_tng[t_tng_idx].numpy().astype(np.float64)
-
-
-def corner_uvs(mesh: Mesh, uv_set: int) -> np.ndarray:
-    """``[T, 3, 2]`` float32 corner UVs of a UV set."""
-    v_tex, t_tex_idx = mesh.uv[uv_set]
-    return v_tex.detach().float()[t_tex_idx].numpy()
 
 
 def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> list[Material]:

@@ -12,7 +12,15 @@ Conventions (all nvdiffrast's):
 - Texture coordinate ``(0, 0)`` is texel row 0, column 0 corner; texel ``(r, c)`` has its
   centre at ``uv = ((c + 0.5) / W, (r + 0.5) / H)``.
 
-Visibility is a compiled Numba kernel (:mod:`.visibility`); every differentiable step is torch.
+The per-pixel work is compiled Numba kernels.  Two answer discrete questions, through which
+no gradient flows: visibility (:mod:`.visibility`) and the antialiasing outline search
+(:mod:`.antialias_kernels`; antialias's blend is torch).  The others have hand-written
+backward passes inside ``torch.autograd.Function``: barycentrics (:mod:`.barycentrics_kernels`),
+interpolation (:mod:`.interpolate_kernels`), texturing (:mod:`.texture_kernels`) and mipmap
+construction (:mod:`.mip_kernels`).  Each has a plain-torch twin that the tests compare values
+and gradients with, named ``*_python`` beside the fast op (e.g.
+:func:`.interpolate.interpolate_python`, :func:`.visibility_python.visibility_python`); the
+mipmap kernels' twin is :func:`.mipmap.texture_construct_mip`.
 """
 
 from .antialias import antialias, antialias_construct_topology_hash

@@ -1,14 +1,19 @@
 """``antialias``: analytic antialiasing of silhouette edges (Laine et al. 2020), which gives
-vertex positions gradients from coverage."""
+vertex positions gradients from coverage.
+
+The search for the pixel pairs an outline runs between and the silhouette edge it crosses is
+compiled (:mod:`.antialias_kernels`; no gradient flows through it), with the plain-torch twins
+:func:`neighbour_pairs_python` and :func:`outline_walk_python`; the blend is torch, so
+autograd differentiates it."""
 
 from __future__ import annotations
 
 import torch
 
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
-from .pair_kernels import MAX_WALK, outline_crossings
+from .antialias_kernels import MAX_WALK, outline_crossings
 from .topology import EdgeTopology, antialias_construct_topology_hash
-from .views import check_rast_ids, check_triangles
+from .inputs import check_rast_ids, check_triangles
 
 __all__ = ["antialias", "antialias_construct_topology_hash"]
 
@@ -45,9 +50,9 @@ def silhouette_edges(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tenso
     return (opposite < 0) | ((other > 0) == (own[..., None] > 0))
 
 
-def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor):
+def neighbour_pairs_python(ids: torch.Tensor, depth: torch.Tensor):
     """Horizontally and vertically adjacent pixel pairs showing different triangles
-    (plain-torch twin of the pair search in :func:`.pair_kernels.outline_crossings`).
+    (plain-torch twin of the pair search in :func:`.antialias_kernels.outline_crossings`).
 
     ``ids [B, H, W]`` int64 (triangle + 1), ``depth [B, H, W]`` (z/w).  The *front* pixel
     of a pair is the nearer one (any triangle is in front of background).  Returns flat
@@ -74,7 +79,7 @@ def neighbour_pairs_reference(ids: torch.Tensor, depth: torch.Tensor):
     return torch.cat(fronts), torch.cat(others), torch.cat(tris), torch.cat(horizontal)
 
 
-def outline_walk_reference(
+def outline_walk_python(
     pos: torch.Tensor,
     tri: torch.Tensor,
     neighbour: torch.Tensor,
@@ -86,13 +91,13 @@ def outline_walk_reference(
     width: int,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The silhouette edge between each pixel pair (plain-torch twin of the walk in
-    :func:`.pair_kernels.outline_crossings`, same rule, all pairs stepped together).
+    :func:`.antialias_kernels.outline_crossings`, same rule, all pairs stepped together).
 
     Args:
         pos: ``[B, V, 4]`` clip-space positions (used in float64).
         tri, neighbour: ``[T, 3]`` int64 (``neighbour`` from ``EdgeTopology``).
         silhouette: ``[B, T, 3]`` bool.
-        front, other, start_tri: ``[M]`` int64 from :func:`neighbour_pairs_reference`.
+        front, other, start_tri: ``[M]`` int64 from :func:`neighbour_pairs_python`.
         height, width: image size.
 
     Returns:
@@ -139,7 +144,7 @@ def antialias(
     For every horizontally or vertically adjacent pixel pair whose triangle ids differ, the
     segment from the nearer (*front*) pixel centre ``P_f`` to the other, ``P_o``, is
     followed across interior edges until it crosses a silhouette edge (see
-    :func:`silhouette_edges` and :func:`.pair_kernels.outline_crossings`), at
+    :func:`silhouette_edges` and :func:`.antialias_kernels.outline_crossings`), at
     ``alpha = e(P_f) / (e(P_f) - e(P_o))`` with that edge's function ``e``.  nvdiffrast
     looks at the front triangle's own edges only, which misses most of the outline of a
     finely tessellated mesh, whose silhouette triangles are grazing slivers.

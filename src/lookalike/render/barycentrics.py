@@ -13,9 +13,10 @@ Their screen-space derivatives in pixel units (``X``, ``Y`` = pixel index along 
 ``db_i/dX = (2 / W) (c_i.x S - e_i S_x) / S^2`` with ``S_x = sum_i c_i.x``, likewise for ``Y``
 with the ``y`` components and ``2 / H``.
 
-:func:`barycentrics` is the plain-torch form (the reference); :func:`pixel_barycentrics`
-computes the same on whole images with compiled loops (:mod:`.pixel_kernels`) from
-per-triangle coefficients, with a hand-written backward.
+:func:`pixel_barycentrics` computes them on whole images with compiled loops
+(:mod:`.barycentrics_kernels`) from per-triangle coefficients, with a hand-written backward;
+:func:`barycentrics_python` is its plain-torch twin at given points, which the tests compare
+it with.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from . import pixel_kernels
+from . import barycentrics_kernels
 
 
 def edge_coefficients(v0: torch.Tensor, v1: torch.Tensor, v2: torch.Tensor) -> torch.Tensor:
@@ -51,7 +52,7 @@ def triangle_vertices_xyw(pos: torch.Tensor, tri: torch.Tensor, view: torch.Tens
     return xyw.index_select(0, vertex.reshape(-1)).reshape(-1, 3, 3)
 
 
-def barycentrics(
+def barycentrics_python(
     pos: torch.Tensor,
     tri: torch.Tensor,
     view: torch.Tensor,
@@ -112,7 +113,7 @@ class _PixelBarycentrics(torch.autograd.Function):
         rast = coef.new_empty(n_views, height, width, 4)
         rast_db = coef.new_empty(n_views, height, width, 4)
         coef_np = coef.detach().contiguous().numpy()
-        pixel_kernels.barycentrics_forward(coef_np, tri_id, depth, rast.numpy(), rast_db.numpy())
+        barycentrics_kernels.barycentrics_forward(coef_np, tri_id, depth, rast.numpy(), rast_db.numpy())
         ctx.save_for_backward(coef)
         ctx.tri_id = tri_id
         ctx.use_db = use_db
@@ -128,7 +129,7 @@ class _PixelBarycentrics(torch.autograd.Function):
         grad_rast = coef.new_zeros(shape) if grad_rast is None else grad_rast.contiguous()
         use_db = ctx.use_db and grad_db is not None
         grad_db = grad_rast if not use_db else grad_db.contiguous()
-        pixel_kernels.barycentrics_backward(
+        barycentrics_kernels.barycentrics_backward(
             coef.detach().contiguous().numpy(), ctx.tri_id, grad_rast.numpy(), grad_db.numpy(), use_db, grad_coef.numpy()
         )
         return grad_coef, None, None, None

@@ -1,12 +1,14 @@
-"""``interpolate``: vertex attributes at pixels, with their screen-space derivatives."""
+"""``interpolate``: vertex attributes at pixels, with their screen-space derivatives.  The
+per-pixel loops are compiled (:mod:`.interpolate_kernels`) with a hand-written backward;
+:func:`interpolate_python` is the plain-torch twin."""
 
 from __future__ import annotations
 
 import torch
 
-from . import pixel_kernels
+from . import interpolate_kernels
 from .pixels import covered_pixels, scatter_to_image
-from .views import check_rast_ids, check_triangles
+from .inputs import check_rast_ids, check_triangles
 
 
 class _Interpolate(torch.autograd.Function):
@@ -21,7 +23,7 @@ class _Interpolate(torch.autograd.Function):
         db = rast if rast_db is None else rast_db.detach().to(dtype).contiguous()
         out = attr.new_empty(n_views, height, width, attr.shape[2])
         out_da = attr.new_empty(n_views, height, width, 2 * channels.shape[0])
-        pixel_kernels.interpolate_forward(
+        interpolate_kernels.interpolate_forward(
             attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(), out.numpy(), out_da.numpy()
         )
         ctx.save_for_backward(attr, rast, db, tri, channels)
@@ -38,7 +40,7 @@ class _Interpolate(torch.autograd.Function):
         grad_attr = attr.new_zeros(n_views, *attr.shape[1:])
         grad_rast = torch.empty_like(rast)
         grad_db = torch.empty_like(rast) if ctx.has_db else rast.new_empty(0, 0, 0, 0)
-        pixel_kernels.interpolate_backward(
+        interpolate_kernels.interpolate_backward(
             attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(),
             grad_out.to(attr.dtype).contiguous().numpy(), grad_da.to(attr.dtype).contiguous().numpy(),
             grad_attr.numpy(), grad_rast.numpy(), grad_db.numpy(),
@@ -72,8 +74,8 @@ def interpolate(
         (``dA/dX = (a_0 - a_2) du/dX + (a_1 - a_2) dv/dX``), or ``[B, H, W, 0]`` when
         ``diff_attrs`` is None.  Gradients flow to ``attr``, ``rast[..., 0:2]`` and ``rast_db``.
 
-    The per-pixel loops are compiled (:mod:`.pixel_kernels`) with a hand-written backward;
-    :func:`interpolate_reference` is the plain-torch twin.
+    The per-pixel loops are compiled (:mod:`.interpolate_kernels`) with a hand-written backward;
+    :func:`interpolate_python` is the plain-torch twin.
     """
     attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
     tri = check_triangles(tri, attr.shape[1])
@@ -86,14 +88,14 @@ def interpolate(
 
 
 
-def interpolate_reference(
+def interpolate_python(
     attr: torch.Tensor,
     rast: torch.Tensor,
     tri: torch.Tensor,
     rast_db: torch.Tensor | None = None,
     diff_attrs: str | list[int] | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Plain-torch twin of :func:`interpolate` (same contract), its test reference."""
+    """Plain-torch twin of :func:`interpolate` (same contract), the tests' oracle."""
     attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
     n_views, height, width = rast.shape[:3]
     n_attr_views, n_verts, n_channels = attr.shape

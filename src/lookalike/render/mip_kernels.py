@@ -4,7 +4,9 @@ The rule is that of ``torch.nn.functional.interpolate(mode="area")`` (adaptive a
 pooling): output texel ``i`` of ``n_out`` averages input texels
 ``floor(i n_in / n_out) .. ceil((i + 1) n_in / n_out) - 1`` along each axis, so a 2x2 box
 filter when the input side is even.  Levels live in a flat ``[N, C]`` table, level
-blocks in ``[B, h, w]`` order starting at a row offset.
+blocks in ``[B, h, w]`` order starting at a row offset.  Used by
+:func:`.mipmap.build_pyramid`, whose plain-torch twin is :func:`.mipmap.texture_construct_mip`;
+tests compare values and gradients.
 """
 
 from __future__ import annotations

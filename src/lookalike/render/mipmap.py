@@ -1,4 +1,9 @@
-"""Mip pyramids and the mip level (level of detail) of a texture footprint."""
+"""Mip pyramids and the mip level (level of detail) of a texture footprint.
+
+:func:`build_pyramid` builds the pyramid with compiled loops (:mod:`.mip_kernels`) and a
+hand-written backward; :func:`texture_construct_mip` (nvdiffrast's API, plain torch) builds
+the same levels and is its twin in the tests.
+"""
 
 from __future__ import annotations
 

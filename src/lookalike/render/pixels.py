@@ -1,4 +1,5 @@
-"""Covered pixels of a ``rast`` image, and scattering per-pixel values back to images."""
+"""Covered pixels of a ``rast`` image, and scattering per-pixel values back to images (used by
+the plain-torch twin :func:`.interpolate.interpolate_python`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,6 @@
-"""``rasterize``: nvdiffrast's rasterization primitive on the CPU."""
+"""``rasterize``: nvdiffrast's rasterization primitive on the CPU: the compiled visibility
+kernel (:mod:`.visibility`) finds each pixel's triangle, then the compiled barycentrics
+(:mod:`.barycentrics`) give ``rast`` and ``rast_db`` with gradients to the positions."""
 
 from __future__ import annotations
 
@@ -6,7 +8,7 @@ import torch
 
 from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
-from .views import check_triangles, per_view_positions
+from .inputs import check_triangles, per_view_positions
 from .visibility import visible_triangles
 
 

@@ -1,7 +1,10 @@
 """Texel gathers with flat index arithmetic over a whole mip pyramid.
 
-All levels are concatenated into one ``[texels, C]`` table, so a per-pixel level index
-selects the level by offset arithmetic and every lookup is a single ``index_select``.
+All levels are concatenated into one ``[texels, C]`` table (:class:`Pyramid`, also the layout
+the compiled :mod:`.texture_kernels` read), so a per-pixel level index selects the level by
+offset arithmetic and every lookup is a single ``index_select``.  The plain-torch gathers
+:func:`sample_nearest` and :func:`sample_bilinear` are what the twin
+:func:`.texture.texture_python` is built on.
 """
 
 from __future__ import annotations

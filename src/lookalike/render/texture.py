@@ -1,5 +1,7 @@
 """``texture``: filtered texture lookups (nearest, bilinear, mipmapped) with gradients to
-texels, texture coordinates and their derivatives."""
+texels, texture coordinates and their derivatives.  The lookups are compiled
+(:mod:`.texture_kernels`) with a hand-written backward; :func:`texture_python` is the
+plain-torch twin."""
 
 from __future__ import annotations
 
@@ -96,7 +98,7 @@ def texture(
         ``uv_da`` and ``mip_level_bias`` (trilinear only).
 
     The per-pixel work is compiled (:mod:`.texture_kernels`) with a hand-written backward;
-    :func:`texture_reference` is the plain-torch twin.
+    :func:`texture_python` is the plain-torch twin.
     """
     filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
     n_views, height, width = uv.shape[:3]
@@ -143,7 +145,7 @@ def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, ma
     return filter_mode, levels if max_mip_level is None else levels[: max_mip_level + 1]
 
 
-def texture_reference(
+def texture_python(
     tex: torch.Tensor,
     uv: torch.Tensor,
     uv_da: torch.Tensor | None = None,
@@ -153,7 +155,7 @@ def texture_reference(
     boundary_mode: str = "wrap",
     max_mip_level: int | None = None,
 ) -> torch.Tensor:
-    """Plain-torch twin of :func:`texture` (same contract), its test reference."""
+    """Plain-torch twin of :func:`texture` (same contract), the tests' oracle."""
     filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
     n_views, height, width = uv.shape[:3]
     flat_uv = uv.reshape(-1, 2)

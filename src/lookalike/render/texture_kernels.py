@@ -1,6 +1,6 @@
 """Compiled texture filtering, forward and hand-written backward.
 
-The plain-torch twin is :func:`.texture.texture_reference` (built on :mod:`.sampling`);
+The plain-torch twin is :func:`.texture.texture_python` (built on :mod:`.sampling`);
 tests compare values and gradients.  The mip pyramid is one flat ``table [N, C]`` (see
 :class:`.sampling.Pyramid`): level ``l`` of view ``k`` starts at row
 ``offsets[l] + k heights[l] widths[l]``.

@@ -1,8 +1,9 @@
 """Compiled visibility query: which triangle is nearest at each pixel centre.
 
-This is the only compiled part of the renderer; it answers a discrete question (triangle id
-and depth per pixel) through which no gradient flows.  Everything differentiable is torch
-(see :mod:`.barycentrics`).  The pure-torch twin is :func:`.reference.reference_visibility`.
+It answers a discrete question (triangle id and depth per pixel) through which no gradient
+flows, so unlike the other compiled kernels of the renderer it has no backward pass; the
+differentiable barycentrics of the found triangles are computed afterwards (see
+:mod:`.barycentrics`).  The plain-torch twin is :func:`.visibility_python.visibility_python`.
 
 Conventions (nvdiffrast's / OpenGL's):
 

@@ -1,8 +1,9 @@
-"""Reports: PSNR and FLIP on held-out views (``metrics``), pictures (``images``), the loss
-curve (``plot``), and the HTML page (``html``) built from a ``ReportData`` (``data``)."""
+"""Reports: PSNR and FLIP on held-out views (``metrics``, ``heldout``), pictures (``images``),
+the loss curve (``plot``), the run's record (``record``), and the HTML page (``html``) built
+from it."""
 
-from .data import MethodResult, ReportData, score_method
 from .html import write_report
-from .metrics import flip, psnr, tonemap
+from .metrics import flip, psnr
+from .record import MethodResult, RunRecord, score_method
 
-__all__ = ["MethodResult", "ReportData", "flip", "psnr", "score_method", "tonemap", "write_report"]
+__all__ = ["MethodResult", "RunRecord", "flip", "psnr", "score_method", "write_report"]

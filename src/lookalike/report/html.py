@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from .. import __version__
-from .data import MethodResult, ReportData
+from ..version import __version__
+from .record import MethodResult, RunRecord
 from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
 from .images import DIFFERENCE_FULL_SCALE, image_grid, signed_difference, to_srgb_uint8
 from .plot import plot_loss
@@ -110,7 +110,7 @@ def _save(picture: np.ndarray, path: Path) -> None:
     Image.fromarray(picture).save(path, quality=_JPEG_QUALITY)
 
 
-def _write_view_pictures(data: ReportData, files: Path) -> list[dict[str, str]]:
+def _write_view_pictures(data: RunRecord, files: Path) -> list[dict[str, str]]:
     """Write every picture of every view; returns, per view, ``{role: relative path}``."""
     reference = to_srgb_uint8(data.reference)
     renders = {m.key: to_srgb_uint8(m.images) for m in data.methods}
@@ -131,7 +131,7 @@ def _write_view_pictures(data: ReportData, files: Path) -> list[dict[str, str]]:
     return views
 
 
-def _write_overview(data: ReportData, reference, renders, path: Path) -> None:
+def _write_overview(data: RunRecord, reference, renders, path: Path) -> None:
     """One PNG with the first views: reference, each method, FLIP of ours."""
     rows = [[reference[i]] + [renders[m.key][i] for m in data.methods] + [data.ours.flip_maps[i]]
             for i in range(min(EXPANDED_VIEWS, data.num_views))]
@@ -144,7 +144,7 @@ def _cell(src: str, title: str, value: str = "", best: bool = False) -> str:
             f'alt="{_esc(title)}" loading="lazy"></a><div class="t"><span>{_esc(title)}</span><b>{_esc(value)}</b></div></div>')
 
 
-def _view_figure(data: ReportData, i: int, paths: dict[str, str]) -> str:
+def _view_figure(data: RunRecord, i: int, paths: dict[str, str]) -> str:
     best = max(data.methods, key=lambda m: m.psnr_views[i]).key
     renders = [_cell(paths["reference"], "Reference")] + [
         _cell(paths[m.key], m.label, f"{m.psnr_views[i]:.2f} dB", best=m.key == best) for m in data.methods]
@@ -157,7 +157,7 @@ def _view_figure(data: ReportData, i: int, paths: dict[str, str]) -> str:
             f'<div class="grid" style="--cols:{len(data.methods) + 1}">{"".join(renders + errors)}</div></figure>')
 
 
-def _summary_cards(data: ReportData) -> str:
+def _summary_cards(data: RunRecord) -> str:
     ours, base = data.ours, data.baseline
     psnr_gain, flip_change = ours.psnr - base.psnr, ours.flip - base.flip
     ratio = data.input_triangles / max(ours.triangles, 1)
@@ -176,7 +176,7 @@ def _summary_cards(data: ReportData) -> str:
         for k, v, s in cards) + "</section>"
 
 
-def _methods_table(data: ReportData) -> str:
+def _methods_table(data: RunRecord) -> str:
     outline = any(m.silhouette_error is not None for m in data.methods)
 
     def row(m: MethodResult) -> str:
@@ -213,7 +213,7 @@ def _key_value_table(pairs, mono: bool = False) -> str:
     return f'<table class="kv{" mono" if mono else ""}">{rows}</table>'
 
 
-def write_report(outdir: str | Path, data: ReportData) -> Path:
+def write_report(outdir: str | Path, data: RunRecord) -> Path:
     """Write ``outdir/report.html`` and its pictures under ``outdir/report_files/``.
 
     The page shows: the asset name; cards with triangles, PSNR and FLIP of ours with their

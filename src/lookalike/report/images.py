@@ -1,7 +1,7 @@
 """Pictures for the report: display images, a signed difference map, labelled grids.
 
-Display images use the same tone map as the metrics (``metrics.tonemap``), so what a reader
-sees is what was measured.
+Display images use the same tone map as the metrics (``metrics.display_values``), so what a
+reader sees is what was measured.
 """
 
 from __future__ import annotations

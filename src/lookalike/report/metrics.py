@@ -2,9 +2,9 @@
 
 Renders are linear HDR radiance. Both metrics first apply the paper's tone map
 (Sec. "Objective function"), ``x' = srgb(log(x + 1))`` with ``srgb`` the sRGB transfer
-function, then clamp to [0, 1]; they compare the *whole* image, background included (reference
-and candidate share the background, so uncovered pixels agree and add no error; every method
-is scored on the same pixels, which keeps the comparison fair).
+function (``lookalike.colour.tonemap``), then clamp to [0, 1]; they compare the *whole* image,
+background included (reference and candidate share the background, so uncovered pixels agree
+and add no error; every method is scored on the same pixels, which keeps the comparison fair).
 """
 
 from __future__ import annotations
@@ -13,20 +13,9 @@ import flip_evaluator
 import numpy as np
 import torch
 
+from ..colour import tonemap
+
 PSNR_CAP_DB = 100.0                # PSNR of identical images (MSE 0) is reported as this cap
-
-
-def srgb_encode(x: torch.Tensor) -> torch.Tensor:
-    """sRGB transfer function (IEC 61966-2-1) of linear values ``x`` (any shape, float):
-    ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x^(1/2.4) - 0.055``."""
-    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055)
-
-
-def tonemap(x: torch.Tensor) -> torch.Tensor:
-    """The paper's tone map ``srgb(log(x + 1))`` of linear radiance ``x >= 0`` (any shape).
-
-    Differentiable; not clamped (values above ``e - 1`` map above 1)."""
-    return srgb_encode(torch.log1p(x.clamp(min=0)))
 
 
 def display_values(images) -> np.ndarray:

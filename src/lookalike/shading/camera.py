@@ -88,3 +88,10 @@ class Camera:
         if isinstance(index, int):
             index = slice(index, index + 1)
         return Camera(mv=self.mv[index], proj=self.proj[index], position=self.position[index])
+
+    @staticmethod
+    def cat(cameras: list["Camera"]) -> "Camera":
+        """One batch of all the views of ``cameras``, in order (contiguous tensors)."""
+        return Camera(mv=torch.cat([c.mv for c in cameras]).contiguous(),
+                      proj=torch.cat([c.proj for c in cameras]).contiguous(),
+                      position=torch.cat([c.position for c in cameras]).contiguous())

@@ -46,3 +46,9 @@ class PointLight:
         if self.position.shape[0] == 1:
             return self
         return PointLight(position=self.position[index], intensity=self.intensity[index])
+
+    @staticmethod
+    def cat(lights: list["PointLight"]) -> "PointLight":
+        """One batch of all the lights of ``lights``, in order."""
+        return PointLight(position=torch.cat([l.position for l in lights]),
+                          intensity=torch.cat([l.intensity for l in lights]))

@@ -1,9 +1,9 @@
 """``bake_asset``: the classic pipeline end to end (load -> decimate -> unwrap -> bake -> write
 ``OUTDIR/model.glb``), the baseline that ``simplify`` is compared with.
 
-The decimation target follows the same rule as ``simplify`` (``lookalike.fit.initial.
+The decimation target follows the same rule as ``simplify`` (``lookalike.init.initial_guess.
 target_triangle_count``), so both start from the same low-poly mesh. Every step is
-deterministic. The output folder follows ``simplify``'s rules (``lookalike.fit.outdir``): an
+deterministic. The output folder follows ``simplify``'s rules (``lookalike.jobs.outdir``): an
 existing non-empty folder is refused without ``force``; files are written atomically.
 """
 
@@ -21,11 +21,14 @@ from .. import io
 from ..asset.asset import Asset
 from ..asset.material import Material
 from ..fit.config import LatentConfig
-from ..fit.initial import target_triangle_count
-from ..fit.outdir import atomic_path, check_outdir, prepare_outdir, write_text_atomic
-from .bake import bake
-from .decimate import decimate
-from .unwrap import unwrap
+from ..init.bake import bake
+from ..init.decimate import decimate
+from ..init.initial_guess import target_triangle_count
+from ..init.unwrap import unwrap
+from ..io.atomic import write_text_atomic
+from .outdir import check_outdir, prepare_outdir
+from .outputs import write_model
+from .simplify import prepare_input
 
 OUTDIR_SUFFIX = "-baked"
 
@@ -77,11 +80,9 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
     check_outdir(outdir, force=force, resume=False)
     seconds = {}
     clock = time.monotonic()
-    asset = input if isinstance(input, Asset) else io.load(input)
-    if material_override is not None:
-        mesh = dataclasses.replace(asset.mesh, t_mat_idx=torch.zeros_like(asset.mesh.t_mat_idx))
-        asset = dataclasses.replace(asset, mesh=mesh, materials=[material_override])
-    count = target_triangle_count(LatentConfig(triangles=triangles, ratio=ratio), asset.mesh.num_triangles)
+    asset, _ = prepare_input(input if isinstance(input, Asset) else io.load(input), material_override)
+    count = target_triangle_count(triangles, LatentConfig.DEFAULT_RATIO if ratio is None else ratio,
+                                  asset.mesh.num_triangles)
     seconds["load"] = time.monotonic() - clock
     clock = time.monotonic()
     low = unwrap(decimate(asset.mesh, count), texture_size=texture_size)
@@ -95,9 +96,7 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
 
     outdir = prepare_outdir(outdir, force=force, resume=False)
     clock = time.monotonic()
-    model = outdir / "model.glb"
-    with atomic_path(model) as temp:
-        io.save(baked, temp)
+    model = write_model(baked, outdir, obj=False)
     seconds["export"] = time.monotonic() - clock
     seconds["total"] = time.monotonic() - started
     metrics = {

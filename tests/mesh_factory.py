@@ -1,12 +1,11 @@
-"""An icosphere: a start for the latent geometry where no decimation is wanted."""
+"""Test meshes: an icosphere (a closed, welded mesh of any size)."""
 
 from __future__ import annotations
 
 import numpy as np
 import torch
 
-from ..asset.mesh import Mesh
-from ..errors import ConfigError
+from lookalike.asset import Mesh
 
 
 def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
@@ -45,16 +44,12 @@ def icosphere(subdivisions: int = 3, center=(0.0, 0.0, 0.0), radius: float = 1.0
     """A sphere of ``20 * 4**subdivisions`` triangles, welded, counter-clockwise outward.
 
     Args:
-        subdivisions: number of 1-to-4 splits of the icosahedron, 0..8.
+        subdivisions: number of 1-to-4 splits of the icosahedron.
         center: ``[3]`` centre; radius: its radius.
 
     Returns:
         ``Mesh`` with ``v_pos [10 * 4**s + 2, 3]`` float32 and ``t_pos_idx [20 * 4**s, 3]`` int64, no UVs.
     """
-    if isinstance(subdivisions, bool) or not isinstance(subdivisions, (int, np.integer)) or not 0 <= subdivisions <= 8:
-        raise ConfigError(f"icosphere subdivisions must be a whole number in 0..8, got {subdivisions!r}")
-    if not radius > 0:
-        raise ConfigError(f"icosphere radius must be positive, got {radius!r}")
     v, f = _icosahedron()
     for _ in range(subdivisions):
         v, f = _subdivide(v, f)

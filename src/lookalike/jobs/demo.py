@@ -1,4 +1,5 @@
-"""The bundled default asset, generated in code: a bumpy, painted (2, 3) torus knot.
+"""``demo``: the whole job on the bundled default asset, generated in code: a bumpy, painted
+(2, 3) torus knot of 100k triangles, simplified to ``DEMO_TRIANGLES`` in a few minutes.
 
 A tube of radius ``TUBE`` around the torus-knot curve
 c(t) = ((2 + cos 3t) cos 2t, (2 + cos 3t) sin 2t, sin 3t), t = 2 pi u, u in [0, 1), with its
@@ -11,10 +12,20 @@ loses and a normal map can bring back.
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import torch
 
+from .. import io
 from ..asset import Asset, Material, Mesh, Texture
+from .simplify import SimplifyResult, simplify
+
+DEMO_TRIANGLES = 2000
+DEMO_TEXTURE_SIZE = 512
+DEMO_RESOLUTION = 256
+DEMO_TIME_BUDGET_S = 240.0
 
 TUBE = 0.45
 BUMP = 0.08
@@ -90,3 +101,15 @@ def demo_asset() -> Asset:
     kd, ks = paint()
     material = Material(name="painted", kd=Texture(torch.from_numpy(kd)), ks=Texture(torch.from_numpy(ks)))
     return Asset(mesh=knot_mesh(), materials=[material])
+
+
+def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_BUDGET_S, force: bool = False,
+         progress: bool = True) -> SimplifyResult:
+    """``simplify`` of ``demo_asset()`` (written to a temporary glTF first, as a user's file
+    would be) to ``DEMO_TRIANGLES`` triangles with ``DEMO_TEXTURE_SIZE`` textures and
+    ``DEMO_RESOLUTION`` views, within ``time_budget`` seconds, into ``outdir``."""
+    with tempfile.TemporaryDirectory(prefix="lookalike-demo-") as folder:
+        source = Path(folder) / "painted-knot.glb"
+        io.save(demo_asset(), source)
+        return simplify(source, outdir, triangles=DEMO_TRIANGLES, texture_size=DEMO_TEXTURE_SIZE,
+                        resolution=DEMO_RESOLUTION, time_budget=time_budget, force=force, progress=progress)

@@ -1,39 +1,13 @@
-"""The output folder of a run: who may write into it, and atomic writes.
-
-Every file appears complete or not at all: it is written under a temporary name in the same
-folder and moved into place with ``os.replace`` (atomic on POSIX and Windows).
-"""
+"""The output folder of a job: who may write into it. Files go in atomically
+(``lookalike.io.atomic``)."""
 
 from __future__ import annotations
 
-import contextlib
-import os
 from pathlib import Path
-from typing import Iterator
 
 from ..errors import ConfigError
 
 CHECKPOINT_NAME = "checkpoint.pt"
-TEMP_PREFIX = ".tmp-"
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path`` (same suffix, so writers that choose the format by
-    extension still work); on normal exit move it onto ``path``, on error delete it."""
-    path = Path(path)
-    temp = path.with_name(f"{TEMP_PREFIX}{os.getpid()}-{path.name}")
-    try:
-        yield temp
-        os.replace(temp, path)
-    finally:
-        temp.unlink(missing_ok=True)
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
-    with atomic_path(path) as temp:
-        temp.write_text(text, encoding="utf-8")
 
 
 def check_outdir(outdir: str | Path, *, force: bool, resume: bool) -> None:

@@ -1,4 +1,5 @@
-"""Instanced and range mode: which positions and triangles each view of a batch draws."""
+"""Input checks shared by the primitives, and nvdiffrast's instanced and range modes: which
+positions and triangles each view of a batch draws."""
 
 from __future__ import annotations
 

@@ -1,21 +1,28 @@
-"""Held-out views: a fixed set of cameras and lights, never trained on, on which plain
-decimation and our result are scored against the reference (PSNR and FLIP), and on which
-(another set of them) the optimisation validates its states (PSNR)."""
+"""Held-out views: a fixed set of cameras and lights, never trained on, on which every method
+(plain decimation, the classic bake, ours) is scored against the reference (PSNR and FLIP),
+and on which (another set of them) the optimisation validates its states (PSNR)."""
 
 from __future__ import annotations
+
+from typing import Callable
 
 import numpy as np
 import torch
 
 from ..asset import Asset
-from ..report.data import MethodResult, score_method
-from ..report.metrics import psnr, silhouette_band
-from .losses import composite
-from .optimize import RenderFn
-from .targets import RENDER_CHUNK, Target, ViewSampler, render_in_chunks
+from ..fit.losses import composite
+from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
+from ..fit.training_views import ViewSampler
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from .metrics import psnr, silhouette_band
+from .record import MethodResult, score_method
 
 BACKGROUND = (0.2, 0.2, 0.2)
 """Linear grey that every held-out image is composited over (silhouette errors show against it)."""
+
+AssetRenderer = Callable[[Asset, Camera, PointLight], torch.Tensor]
+"""Draws an asset under B views: ``[B, H, W, 4]``."""
 
 
 class HeldoutViews:
@@ -28,9 +35,9 @@ class HeldoutViews:
             (``lookalike.report.metrics.silhouette_band``).
     """
 
-    def __init__(self, target: Target, sampler: ViewSampler, count: int, seed: int):
+    def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int):
         self.camera, self.light = sampler(np.random.default_rng(seed), count)
-        rgba = render_in_chunks(target, self.camera, self.light)
+        rgba = render_in_chunks(reference, self.camera, self.light)
         self.reference = self._composite(rgba)
         self.silhouette = silhouette_band(rgba[..., 3])
 
@@ -40,20 +47,20 @@ class HeldoutViews:
         return composite(rgba.float(), background)
 
     @torch.no_grad()
-    def images(self, asset: Asset, render: RenderFn) -> torch.Tensor:
+    def images(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
         """``[count, H, W, 3]`` linear images of ``asset`` drawn by ``render``, over ``BACKGROUND``."""
         n = self.camera.batch_size
         rgba = torch.cat([render(asset, self.camera[i:i + RENDER_CHUNK], self.light[i:i + RENDER_CHUNK])
                           for i in range(0, n, RENDER_CHUNK)])
         return self._composite(rgba)
 
-    def score(self, key: str, label: str, asset: Asset, render: RenderFn, texture_size: int | None) -> MethodResult:
+    def score(self, key: str, label: str, asset: Asset, render: AssetRenderer, texture_size: int | None) -> MethodResult:
         """Render ``asset`` on the held-out views and score it against the reference
-        (``lookalike.report.data.score_method``: PSNR, FLIP and FLIP maps per view, and the
+        (``lookalike.report.record.score_method``: PSNR, FLIP and FLIP maps per view, and the
         share of the error near the outline)."""
         return score_method(key, label, self.reference, self.images(asset, render),
                             asset.mesh.num_triangles, texture_size, self.silhouette)
 
-    def psnr(self, asset: Asset, render: RenderFn) -> float:
+    def psnr(self, asset: Asset, render: AssetRenderer) -> float:
         """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""
         return psnr(self.reference, self.images(asset, render))

@@ -1,8 +1,8 @@
 """Compiled search for the adjacent pixel pairs that an outline runs between, and the
 silhouette edge it runs along.
 
-Twin of :func:`.antialias.neighbour_pairs_reference` followed by
-:func:`.antialias.outline_walk_reference` (plain torch); tests compare them.
+Twin of :func:`.antialias.neighbour_pairs_python` followed by
+:func:`.antialias.outline_walk_python` (plain torch); tests compare them.
 """
 
 from __future__ import annotations

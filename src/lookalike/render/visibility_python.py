@@ -1,5 +1,5 @@
-"""Slow, obviously-correct visibility in plain torch: the twin the compiled kernel in
-:mod:`.visibility` is tested against.  Meant for small meshes and images only (memory is
+"""Slow, obviously-correct visibility in plain torch: :func:`visibility_python`, the twin the
+compiled kernel :func:`.visibility.visible_triangles` is tested against.  Meant for small meshes and images only (memory is
 ``O(T * H * W)`` per chunk of triangles).
 
 For every triangle and pixel centre ``p = (px, py, 1)`` (nvdiffrast's pixel centres, row 0
@@ -25,7 +25,7 @@ def pixel_centres(height: int, width: int, dtype=torch.float64) -> tuple[torch.T
     return px.expand(height, width), py[:, None].expand(height, width)
 
 
-def reference_visibility(
+def visibility_python(
     pos: torch.Tensor,
     tri: torch.Tensor,
     resolution: tuple[int, int],

@@ -5,7 +5,7 @@ A fresh non-overlapping UV atlas comes from ``lookalike.init.unwrap`` (xatlas). 
 covered by a triangle (``lookalike.asset.uv_raster.rasterize_uv``) takes, per channel, the
 triangle's own material sampled bilinearly at the old UV interpolated with the same barycentrics
 (texture transform and wrap mode honoured). Normal maps are re-expressed from our tangent frame
-of the old UVs to our tangent frame of the atlas UVs (``lookalike.io.normal_frames``); materials
+of the old UVs to our tangent frame of the atlas UVs (``lookalike.asset.frames``); materials
 without a normal map contribute the flat normal. Texels are then dilated ``padding`` texels past
 the chart borders so that bilinear filtering and mipmaps do not pull in the background, and any
 texel still uncovered gets the channel's mean.
@@ -21,11 +21,12 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..io.normal_frames import our_corner_frame, texel_frames
-from .asset import Asset
-from .material import Material, Texture
-from .mesh import Mesh
-from .uv_raster import apply_uv_transform, dilate, rasterize_uv, sample_bilinear
+from ..asset.asset import Asset
+from ..asset.frames import our_corner_frame, reexpress_texels
+from ..asset.material import Material, Texture
+from ..asset.mesh import Mesh
+from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv, sample_bilinear
+from .unwrap import unwrap
 
 _FLAT_NORMAL = (0.0, 0.0, 1.0)
 
@@ -64,7 +65,8 @@ def _bake_channel(mesh: Mesh, atlas_mesh: Mesh, materials: list[Material], name:
             old_set = texture.uv_set if texture is not None and texture.uv_set < len(mesh.uv) else None
             if old_set not in frames:
                 frames[old_set] = our_corner_frame(mesh, old_set) if old_set is not None else frames["atlas"]
-            values = _reframe(frames[old_set], frames["atlas"], values, tri[pick], bary[pick])
+            values = reexpress_texels(values, frames[old_set], frames["atlas"], tri[pick], bary[pick])
+            values = values.astype(np.float32)
         if name == "kd":
             values = np.concatenate([values[:, :3], _merged_alpha(material, values[:, 3:])], axis=1)
         out[rows[pick], cols[pick]] = values
@@ -80,16 +82,6 @@ def _merged_alpha(material: Material, alpha: np.ndarray) -> np.ndarray:
     if material.alpha_mode == "MASK":
         return (alpha >= material.alpha_cutoff).astype(np.float32)
     return alpha
-
-
-def _reframe(old_frame, atlas_frame, values: np.ndarray, tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
-    """Normal-map ``values [K, 3]`` in corner frame ``old_frame`` (our frame of the old UVs) ->
-    ``atlas_frame`` (ours of the atlas UVs), at triangles ``tri`` with barycentrics ``bary``."""
-    t1, b1, n1 = texel_frames(*old_frame, tri, bary)
-    t2, b2, n2 = texel_frames(*atlas_frame, tri, bary)
-    surface = values[:, :1] * t1 + values[:, 1:2] * b1 + values[:, 2:] * n1
-    out = np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1)
-    return (out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-30)).astype(np.float32)
 
 
 def fill_uncovered(texels: np.ndarray, padding: int) -> torch.Tensor:
@@ -124,8 +116,6 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
     Returns:
         A new ``Asset`` whose mesh has a single UV set (the atlas) and ``t_mat_idx`` all zero.
     """
-    from ..init import unwrap
-
     mesh = asset.mesh.detach()
     atlas_mesh = unwrap(mesh, texture_size=size, padding=padding)
     atlas_mesh.t_mat_idx = torch.zeros_like(mesh.t_mat_idx)

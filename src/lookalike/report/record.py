@@ -1,7 +1,8 @@
-"""What a report shows: the reference views, one scored row per method, and the run's figures.
+"""The record of a run: the reference views, one scored row per method, and the run's figures.
 
-The optimisation fills a ``ReportData``; ``score_method`` computes a method's metrics and
-error maps from its renders of the held-out views.
+A job fills one ``RunRecord``; both the HTML page (``lookalike.report.html``) and
+``metrics.json`` (``RunRecord.metrics``) read it. ``score_method`` computes a method's metrics
+and error maps from its renders of the held-out views.
 """
 
 from __future__ import annotations
@@ -65,37 +66,52 @@ def score_method(key: str, label: str, reference, images, triangles: int,
 
 
 @dataclass
-class ReportData:
-    """Everything ``write_report`` puts on the page.
+class RunRecord:
+    """Everything a run reports: the page shows it, ``metrics`` is ``metrics.json``.
 
     Attributes:
         asset_name: shown in the title.
+        input: the input as given (a path, or the asset's name).
         reference: ``[B, H, W, C>=3]`` linear renders of the input on the held-out views.
+        silhouette: ``[B, H, W]`` bool, the pixels near the reference's outline.
         methods: scored rows; the first is the baseline (plain decimation), the last is ours.
-        input_triangles: triangle count of the input.
-        loss_history: ``[N]`` training loss per iteration.
-        wall_time: seconds the whole run took.
+        input_triangles, output_triangles: triangle counts of the input and of our model.
+        texture_size: side of our textures in texels.
+        resolution: side of the training and held-out images in pixels.
+        loss_history: ``[N]`` training loss per iteration (NaN for rolled-back steps).
+        validation_history: ``[K, 2]`` (iteration, PSNR on the validation views) of the
+            optimisation's scorings, drawn with the loss curve.
+        validation_views: how many validation views those scores are over.
         iterations: optimisation steps taken.
+        rollbacks: steps rolled back after a non-finite loss or gradient.
+        interrupted: the run was stopped before its end (the record holds the best so far).
+        wall_time: seconds the whole run took.
         seconds_per_iteration: mean seconds per optimisation step.
+        timings: seconds per stage, e.g. ``{"reference views": 12.0, ...}``.
         config: the configuration used (nested dicts of plain values).
-        timings: optional seconds per stage, e.g. ``{"reference views": 12.0, ...}``.
-        notes: optional remarks shown under the summary (e.g. "input had no UVs").
-        validation_history: optional ``[K, 2]`` (iteration, PSNR on the validation views) of
-            the optimisation's scorings, drawn with the loss curve.
+        notes: remarks shown under the summary (e.g. "input had no UVs").
     """
 
     asset_name: str
+    input: str
     reference: Any
+    silhouette: Any
     methods: list[MethodResult]
     input_triangles: int
+    output_triangles: int
+    texture_size: int
+    resolution: int
     loss_history: Any
-    wall_time: float
+    validation_history: Any
+    validation_views: int
     iterations: int
+    rollbacks: int
+    interrupted: bool
+    wall_time: float
     seconds_per_iteration: float
-    config: dict
     timings: dict[str, float] = field(default_factory=dict)
+    config: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    validation_history: Any = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -108,3 +124,30 @@ class ReportData:
     @property
     def num_views(self) -> int:
         return int(len(self.baseline.psnr_views))
+
+    def metrics(self) -> dict:
+        """The content of ``metrics.json``: the figures of the record as plain values."""
+        losses = np.asarray(self.loss_history, dtype=np.float64)
+        finite = losses[np.isfinite(losses)]
+        validation = np.asarray(self.validation_history, dtype=np.float64).reshape(-1, 2)
+        return {
+            "input": self.input,
+            "methods": [m.key for m in self.methods],
+            "triangles": {"input": self.input_triangles, "output": self.output_triangles},
+            "texture_size": self.texture_size,
+            "resolution": self.resolution,
+            "iterations": self.iterations,
+            "rollbacks": self.rollbacks,
+            "interrupted": self.interrupted,
+            "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
+            "final_loss": float(finite[-1]) if len(finite) else None,
+            "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],
+                           "psnr": [float(v) for v in validation[:, 1]]},
+            "heldout": {
+                "views": self.num_views,
+                "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
+                **{m.key: {"label": m.label, "psnr": m.psnr, "flip": m.flip, "silhouette_error": m.silhouette_error,
+                           "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
+                   for m in self.methods},
+            },
+        }

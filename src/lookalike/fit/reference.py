@@ -1,0 +1,70 @@
+"""References: what the latent model must look like (paper Sec. 4).
+
+The optimisation treats the reference renderer as a black box: a :class:`Reference` renders
+target images for given cameras and lights. :class:`MeshReference` is an input asset rendered
+by our own pipeline, supersampled. Future references (an animated mesh at a time t, a signed
+distance field, a path tracer) implement the same protocol.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import torch
+
+from ..asset import Asset
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from ..shading.pipeline import render
+
+RENDER_CHUNK = 4
+"""Views rendered together over a large batch (bounds the memory of supersampled renders)."""
+
+
+class Reference(Protocol):
+    """A reference renderer.
+
+    Attributes:
+        resolution: side, in pixels, of the square images it renders.
+    """
+
+    resolution: int
+
+    def render(self, camera: Camera, light: PointLight) -> torch.Tensor:
+        """``[B, H, W, 4]`` float32 linear RGB (weighted by coverage) and coverage, row 0 at
+        the top, for B cameras and lights; no gradients."""
+        ...
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        """``(centre [3], radius)`` of what it shows, in its own frame."""
+        ...
+
+
+class MeshReference:
+    """An asset rendered by ``lookalike.shading.render`` with ``spp`` x ``spp`` supersampling.
+
+    Args:
+        asset: the reference.
+        resolution: image side in pixels.
+        spp: samples per pixel per axis.
+    """
+
+    def __init__(self, asset: Asset, resolution: int, spp: int):
+        self.asset = asset
+        self.resolution = resolution
+        self.spp = spp
+
+    @torch.no_grad()
+    def render(self, camera: Camera, light: PointLight) -> torch.Tensor:
+        return render(self.asset, camera, light, (self.resolution, self.resolution), spp=self.spp)
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        return self.asset.mesh.bounding_sphere()
+
+
+def render_in_chunks(reference: Reference, camera: Camera, light: PointLight, dtype=torch.float32) -> torch.Tensor:
+    """``reference.render`` over a large batch, ``RENDER_CHUNK`` views at a time, stored as
+    ``dtype``: ``[B, H, W, 4]``."""
+    n = camera.batch_size
+    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK]).to(dtype)
+                      for i in range(0, n, RENDER_CHUNK)])

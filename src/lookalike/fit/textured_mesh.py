@@ -1,0 +1,203 @@
+"""The latent model of ``simplify``: a low-poly mesh with one PBR material whose textures are
+trainable (a :class:`~lookalike.fit.latent.Latent`).
+
+Positions are stored in the unit frame of the reference's bounding sphere,
+``world = centre + radius * v_pos``, so that learning rates mean the same on a model in
+millimetres and one in metres; :meth:`TexturedMesh.export` returns world coordinates, i.e.
+the input's own frame and units.
+
+Regulariser (paper Sec. 6.3): the uniform Laplacian relative to the initial mesh,
+``mean_i |delta_i - delta'_i|^2`` with ``delta = L v`` and ``delta'`` of the initial positions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import torch
+
+from ..asset import Asset, Material, Mesh, Texture
+from ..asset.laplacian import UniformLaplacian
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from ..shading.pipeline import render, render_coverage
+from .config import ClampConfig
+
+
+class TexturedMesh(torch.nn.Module):
+    """Trainable mesh and textures.
+
+    Parameters (float32), in groups ``"positions"`` (``v_pos``) and ``"textures"`` (the rest):
+        v_pos: ``[V, 3]`` positions in the unit frame.
+        kd: ``[S, S, 4]`` base colour + alpha when alpha is trained, else ``[S, S, 3]``
+            (alpha is then 1).
+        ks: ``[S, S, 3]`` (gamma, roughness, metalness).
+        normal: ``[S, S, 2]`` slopes (x, y) of the tangent-space normal, which is
+            normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and two
+            parameters per texel instead of three with a unit-length constraint.
+
+    Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``v_tex [VT, 2]`` float32 and
+    ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32, and
+    ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions.
+
+    Args:
+        mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0.
+        kd, ks: initial textures as above.
+        normal: initial ``[S, S, 3]`` tangent-space normals (z > 0), converted to slopes.
+        centre, radius: the unit frame.
+        limits: the valid ranges ``clamp_`` projects onto.
+        msaa: visibility samples per axis when rendering (shading once per pixel).
+        alpha_mode: the material's glTF alpha mode (``"OPAQUE"`` unless alpha is trained).
+        double_sided: whether the material renders back faces.
+        wrap: texture boundary mode, ``"clamp"`` for an atlas or the input's own mode when
+            the latent reuses its UVs.
+    """
+
+    def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
+                 centre: torch.Tensor, radius: float | torch.Tensor, limits: ClampConfig = ClampConfig(),
+                 msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp"):
+        super().__init__()
+        centre = torch.as_tensor(centre, dtype=torch.float32)
+        radius = torch.as_tensor(radius, dtype=torch.float32)
+        self.register_buffer("centre", centre.clone())
+        self.register_buffer("radius", radius.clone())
+        self.register_buffer("t_pos_idx", mesh.t_pos_idx.clone())
+        self.register_buffer("v_tex", mesh.v_tex.clone())
+        self.register_buffer("t_tex_idx", mesh.t_tex_idx.clone())
+        self.v_pos = torch.nn.Parameter((mesh.v_pos.float() - centre) / radius)
+        self.kd = torch.nn.Parameter(kd.float().clone())
+        self.ks = torch.nn.Parameter(ks.float().clone())
+        self.normal = torch.nn.Parameter(normal_to_slopes(normal.float()))
+        self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
+        self.register_buffer("rest_delta", self.laplacian.differentials(self.v_pos.detach()))
+        self.limits = limits
+        self.msaa = msaa
+        self.alpha_mode = alpha_mode
+        self.double_sided = double_sided
+        self.wrap = wrap
+
+    @classmethod
+    def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
+                   train_alpha: bool) -> "TexturedMesh":
+        """The latent starting from ``asset``: its mesh (UV set 0) and its first material's
+        base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
+        normal map where it has none). Normals are lifted to face out by at least
+        ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind), and every
+        texel is clamped into ``limits``."""
+        material = asset.materials[0]
+        kd = material.kd.data[..., :4 if train_alpha else 3]
+        size = kd.shape[:2]
+        normal = (material.normal.data if material.normal is not None
+                  else torch.tensor([0.0, 0.0, 1.0]).expand(*size, 3))
+        mesh = Mesh(v_pos=asset.mesh.v_pos, t_pos_idx=asset.mesh.t_pos_idx, uv=[asset.mesh.uv[0]])
+        latent = cls(mesh, kd, material.ks.data, _facing_outwards(normal, limits), centre, radius, limits=limits,
+                     msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
+                     double_sided=material.double_sided, wrap=material.kd.wrap)
+        latent.clamp_()
+        return latent
+
+    def get_extra_state(self) -> dict:
+        return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided, "wrap": self.wrap,
+                "msaa": self.msaa, "limits": dataclasses.asdict(self.limits)}
+
+    def set_extra_state(self, state: dict) -> None:
+        self.alpha_mode = state["alpha_mode"]
+        self.double_sided = state["double_sided"]
+        self.wrap = state["wrap"]
+        self.msaa = state["msaa"]
+        self.limits = ClampConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in state["limits"].items()})
+
+    @property
+    def trains_alpha(self) -> bool:
+        return self.kd.shape[-1] == 4
+
+    def parameter_groups(self) -> dict[str, list[torch.nn.Parameter]]:
+        return {"positions": [self.v_pos], "textures": [self.kd, self.ks, self.normal]}
+
+    def world_positions(self) -> torch.Tensor:
+        """``[V, 3]`` positions in the input's frame: centre + radius * v_pos (differentiable)."""
+        return self.centre + self.radius * self.v_pos
+
+    def base_color(self) -> torch.Tensor:
+        """``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained)."""
+        if self.trains_alpha:
+            return self.kd
+        return torch.cat([self.kd, torch.ones_like(self.kd[..., :1])], dim=-1)
+
+    def unit_normal(self) -> torch.Tensor:
+        """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
+        return slopes_to_normal(self.normal)
+
+    def as_asset(self) -> Asset:
+        """The model as an ``Asset`` in world coordinates, differentiable with respect to the
+        parameters (``export`` gives a detached one)."""
+        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)])
+        material = Material(
+            name="lookalike",
+            kd=Texture(self.base_color(), wrap=self.wrap),
+            ks=Texture(self.ks, wrap=self.wrap),
+            normal=Texture(self.unit_normal(), wrap=self.wrap),
+            alpha_mode=self.alpha_mode,
+            double_sided=self.double_sided,
+        )
+        return Asset(mesh=mesh, materials=[material])
+
+    @torch.no_grad()
+    def export(self) -> Asset:
+        return self.as_asset()
+
+    def render(self, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+        """One shading sample per pixel with ``msaa`` x ``msaa`` visibility samples (the
+        paper's MSAA): ``[B, H, W, 4]``, differentiable."""
+        return render_asset(self.as_asset(), camera, light, resolution, self.msaa)
+
+    def coverage(self, camera: Camera, resolution: int) -> torch.Tensor | None:
+        """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where
+        alpha is trained (coverage is then a texture's too)."""
+        if self.alpha_mode != "OPAQUE":
+            return None
+        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx)
+        return render_coverage(mesh, camera, (resolution, resolution), self.msaa)
+
+    def regularizers(self) -> dict[str, torch.Tensor]:
+        return {"laplacian": self.laplacian.loss(self.v_pos, self.rest_delta)}
+
+    def regularizer_scales(self) -> dict[str, float]:
+        """``{"laplacian": mean_i |delta'_i|^2}``, the absolute Laplacian energy of the initial
+        mesh (the relative term itself is zero at the start)."""
+        return {"laplacian": float((self.rest_delta ** 2).sum(dim=-1).mean())}
+
+    @torch.no_grad()
+    def clamp_(self) -> None:
+        """Project the textures onto their valid ranges in place: kd into ``limits.kd``, each
+        specular channel into its range, each normal slope into
+        [-limits.normal_max_slope, limits.normal_max_slope]."""
+        limits = self.limits
+        self.kd.clamp_(*limits.kd)
+        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=self.ks.dtype)
+        self.ks.clamp_(min=ranges[:, 0], max=ranges[:, 1])
+        self.normal.clamp_(-limits.normal_max_slope, limits.normal_max_slope)
+
+
+def render_asset(asset: Asset, camera: Camera, light: PointLight, resolution: int, msaa: int) -> torch.Tensor:
+    """How latent models and the baselines they are compared with are drawn: one shading sample
+    per pixel with ``msaa`` x ``msaa`` visibility samples, ``[B, H, W, 4]``, differentiable."""
+    return render(asset, camera, light, (resolution, resolution), spp=msaa, msaa=msaa > 1)
+
+
+def _facing_outwards(normal: torch.Tensor, limits: ClampConfig) -> torch.Tensor:
+    """``normal [S, S, 3]`` with z raised to at least ``1 / normal_max_slope`` and renormalised:
+    slopes (x / z, y / z) need z > 0."""
+    lifted = normal.clone()
+    lifted[..., 2].clamp_(min=1.0 / limits.normal_max_slope)
+    return torch.nn.functional.normalize(lifted, dim=-1)
+
+
+def normal_to_slopes(normal: torch.Tensor) -> torch.Tensor:
+    """``[..., 2]`` slopes (x / z, y / z) of tangent-space normals ``[..., 3]`` (z > 0)."""
+    return normal[..., :2] / normal[..., 2:].clamp(min=1e-6)
+
+
+def slopes_to_normal(slopes: torch.Tensor) -> torch.Tensor:
+    """``[..., 3]`` unit normals normalize(x, y, 1) of slopes ``[..., 2]`` (differentiable)."""
+    return torch.nn.functional.normalize(torch.cat([slopes, torch.ones_like(slopes[..., :1])], dim=-1), dim=-1)

@@ -1,0 +1,143 @@
+"""Training views: random cameras and lights, and the reference's images of them.
+
+A :class:`BatchSource` hands the loop a :class:`Batch` per step. :class:`ViewPool` keeps a
+rolling pool of rendered views (float16) and draws mini-batches from it; :class:`FreshViews`
+renders new random views at every step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+import torch
+
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from ..shading.view_sampling import random_lights, random_views
+from .reference import Reference, render_in_chunks
+
+ViewSampler = Callable[[np.random.Generator, int], tuple[Camera, PointLight]]
+"""Draws ``n`` random views: ``(camera, light)`` batches of ``n``."""
+
+
+@dataclass
+class Batch:
+    """Views of one step: ``camera`` and ``light`` (batch B) and the reference ``target``
+    ``[B, H, W, 4]`` float32 (linear RGB weighted by coverage, and coverage)."""
+
+    camera: Camera
+    light: PointLight
+    target: torch.Tensor
+
+    def split(self, n: int) -> tuple["Batch", "Batch | None"]:
+        """The first ``n`` views and the rest (``None`` if there are none)."""
+        head = Batch(self.camera[:n], self.light[:n], self.target[:n])
+        if self.target.shape[0] <= n:
+            return head, None
+        return head, Batch(self.camera[n:], self.light[n:], self.target[n:])
+
+
+class BatchSource(Protocol):
+    """Where training views come from; its state is part of a checkpoint."""
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        ...
+
+    def state_dict(self) -> dict:
+        ...
+
+    def load_state_dict(self, state: dict) -> None:
+        ...
+
+
+def view_sampler(centre: torch.Tensor, radius: float) -> ViewSampler:
+    """``sample(rng, n) -> (Camera, PointLight)``: ``n`` random views of the sphere
+    (``centre [3]``, ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed
+    point light per view; ``lookalike.shading.view_sampling``)."""
+
+    def sample(rng: np.random.Generator, n: int) -> tuple[Camera, PointLight]:
+        camera = random_views(centre, radius, n, rng)
+        return camera, random_lights(camera, centre, rng)
+
+    return sample
+
+
+class ViewPool:
+    """A rolling pool of reference images: ``size`` random views rendered up front, then one
+    new view rendered every ``refresh_every`` mini-batches, replacing the oldest. Mini-batches
+    are drawn from the pool without replacement within a batch.
+
+    A small fixed pool lets the latent model overfit its few lights and viewpoints; fresh
+    views at every step cost a supersampled render of the high-poly reference per image. The
+    rolling pool keeps most steps cheap while the set of views keeps growing.
+
+    Views are drawn one at a time from the pool's own generator, so the pool after ``drawn``
+    views is the same however it got there; ``state_dict``/``load_state_dict`` rebuild it.
+
+    Attributes:
+        camera, light: the pool's views (batch ``size``); slot ``j % size`` holds view ``j``.
+        images: ``[size, H, W, 4]`` float16 reference images.
+    """
+
+    def __init__(self, reference: Reference, sampler: ViewSampler, size: int, seed, refresh_every: int = 0):
+        self.reference = reference
+        self.sampler = sampler
+        self.size = size
+        self.seed = seed
+        self.refresh_every = refresh_every
+        self.samples = 0
+        self._fill(drawn=size)
+
+    def _fill(self, drawn: int) -> None:
+        """Render the views ``drawn - size .. drawn - 1`` into their slots."""
+        self.rng = np.random.default_rng(self.seed)
+        views = [self.sampler(self.rng, 1) for _ in range(drawn)][-self.size:]
+        order = sorted(range(self.size), key=lambda k: (drawn - self.size + k) % self.size)
+        self.camera = Camera.cat([views[k][0] for k in order])
+        self.light = PointLight.cat([views[k][1] for k in order])
+        self.images = render_in_chunks(self.reference, self.camera, self.light, torch.float16)
+        self.drawn = drawn
+
+    def _refresh(self) -> None:
+        """Render one new view into the slot of the oldest."""
+        camera, light = self.sampler(self.rng, 1)
+        slot = self.drawn % self.size
+        self.camera.mv[slot], self.camera.proj[slot], self.camera.position[slot] = camera.mv[0], camera.proj[0], camera.position[0]
+        self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
+        self.images[slot] = self.reference.render(camera, light)[0].to(torch.float16)
+        self.drawn += 1
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        if self.refresh_every and self.samples and self.samples % self.refresh_every == 0:
+            self._refresh()
+        self.samples += 1
+        index = torch.from_numpy(rng.choice(self.size, size=batch_size, replace=False))
+        return Batch(self.camera[index], self.light[index], self.images[index].float())
+
+    def state_dict(self) -> dict:
+        return {"drawn": self.drawn, "samples": self.samples}
+
+    def load_state_dict(self, state: dict) -> None:
+        if state["drawn"] != self.drawn:
+            self._fill(state["drawn"])
+        self.samples = state["samples"]
+
+
+class FreshViews:
+    """New random views, rendered by ``reference`` at every step."""
+
+    def __init__(self, reference: Reference, sampler: ViewSampler):
+        self.reference = reference
+        self.sampler = sampler
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
+        camera, light = self.sampler(rng, batch_size)
+        return Batch(camera, light, self.reference.render(camera, light))
+
+    def state_dict(self) -> dict:
+        return {}
+
+    def load_state_dict(self, state: dict) -> None:
+        pass

@@ -1,0 +1,235 @@
+"""The initial guess (paper Sec. 4) and the baselines it is compared with.
+
+An initial guess is an ``Asset``: a low-poly mesh with its UV atlas in UV set 0 and one
+material with base colour (+ alpha), specular and normal textures. It starts from a low-poly
+mesh, ours (quadric decimation, ``lookalike.init.decimate``) or the user's own
+(``--init-mesh``), and its textures come from:
+
+- ``"bake"`` (the default): a fresh atlas and the classic projection bake of the input
+  (``lookalike.init.bake``); the bake is also a baseline of its own;
+- ``"source"``: the low-poly mesh's UVs with the input's own textures, resampled (where the
+  input has one material and the low-poly mesh carries its UVs; else as ``"average"``);
+- ``"average"``: a fresh atlas holding the input's mean material; ``"random"``: a fresh atlas
+  with uniform noise, as in the paper. Fresh normal maps start flat.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..asset import Asset, Material, Mesh, Texture
+from ..asset.normals import face_normals
+from ..asset.uv_raster import rasterize_uv
+from ..errors import ConfigError
+from .bake import bake
+from .decimate import check_triangle_target
+from .unwrap import unwrap
+
+UV_OVERLAP_LIMIT = 0.05
+"""A user's low-poly mesh keeps its UVs only if at most this share of the texels its triangles
+cover are covered more than once (an atlas; mirrored or scrambled UVs are not)."""
+
+UV_CHECK_SIZE = 512
+"""Side of the grid on which that share is measured."""
+
+
+@dataclass
+class Ranges:
+    """The valid ranges of the textures: base colour (and alpha), and the three specular
+    channels (gamma, roughness, metalness)."""
+
+    kd: tuple[float, float] = (0.0, 1.0)
+    ks: tuple[tuple[float, float], tuple[float, float], tuple[float, float]] = ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0))
+
+
+@dataclass
+class InitialGuess:
+    """Where the optimisation starts, and what it is compared with.
+
+    Attributes:
+        start: the initial guess (one material, atlas in UV set 0).
+        baseline: the low-poly model as users know it: plain decimation with the input's
+            materials (``decimation_baseline``), or the user's mesh as given.
+        baked: the classic bake onto ``start``'s mesh where the start is a bake, else ``None``.
+        notes: remarks for the report (e.g. why the user's UVs were replaced).
+    """
+
+    start: Asset
+    baseline: Asset
+    baked: Asset | None
+    notes: list[str]
+
+
+def target_triangle_count(triangles: int | None, ratio: float, input_triangles: int) -> int:
+    """The triangle count to decimate to: ``triangles``, else ``ratio`` times
+    ``input_triangles``, rounded. Raises ``ConfigError`` when it is not positive or not below
+    the input's count."""
+    if triangles is not None:
+        return check_triangle_target(triangles, input_triangles)
+    count = int(round(ratio * input_triangles))
+    if count <= 0:
+        raise ConfigError(f"a ratio of {ratio} leaves no triangles of the input's {input_triangles}")
+    return check_triangle_target(count, input_triangles)
+
+
+def surface_mean_material(asset: Asset) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean base colour + alpha ``[4]`` and specular ``[3]`` over the surface: each material's
+    mean texel, weighted by the area of the triangles that use it."""
+    mesh = asset.mesh
+    area = face_normals(mesh.v_pos.double(), mesh.t_pos_idx).norm(dim=-1)
+    weight = torch.zeros(len(asset.materials), dtype=torch.float64).index_add_(0, mesh.t_mat_idx, area)
+    weight = weight / weight.sum().clamp(min=1e-30)
+    kd = sum(w * m.kd.data.double().reshape(-1, 4).mean(dim=0) for w, m in zip(weight, asset.materials))
+    ks = sum(w * m.ks.data.double().reshape(-1, 3).mean(dim=0) for w, m in zip(weight, asset.materials))
+    return kd.float(), ks.float()
+
+
+def uses_alpha(asset: Asset) -> bool:
+    """Whether any material of ``asset`` is not opaque (then the latent trains alpha)."""
+    return any(m.uses_alpha for m in asset.materials)
+
+
+def initial_textures(asset: Asset, size: int, init: str, ranges: Ranges,
+                     rng: np.random.Generator) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``(kd [S, S, 4], ks [S, S, 3], normal [S, S, 3])`` float32 starting textures.
+
+    ``"average"``: every texel holds ``surface_mean_material(asset)``; ``"random"``: uniform
+    noise within ``ranges`` (alpha starts at the mean alpha either way). The normal map is
+    flat, (0, 0, 1).
+    """
+    kd_mean, ks_mean = surface_mean_material(asset)
+    if init == "average":
+        kd = kd_mean.expand(size, size, 4).clone()
+        ks = ks_mean.expand(size, size, 3).clone()
+    elif init == "random":
+        channels = 4 if uses_alpha(asset) else 3
+        lo = [ranges.kd[0]] * 3 + [float(kd_mean[3])]
+        hi = [ranges.kd[1]] * 3 + [float(kd_mean[3])]
+        kd = torch.from_numpy(rng.uniform(lo[:channels], hi[:channels], size=(size, size, channels)))
+        if channels == 3:
+            kd = torch.cat([kd, kd_mean[3].double().expand(size, size, 1)], dim=-1)
+        ks = torch.from_numpy(rng.uniform([r[0] for r in ranges.ks], [r[1] for r in ranges.ks], size=(size, size, 3)))
+    else:
+        raise ConfigError(f"unknown texture initialisation {init!r}")
+    normal = torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3).clone()
+    return kd.float(), ks.float(), normal
+
+
+def reusable_source_material(asset: Asset, low_poly: Mesh) -> Material | None:
+    """The input's material if the latent can start from its own textures and UVs: exactly one
+    material, all its textures in UV set 0 without a texture transform, and UVs carried over
+    to ``low_poly``; else ``None``."""
+    if len(asset.materials) != 1 or not low_poly.uv:
+        return None
+    material = asset.materials[0]
+    textures = [t for t in (material.kd, material.ks, material.normal) if t is not None]
+    if any(t.uv_set != 0 or t.transform is not None for t in textures):
+        return None
+    return material
+
+
+def resample(texture: torch.Tensor, size: int) -> torch.Tensor:
+    """``texture [H, W, C]`` resampled to ``[size, size, C]`` (bilinear, antialiased when shrinking)."""
+    image = texture.detach().float().permute(2, 0, 1)[None]
+    resized = torch.nn.functional.interpolate(image, size=(size, size), mode="bilinear", align_corners=False,
+                                              antialias=True)
+    return resized[0].permute(1, 2, 0).contiguous()
+
+
+def uv_overlap(mesh: Mesh, size: int = UV_CHECK_SIZE) -> float:
+    """The share of the texels covered by ``mesh``'s triangles in UV set 0 (``size`` x ``size``
+    grid, UVs wrapped) that more than one triangle covers; 1 where the triangles cover none."""
+    v_tex, t_tex_idx = mesh.uv[0]
+    rows, cols, _, _ = rasterize_uv(v_tex[t_tex_idx].double().numpy(), size, size)
+    if len(rows) == 0:
+        return 1.0
+    distinct = len(np.unique(rows * size + cols))
+    return 1.0 - distinct / len(rows)
+
+
+def _material(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, like: Asset, wrap: str = "clamp") -> Material:
+    """One material with these textures, alpha mode and sidedness following the input ``like``:
+    ``"BLEND"`` if any of its materials blends, else ``"MASK"`` if any uses alpha, else opaque."""
+    if not uses_alpha(like):
+        mode = "OPAQUE"
+    else:
+        mode = "BLEND" if any(m.alpha_mode == "BLEND" for m in like.materials) else "MASK"
+    return Material(name="lookalike", kd=Texture(kd, wrap=wrap), ks=Texture(ks, wrap=wrap),
+                    normal=Texture(normal, wrap=wrap), alpha_mode=mode,
+                    double_sided=any(m.double_sided for m in like.materials))
+
+
+def baked_onto(asset: Asset, mesh: Mesh, size: int, cage: float | None = None) -> Asset:
+    """The classic projection bake of ``asset`` onto ``mesh`` (its atlas in UV set 0): one
+    material with base colour, specular and normal maps (``lookalike.init.bake``)."""
+    mesh = Mesh(v_pos=mesh.v_pos, t_pos_idx=mesh.t_pos_idx, uv=[mesh.uv[0]])
+    return Asset(mesh=mesh, materials=[bake(asset, mesh, texture_size=size, cage=cage).material], source=asset.source)
+
+
+def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ranges,
+                  rng: np.random.Generator, keep_uvs: bool = False) -> InitialGuess:
+    """The initial guess on ``low_poly`` for the input ``asset`` (see the module docstring).
+
+    Args:
+        asset: the input.
+        low_poly: the low-poly mesh (our decimation, with the input's UVs carried over where
+            it has them, or the user's own mesh).
+        init: ``"bake"``, ``"source"``, ``"average"`` or ``"random"``.
+        size: side of the square textures.
+        ranges: the valid ranges of random textures.
+        rng: draws random textures.
+        keep_uvs: bake onto ``low_poly``'s own UVs (a user's atlas) instead of a fresh atlas.
+    """
+    source = reusable_source_material(asset, low_poly) if init == "source" else None
+    baked = None
+    if source is not None:
+        mesh = Mesh(v_pos=low_poly.v_pos, t_pos_idx=low_poly.t_pos_idx, uv=[low_poly.uv[0]])
+        normal = (torch.nn.functional.normalize(resample(source.normal.data, size), dim=-1)
+                  if source.normal is not None else torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3))
+        material = _material(resample(source.kd.data, size), resample(source.ks.data, size), normal, asset,
+                             wrap=source.kd.wrap)
+        start = Asset(mesh=mesh, materials=[material], source=asset.source)
+    elif init == "bake":
+        atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
+        baked = baked_onto(asset, atlas, size)
+        bake_material = baked.materials[0]
+        material = _material(bake_material.kd.data, bake_material.ks.data, bake_material.normal.data, asset)
+        start = Asset(mesh=baked.mesh, materials=[material], source=asset.source)
+    else:
+        mesh = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
+        mesh = Mesh(v_pos=mesh.v_pos, t_pos_idx=mesh.t_pos_idx, uv=[mesh.uv[0]])
+        kd, ks, normal = initial_textures(asset, size, "average" if init == "source" else init, ranges, rng)
+        start = Asset(mesh=mesh, materials=[_material(kd, ks, normal, asset)], source=asset.source)
+    return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), baked=baked, notes=[])
+
+
+def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) -> InitialGuess:
+    """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``): its own UVs and
+    textures where it has one textured material and its UV set 0 is an atlas
+    (``uv_overlap`` at most ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake
+    of ``asset``, onto its UVs where they are an atlas, else onto a fresh one."""
+    mesh = lod.mesh
+    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation"]
+    overlap = uv_overlap(mesh) if mesh.uv else None
+    atlas = overlap is not None and overlap <= UV_OVERLAP_LIMIT
+    if overlap is not None and not atlas:
+        notes.append(f"{lod_name}: {overlap:.0%} of its UV texels are covered more than once, "
+                     "so a fresh atlas was unwrapped and baked")
+    textured = reusable_source_material(lod, mesh) is not None and lod.materials[0].kd.data.shape[0] > 1
+    if atlas and textured:
+        guess = initial_guess(lod, mesh, "source", size, Ranges(), np.random.default_rng(0))
+        notes.append(f"kept {lod_name}'s UVs and textures")
+        return InitialGuess(start=guess.start, baseline=lod, baked=None, notes=notes)
+    guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
+    return InitialGuess(start=guess.start, baseline=lod, baked=guess.baked, notes=notes)
+
+
+def decimation_baseline(asset: Asset, decimated: Mesh) -> Asset:
+    """Plain decimation as users know it: the ``decimated`` mesh with the input's own materials
+    (through its carried-over UVs where the input has them) and no normal maps."""
+    materials = [dataclasses.replace(m, normal=None) for m in asset.materials]
+    return Asset(mesh=decimated, materials=materials, source=asset.source)

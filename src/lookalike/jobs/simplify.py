@@ -1,0 +1,261 @@
+"""``simplify``: the whole job, from an input file to ``OUTDIR/model.glb`` and its report.
+
+Steps (paper Sec. 4 and 6): load -> initial guess (our decimation to the target count, or the
+user's own low-poly mesh, with a UV atlas and the classic bake) -> render the reference
+(supersampled) on a pool of random training views and on the held-out views -> optimise a
+``TexturedMesh`` -> write ``model.glb`` (+ ``model.obj``), ``report.html``, ``metrics.json`` and
+``config.toml`` into OUTDIR, each atomically.
+
+The time budget covers the whole run: the optimisation gets what is left after the set-up,
+minus an estimate of the time the outputs take (measured on the decimation baseline). A resumed
+run takes its initial guess from the checkpoint instead of building it again.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+import torch
+
+from .. import io
+from ..asset import Asset, Material
+from ..fit.checkpoint import Checkpointer, read_checkpoint
+from ..fit.config import Config, LatentConfig, loop_settings, objective
+from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
+from ..fit.loop import Fitter
+from ..fit.reference import MeshReference
+from ..fit.textured_mesh import TexturedMesh, render_asset
+from ..fit.training_views import FreshViews, ViewPool, view_sampler
+from ..init import decimate
+from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_guess_from_mesh, target_triangle_count,
+                                  uses_alpha)
+from ..io.atomic import write_text_atomic
+from ..report.heldout import HeldoutViews
+from ..report.record import RunRecord
+from .outdir import CHECKPOINT_NAME, check_outdir, prepare_outdir
+from .outputs import write_model, write_record
+
+OUTDIR_SUFFIX = "-lookalike"
+OUTPUT_TIME_FACTOR = 2.0
+"""The outputs are estimated to take this many times the baseline's held-out scoring."""
+
+OUTPUT_TIME_MARGIN = 5.0
+"""Plus these seconds (writing the glTF and the report's pictures)."""
+
+POOL_STREAM, TEXTURE_STREAM = 1, 2
+"""Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
+optimisation loop itself draws from ``default_rng(seed)``)."""
+
+
+@dataclass
+class SimplifyResult:
+    """What ``simplify`` wrote.
+
+    Attributes:
+        outdir: the output folder.
+        model: path of ``model.glb``.
+        report: path of ``report.html``.
+        metrics: the content of ``metrics.json``.
+        interrupted: the run was stopped by Ctrl-C (the files hold the best result so far and
+            ``checkpoint.pt`` lets ``resume=True`` continue).
+    """
+
+    outdir: Path
+    model: Path
+    report: Path
+    metrics: dict
+    interrupted: bool = False
+
+    def summary(self) -> str:
+        """A few lines for the terminal: where to look, and how much we gained."""
+        m = self.metrics
+        heldout = m["heldout"]
+        base, ours = heldout[m["methods"][0]], heldout["ours"]
+        label = base["label"][0].lower() + base["label"][1:]
+        lines = [
+            f"{'interrupted; best result so far' if self.interrupted else 'done'}: "
+            f"{m['triangles']['output']:,} triangles (input {m['triangles']['input']:,}), "
+            f"{m['iterations']} iterations in {m['seconds']['total']:.0f} s",
+            f"held-out PSNR: {label} {base['psnr']:.2f} dB, ours {ours['psnr']:.2f} dB "
+            f"({ours['psnr'] - base['psnr']:+.2f} dB); FLIP {base['flip']:.4f} -> {ours['flip']:.4f}",
+        ]
+        if "baked" in heldout:
+            baked = heldout["baked"]
+            lines.append(f"classic bake: PSNR {baked['psnr']:.2f} dB (ours {ours['psnr'] - baked['psnr']:+.2f} dB), "
+                         f"FLIP {baked['flip']:.4f}")
+        lines += [f"model:  {self.model}", f"report: {self.report}"]
+        if self.interrupted:
+            lines.append(f"continue with: lookalike simplify {m['input']} -o {self.outdir} --resume")
+        return "\n".join(lines)
+
+
+def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
+             ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
+             time_budget: float | None = None, iterations: int | None = None, init: str | None = None,
+             init_mesh: str | Path | None = None, seed: int | None = None, config: Config | str | Path | None = None,
+             resume: bool = False, force: bool = False, material_override: Material | None = None,
+             export_obj: bool | None = None, progress: bool = True) -> SimplifyResult:
+    """Simplify the asset in ``input`` into ``outdir``.
+
+    Args:
+        input: any file ``lookalike.io.load`` reads, or an ``Asset``.
+        outdir: output folder (default: ``<input name>-lookalike`` in the current folder). An
+            existing non-empty folder is refused unless ``force`` (or ``resume``).
+        triangles, ratio: target triangle count, or fraction of the input's (default 0.02).
+        texture_size: side of the square textures (default 1024).
+        resolution: side of the training and report images (default 512).
+        time_budget: wall seconds for the whole run (default 600); ignored when
+            ``iterations`` is given.
+        iterations: fixed number of optimisation steps.
+        init: how the textures start (``"bake"``, the default, ``"source"``, ``"average"`` or
+            ``"random"``; see ``LatentConfig.init``).
+        init_mesh: start from this low-poly mesh (any readable file, in the input's frame)
+            instead of our decimation: the paper's automatic clean-up of an existing LOD. Its
+            UVs and textures are kept where it has a usable atlas and one textured material;
+            otherwise the input is baked onto it (onto a fresh atlas where its UVs overlap).
+        seed: random seed (default 0); same seed, same result.
+        config: a ``Config`` or a TOML file with further settings; the arguments above override it.
+        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (with the settings
+            and the initial guess stored in it; ``input`` must be the same asset). A fixed
+            ``iterations`` count is completed exactly; under a time budget the resumed session
+            gets the budget afresh.
+        force: overwrite an existing ``outdir``.
+        material_override: render the input with this material on every triangle (e.g. a
+            colour for untextured scans).
+        export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures.
+        progress: show a progress bar.
+
+    Raises:
+        ConfigError, AssetError: with a message naming the problem.
+    """
+    started = time.monotonic()
+    given = input if isinstance(input, Asset) else None
+    name = given.name if given is not None else Path(input).stem
+    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
+    check_outdir(outdir, force=force, resume=resume)
+    checkpoint = outdir / CHECKPOINT_NAME
+    saved = read_checkpoint(checkpoint) if resume else None
+    if saved is not None:
+        cfg = config_from_dict(saved["config"], origin=str(checkpoint))
+    else:
+        cfg = with_overrides(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
+                             resolution=resolution, time_budget=time_budget, iterations=iterations, init=init, seed=seed,
+                             export_obj=export_obj)
+        input_name = str(input) if given is None else str(given.source or given.name)
+        cfg.io = dataclasses.replace(cfg.io, input=input_name, init_mesh="" if init_mesh is None else str(init_mesh),
+                                     outdir=str(outdir))
+
+    timings: dict[str, float] = {}
+    with _stage(timings, "load and initial guess"):
+        asset, notes = prepare_input(given if given is not None else io.load(input), material_override)
+        guess = saved["initial_guess"] if saved is not None else None
+        if guess is None:
+            count = None if cfg.io.init_mesh else _triangle_target(cfg.latent, asset)
+            prepare_outdir(outdir, force=force, resume=resume)
+            write_text_atomic(outdir / "config.toml", to_toml(cfg))
+            guess = build_initial_guess(asset, cfg, count)
+        reference = MeshReference(asset, cfg.render.resolution, cfg.render.target_spp)
+        centre, radius = reference.bounding_sphere()
+        latent = TexturedMesh.from_asset(guess.start, centre, radius, cfg.clamp, cfg.render.latent_msaa,
+                                         train_alpha=uses_alpha(asset))
+    with _stage(timings, "reference views"):
+        sampler = view_sampler(centre, radius)
+        heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed)
+        validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed)
+                      if cfg.views.validation else None)
+        source = (ViewPool(reference, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
+                           cfg.views.refresh_every)
+                  if cfg.views.pool_size else FreshViews(reference, sampler))
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
+    baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \
+        else ("decimated", "Plain decimation")
+    with _stage(timings, "scoring plain decimation"):
+        baseline = heldout.score(baseline_key, baseline_label, guess.baseline, draw, None)
+    methods = [baseline]
+    if guess.baked is not None:
+        with _stage(timings, "scoring the classic bake"):
+            methods.append(heldout.score("baked", "Classic bake", guess.baked, draw, cfg.latent.texture_size))
+
+    checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds,
+                                extra={"config": config_to_dict(cfg), "initial_guess": guess})
+    fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(asset)),
+                    validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
+                    checkpointer=checkpointer)
+    if saved is not None:
+        fitter.load_state_dict(saved)
+    else:
+        checkpointer.save(fitter.state_dict())
+    output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
+    available = max(cfg.optim.time_budget - (time.monotonic() - started) - output_time, 0.0)
+    with _stage(timings, "optimisation"):
+        fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
+    export = fit.best.export()
+    with _stage(timings, "scoring ours"):
+        methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
+    with _stage(timings, "export"):
+        model = write_model(export, outdir, cfg.io.export_obj)
+    record = RunRecord(
+        asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
+        methods=methods, input_triangles=asset.mesh.num_triangles, output_triangles=export.mesh.num_triangles,
+        texture_size=cfg.latent.texture_size, resolution=cfg.render.resolution,
+        loss_history=np.asarray(fit.losses, dtype=np.float64),
+        validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
+        validation_views=cfg.views.validation, iterations=fit.iterations, rollbacks=fit.rollbacks,
+        interrupted=fit.interrupted, wall_time=time.monotonic() - started,
+        seconds_per_iteration=fit.seconds / max(fit.iterations, 1), timings=timings,
+        config=config_to_dict(cfg), notes=notes + guess.notes,
+    )
+    with _stage(timings, "report"):
+        report, metrics = write_record(outdir, record, started)
+    if not fit.interrupted:
+        checkpoint.unlink(missing_ok=True)
+    return SimplifyResult(outdir=outdir, model=model, report=report, metrics=metrics, interrupted=fit.interrupted)
+
+
+def _triangle_target(latent: LatentConfig, asset: Asset) -> int:
+    """The decimation target of ``latent`` (``triangles``, else ``ratio`` or the default ratio)."""
+    ratio = latent.ratio if latent.ratio is not None else LatentConfig.DEFAULT_RATIO
+    return target_triangle_count(latent.triangles, ratio, asset.mesh.num_triangles)
+
+
+def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
+    """The initial guess of a run: the user's mesh (``cfg.io.init_mesh``) with its own textures
+    or a bake, else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures."""
+    size = cfg.latent.texture_size
+    if cfg.io.init_mesh:
+        lod = io.load(cfg.io.init_mesh)
+        return initial_guess_from_mesh(asset, lod, Path(cfg.io.init_mesh).name, size)
+    clamp = cfg.clamp
+    ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
+    return initial_guess(asset, decimate(asset.mesh, count), cfg.latent.init, size, ranges,
+                         np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+
+
+@contextlib.contextmanager
+def _stage(timings: dict[str, float], name: str) -> Iterator[None]:
+    """Record the wall seconds of the ``with`` block as ``timings[name]``."""
+    clock = time.monotonic()
+    yield
+    timings[name] = time.monotonic() - clock
+
+
+def prepare_input(asset: Asset, material_override: Material | None) -> tuple[Asset, list[str]]:
+    """``asset`` with ``material_override`` applied (a copy; the input is not modified), and
+    remarks about it for the report."""
+    notes = []
+    if material_override is not None:
+        mesh = dataclasses.replace(asset.mesh, t_mat_idx=torch.zeros_like(asset.mesh.t_mat_idx))
+        asset = dataclasses.replace(asset, mesh=mesh, materials=[material_override])
+        notes.append("every triangle of the input rendered with one given material")
+    if not asset.mesh.uv:
+        notes.append("the input has no UVs: plain decimation shows its constant materials")
+    if asset.skin is not None:
+        notes.append("the input is skinned: it was simplified in its bind pose, and the output is static")
+    return asset, notes

@@ -1,0 +1,104 @@
+"""Compiled per-pixel loops of rasterize's barycentrics, forward and hand-written backward.
+
+The plain-torch twin is :func:`.barycentrics.barycentrics_python`; tests compare values and
+gradients.  Pixels are walked row by row in parallel (``prange``) in the forward pass; the
+backward pass accumulates into per-view gradient buffers, so it runs in parallel over views.
+Pixel ``(ix, iy)`` has its centre at NDC ``((2 ix + 1)/W - 1, (2 iy + 1)/H - 1)``.
+"""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+
+@njit(cache=True, parallel=True)
+def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
+    """Fill ``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]``.
+
+    ``coef [B, T, 9]`` holds per triangle ``(c_0, c_1, s)`` with ``c_i = v_j x v_k`` and
+    ``s = c_0 + c_1 + c_2`` (``v = (x, y, w)``); at ``p = (px, py, 1)``: ``u = c_0.p / s.p``,
+    ``v = c_1.p / s.p``, ``du/dX = (2/W)(c_0x - u s_x) / s.p`` and likewise for the others.
+    ``tri_id [B,H,W]`` int32 (triangle + 1, 0 = none), ``depth [B,H,W]`` float32.
+    """
+    n_views, height, width = tri_id.shape
+    kx, ky = 2.0 / width, 2.0 / height
+    for row in prange(n_views * height):
+        b, iy = row // height, row % height
+        py = (2 * iy + 1) / height - 1.0
+        for ix in range(width):
+            t = tri_id[b, iy, ix] - 1
+            if t < 0:
+                for k in range(4):
+                    rast[b, iy, ix, k] = 0.0
+                    rast_db[b, iy, ix, k] = 0.0
+                continue
+            px = (2 * ix + 1) / width - 1.0
+            s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
+            u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
+            v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
+            rast[b, iy, ix, 0] = u
+            rast[b, iy, ix, 1] = v
+            rast[b, iy, ix, 2] = depth[b, iy, ix]
+            rast[b, iy, ix, 3] = t + 1
+            rast_db[b, iy, ix, 0] = (coef[b, t, 0] - u * coef[b, t, 6]) / s * kx
+            rast_db[b, iy, ix, 1] = (coef[b, t, 1] - u * coef[b, t, 7]) / s * ky
+            rast_db[b, iy, ix, 2] = (coef[b, t, 3] - v * coef[b, t, 6]) / s * kx
+            rast_db[b, iy, ix, 3] = (coef[b, t, 4] - v * coef[b, t, 7]) / s * ky
+
+
+@njit(cache=True, parallel=True)
+def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
+    """Accumulate into ``grad_coef [B, T, 9]`` (zeroed) the gradient of
+    :func:`barycentrics_forward` given ``grad_rast [B,H,W,4]`` (channels 0, 1 used) and
+    ``grad_db [B,H,W,4]`` (used when ``use_db``).
+
+    Per pixel, with ``S = s.p``: the db terms give direct gradients to ``c_0x, c_0y, c_1x,
+    c_1y`` (``k/S``), to ``s_x, s_y`` (``-k u/S``, ``-k v/S``) and to ``S`` and ``u, v``;
+    then ``u = c_0.p / S`` sends ``g_u p / S`` to ``c_0`` and ``-g_u u / S`` to ``S``, and
+    ``S = s.p`` sends ``g_S p`` to ``s``.
+    """
+    n_views, height, width = tri_id.shape
+    kx, ky = 2.0 / width, 2.0 / height
+    for b in prange(n_views):
+        for iy in range(height):
+            py = (2 * iy + 1) / height - 1.0
+            for ix in range(width):
+                t = tri_id[b, iy, ix] - 1
+                if t < 0:
+                    continue
+                px = (2 * ix + 1) / width - 1.0
+                s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
+                u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
+                v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
+                g_u = grad_rast[b, iy, ix, 0]
+                g_v = grad_rast[b, iy, ix, 1]
+                g_s = 0.0
+                if use_db:
+                    gux, guy = grad_db[b, iy, ix, 0] * kx, grad_db[b, iy, ix, 1] * ky
+                    gvx, gvy = grad_db[b, iy, ix, 2] * kx, grad_db[b, iy, ix, 3] * ky
+                    sx, sy = coef[b, t, 6], coef[b, t, 7]
+                    dudx_s = coef[b, t, 0] - u * sx  # S * du/dX / kx, etc.
+                    dudy_s = coef[b, t, 1] - u * sy
+                    dvdx_s = coef[b, t, 3] - v * sx
+                    dvdy_s = coef[b, t, 4] - v * sy
+                    grad_coef[b, t, 0] += gux / s
+                    grad_coef[b, t, 1] += guy / s
+                    grad_coef[b, t, 3] += gvx / s
+                    grad_coef[b, t, 4] += gvy / s
+                    grad_coef[b, t, 6] -= (gux * u + gvx * v) / s
+                    grad_coef[b, t, 7] -= (guy * u + gvy * v) / s
+                    g_u -= (gux * sx + guy * sy) / s
+                    g_v -= (gvx * sx + gvy * sy) / s
+                    g_s -= (gux * dudx_s + guy * dudy_s + gvx * dvdx_s + gvy * dvdy_s) / (s * s)
+                g_s -= (g_u * u + g_v * v) / s
+                g_e0 = g_u / s
+                g_e1 = g_v / s
+                grad_coef[b, t, 0] += g_e0 * px
+                grad_coef[b, t, 1] += g_e0 * py
+                grad_coef[b, t, 2] += g_e0
+                grad_coef[b, t, 3] += g_e1 * px
+                grad_coef[b, t, 4] += g_e1 * py
+                grad_coef[b, t, 5] += g_e1
+                grad_coef[b, t, 6] += g_s * px
+                grad_coef[b, t, 7] += g_s * py
+                grad_coef[b, t, 8] += g_s
