@@ -17,7 +17,7 @@ from lookalike.cli import main
 from lookalike.errors import ConfigError
 from lookalike.init import unwrap
 from lookalike.init.bake import atlas_texels, bake, project_along_normals
-from lookalike.init.bake_job import bake_asset
+from lookalike.jobs.bake import bake_asset
 from lookalike.init import raycast
 from lookalike.init.raycast import RayCaster, intersect_python
 from lookalike.shading import render

@@ -26,13 +26,13 @@ def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
 def stub_simplify(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override):
+    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh):
         calls.append(SimpleNamespace(input=input, outdir=outdir, triangles=triangles, time_budget=time_budget,
                                      iterations=iterations, material=material_override))
         gain = 2.0 if "spot" in str(input) else 4.0
         return SimpleNamespace(metrics=_metrics(triangles, 27.0, 27.0 + gain))
 
-    monkeypatch.setattr(importlib.import_module("lookalike.fit.simplify"), "simplify", fake)
+    monkeypatch.setattr(importlib.import_module("lookalike.jobs.simplify"), "simplify", fake)
     assets = tmp_path / "assets"
     assets.mkdir()
     return calls, assets

@@ -34,12 +34,12 @@ def _metrics(init: str, asset: str, iterations: int | None) -> dict:
 def runs(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override):
+    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh):
         calls.append(SimpleNamespace(input=str(input), outdir=outdir, init=init, time_budget=time_budget,
                                      iterations=iterations))
         return SimpleNamespace(metrics=_metrics(init, str(input), iterations))
 
-    monkeypatch.setattr(importlib.import_module("lookalike.fit.simplify"), "simplify", fake)
+    monkeypatch.setattr(importlib.import_module("lookalike.jobs.simplify"), "simplify", fake)
     assets = tmp_path / "assets"
     assets.mkdir()
     return calls, warmstart.run(out=tmp_path / "out", assets_dir=assets, time_budget=60.0)

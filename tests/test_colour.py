@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import torch
 
 from lookalike.colour import srgb_decode, srgb_encode, tonemap
@@ -33,3 +34,20 @@ def test_numpy_and_torch_agree_without_nan():
     t = torch.linspace(-1.0, 3.0, 401, dtype=torch.float64, requires_grad=True)
     tonemap(t).sum().backward()
     assert torch.isfinite(t.grad).all()
+
+
+def _hand_srgb(x: float) -> float:
+    return 12.92 * x if x <= 0.0031308 else 1.055 * x ** (1 / 2.4) - 0.055
+
+
+def test_tonemap_matches_the_papers_formula_over_the_range():
+    xs = [0.0, 0.001, 0.003, 0.01, 0.5, 1.0, 7.0, 1000.0]
+    got = tonemap(torch.tensor(xs, dtype=torch.float64))
+    want = [_hand_srgb(np.log1p(x)) for x in xs]
+    assert got.tolist() == pytest.approx(want, rel=1e-12, abs=1e-15)
+
+
+def test_srgb_is_continuous_at_the_knee():
+    knee = torch.tensor([0.0031308 - 1e-9, 0.0031308 + 1e-9], dtype=torch.float64)
+    low, high = srgb_encode(knee).tolist()
+    assert abs(low - high) < 1e-6

@@ -1,12 +1,14 @@
-"""Run configuration: defaults, TOML round trip, validation, durations."""
+"""Run configuration: defaults, TOML round trip, validation, durations, and what it sets up:
+learning rates, outline views, the loop's settings and the objective."""
 
 from __future__ import annotations
 
 import pytest
 
 from lookalike.errors import ConfigError
-from lookalike.fit.config import (COLD_START, WARM_START, Config, config_from_dict, learning_rates, load_config,
-                                  outline_views, parse_duration, to_toml)
+from lookalike.fit.config import (COLD_START, WARM_START, Config, learning_rates, loop_settings, objective,
+                                  outline_views)
+from lookalike.fit.config_file import config_from_dict, load_config, parse_duration, to_toml, with_overrides
 
 
 def test_toml_round_trip_keeps_every_setting(tmp_path):
@@ -73,8 +75,6 @@ def test_bad_durations(text):
 
 
 def test_overrides_name_fields_and_a_count_replaces_a_ratio(tmp_path):
-    from lookalike.fit.config import with_overrides
-
     path = tmp_path / "run.toml"
     path.write_text('[latent]\nratio = 0.1\n[optim]\nseed = 4\n')
     config = with_overrides(path, triangles=500, seed=None, time_budget="90s")
@@ -111,3 +111,42 @@ def test_warm_starts_get_lower_learning_rates_unless_they_are_set(init, expected
                                                    ("bake", {"outline_views": 0}, 0)])
 def test_warm_starts_add_outline_views_unless_set(init, optim, expected):
     assert outline_views(config_from_dict({"latent": {"init": init}, "optim": optim})) == expected
+
+
+@pytest.mark.parametrize("pool, outline, expected", [(0, True, 3), (16, True, 3), (4, True, 2), (16, False, 0)])
+def test_outline_views_fit_the_pool_and_skip_latents_with_alpha(pool, outline, expected):
+    """``outline``: the latent's coverage is geometry's alone (no trained alpha)."""
+    cfg = config_from_dict({"optim": {"outline_views": 3}, "views": {"batch_size": 2, "pool_size": pool}})
+    assert loop_settings(cfg, outline=outline).views_per_step == 2 + expected
+
+
+@pytest.mark.parametrize("init", ["bake", "random"])
+def test_the_loop_settings_follow_the_configuration(init):
+    cfg = config_from_dict({"latent": {"init": init}, "views": {"batch_size": 3},
+                            "optim": {"iterations": 40, "lr_decay": 0.01, "seed": 9, "validate_every": 7,
+                                      "rollback_lr_factor": 0.25, "max_rollbacks": 5, "outline_views": 0}})
+    settings = loop_settings(cfg, outline=True)
+    lr_positions, lr_textures = learning_rates(cfg)
+    assert settings.learning_rates == {"positions": lr_positions, "textures": lr_textures}
+    assert (settings.views_per_step, settings.iterations, settings.lr_decay, settings.seed) == (3, 40, 0.01, 9)
+    assert settings.lr_decades == (WARM_START if init == "bake" else COLD_START).lr_decades
+    assert (settings.validate_every, settings.rollback_lr_factor, settings.max_rollbacks) == (7, 0.25, 5)
+
+
+def test_the_objective_follows_the_configuration():
+    from lookalike.fit.losses import smape
+
+    cfg = config_from_dict({"views": {"batch_size": 3},
+                            "optim": {"loss": "smape", "outline_weight": 0.5, "laplacian_weight": 2.0,
+                                      "laplacian_min_fraction": 0.1, "laplacian_decay_fraction": 0.4}})
+    made = objective(cfg)
+    assert made.loss_fn is smape and made.batch_size == 3 and made.outline_weight == 0.5
+    assert (made.regularizer_weight, made.min_fraction, made.decay_fraction) == (2.0, 0.1, 0.4)
+    assert objective(Config()).regularizer_weight is None  # the heuristic
+
+
+def test_a_users_mesh_moves_its_vertices_at_the_cold_rate_and_its_texels_at_the_warm_one():
+    """A damaged LOD's vertices may be far from the surface; its textures are a bake or its own."""
+    cfg = config_from_dict({"io": {"init_mesh": "lod.glb"}})
+    assert learning_rates(cfg) == (COLD_START.lr_positions, WARM_START.lr_textures)
+    assert loop_settings(cfg, outline=True).views_per_step == 1 + WARM_START.outline_views

@@ -1,20 +1,20 @@
-"""The latent model: frames, clamping, state round trip; the output folder rules."""
+"""The latent model of ``simplify`` (``TexturedMesh``): frames, clamping, the Laplacian
+regulariser, coverage, state round trip."""
 
 from __future__ import annotations
-
-import os
 
 import pytest
 import torch
 
 from lookalike.asset import Mesh
-from lookalike.errors import ConfigError
 from lookalike.fit.config import ClampConfig
-from lookalike.fit.latent import Latent, normal_to_slopes, slopes_to_normal
-from lookalike.fit.outdir import CHECKPOINT_NAME, atomic_path, prepare_outdir, write_text_atomic
+from lookalike.fit.textured_mesh import TexturedMesh, normal_to_slopes, slopes_to_normal
 
 
-def make_latent(size: int = 4, alpha: bool = False) -> Latent:
+def make_latent(size: int = 4, alpha: bool = False, cls: type[TexturedMesh] = TexturedMesh, **kwargs) -> TexturedMesh:
+    """One triangle in world coordinates [10, 12] x [0, 2] with random textures; its unit frame
+    is centred at (11, 1, 0) with radius 2. ``kwargs`` go to the constructor (``limits``,
+    ``msaa``, ...)."""
     mesh = Mesh(v_pos=torch.tensor([[10.0, 0, 0], [12.0, 0, 0], [10.0, 2.0, 0]]),
                 t_pos_idx=torch.tensor([[0, 1, 2]]),
                 uv=[(torch.tensor([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), torch.tensor([[0, 1, 2]]))])
@@ -22,8 +22,12 @@ def make_latent(size: int = 4, alpha: bool = False) -> Latent:
     kd = torch.rand(size, size, channels)
     ks = torch.rand(size, size, 3)
     normal = torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3)
-    return Latent(mesh, kd, ks, normal, centre=torch.tensor([11.0, 1.0, 0.0]), radius=2.0,
-                  alpha_mode="BLEND" if alpha else "OPAQUE")
+    return cls(mesh, kd, ks, normal, centre=torch.tensor([11.0, 1.0, 0.0]), radius=2.0,
+               alpha_mode="BLEND" if alpha else "OPAQUE", **kwargs)
+
+
+def laplacian(latent: TexturedMesh) -> float:
+    return float(latent.regularizers()["laplacian"].detach())
 
 
 def test_positions_live_in_the_unit_frame_and_export_in_the_input_frame():
@@ -32,6 +36,8 @@ def test_positions_live_in_the_unit_frame_and_export_in_the_input_frame():
     asset = latent.as_asset()
     assert torch.allclose(asset.mesh.v_pos, torch.tensor([[10.0, 0, 0], [12, 0, 0], [10, 2, 0]]))
     assert asset.mesh.v_pos.requires_grad  # differentiable for the renderer
+    exported = latent.export()
+    assert torch.equal(exported.mesh.v_pos, asset.mesh.v_pos) and not exported.mesh.v_pos.requires_grad
 
 
 def test_alpha_is_one_unless_trained():
@@ -41,13 +47,22 @@ def test_alpha_is_one_unless_trained():
     assert torch.equal(latent.as_asset().materials[0].kd.data, latent.kd)
 
 
-def test_clamp_projects_every_texture_into_its_range():
+def test_the_parameter_groups_hold_every_parameter_once():
     latent = make_latent()
+    groups = latent.parameter_groups()
+    assert list(groups) == ["positions", "textures"]
+    assert groups["positions"] == [latent.v_pos]
+    grouped = [id(p) for params in groups.values() for p in params]
+    assert sorted(grouped) == sorted(id(p) for p in latent.parameters()) and len(set(grouped)) == len(grouped)
+
+
+def test_clamp_projects_every_texture_into_the_stored_limits():
+    latent = make_latent(limits=ClampConfig(roughness=(0.1, 0.9), normal_max_slope=2.0))
     with torch.no_grad():
         latent.kd.uniform_(-1, 2)
         latent.ks.uniform_(-1, 2)
         latent.normal.copy_(10 * torch.randn_like(latent.normal))
-    latent.clamp_(ClampConfig(roughness=(0.1, 0.9), normal_max_slope=2.0))
+    latent.clamp_()
     assert latent.kd.min() >= 0 and latent.kd.max() <= 1
     assert latent.ks[..., 1].min() >= 0.1 and latent.ks[..., 1].max() <= 0.9
     assert latent.ks[..., 0].min() >= 0 and latent.ks[..., 2].max() <= 1 and latent.ks.min() >= 0
@@ -62,40 +77,47 @@ def test_normals_are_unit_slopes_and_round_trip():
     assert torch.equal(latent.unit_normal(), torch.tensor([0.0, 0.0, 1.0]).expand(4, 4, 3))
 
 
+def test_the_laplacian_is_relative_to_the_initial_mesh_and_scaled_by_its_energy():
+    latent = make_latent()
+    # unit-frame corners (-.5, -.5), (.5, -.5), (-.5, .5): differentials (-.5, -.5), (1, -.5), (-.5, 1),
+    # squared lengths .5, 1.25, 1.25
+    assert latent.regularizer_scales() == {"laplacian": pytest.approx(1.0)}
+    assert laplacian(latent) == 0.0
+    with torch.no_grad():
+        latent.v_pos += torch.tensor([0.2, -0.1, 0.3])  # a translation leaves the differentials alone
+    assert laplacian(latent) == pytest.approx(0.0, abs=1e-12)
+    with torch.no_grad():
+        latent.v_pos[0, 0] += 0.3  # delta_0 moves by 0.3, delta_1 and delta_2 by -0.15
+    assert laplacian(latent) == pytest.approx((0.09 + 2 * 0.0225) / 3)
+    assert latent.regularizer_scales() == {"laplacian": pytest.approx(1.0)}  # the initial mesh's
+    assert "rest_delta" in latent.state_dict()
+
+
+def test_coverage_is_none_where_alpha_is_trained():
+    from lookalike.shading.camera import Camera
+
+    eye = torch.tensor([[11.0, 1.0, 6.0]])
+    camera = Camera.looking_at(eye, torch.tensor([[11.0, 1.0, 0.0]]))
+    coverage = make_latent().coverage(camera, 8)
+    assert coverage.shape == (1, 8, 8) and 0 < float(coverage.detach().mean()) < 1
+    assert make_latent(alpha=True).coverage(camera, 8) is None
+
+
 def test_state_dict_round_trip_rebuilds_the_same_model():
-    latent = make_latent(alpha=True)
-    again = Latent.from_state_dict(latent.state_dict())
+    latent = make_latent(alpha=True, limits=ClampConfig(kd=(0.1, 0.9)), msaa=2, double_sided=True, wrap="wrap")
+    with torch.no_grad():
+        latent.v_pos[0, 0] += 0.3
+    expected_laplacian = laplacian(latent)
+    assert expected_laplacian == pytest.approx((0.09 + 2 * 0.0225) / 3)
+    # another model, built on the moved mesh (so its own initial mesh differs) with other textures and settings
+    again = TexturedMesh(latent.export().mesh, torch.rand(4, 4, 4), torch.rand(4, 4, 3),
+                         torch.tensor([0.0, 0.0, 1.0]).expand(4, 4, 3), centre=torch.zeros(3), radius=1.0)
+    assert laplacian(again) == 0.0 and not torch.equal(again.kd, latent.kd)
+    again.load_state_dict(latent.state_dict())
     for name, value in latent.state_dict().items():
         if isinstance(value, torch.Tensor):
             assert torch.equal(value, again.state_dict()[name]), name
     assert again.alpha_mode == "BLEND" and again.trains_alpha
-
-
-def test_outdir_is_never_overwritten_without_force(tmp_path):
-    out = tmp_path / "out"
-    prepare_outdir(out, force=False, resume=False)  # absent: created
-    prepare_outdir(out, force=False, resume=False)  # empty: fine
-    (out / "model.glb").write_text("old")
-    with pytest.raises(ConfigError, match="--force"):
-        prepare_outdir(out, force=False, resume=False)
-    (out / CHECKPOINT_NAME).write_text("stale")
-    prepare_outdir(out, force=True, resume=False)
-    assert not (out / CHECKPOINT_NAME).exists() and (out / "model.glb").exists()
-
-
-def test_resume_needs_a_checkpoint(tmp_path):
-    with pytest.raises(ConfigError, match="nothing to resume"):
-        prepare_outdir(tmp_path, force=False, resume=True)
-    (tmp_path / CHECKPOINT_NAME).write_text("x")
-    assert prepare_outdir(tmp_path, force=False, resume=True) == tmp_path
-
-
-def test_atomic_writes_leave_the_old_file_on_failure(tmp_path):
-    target = tmp_path / "metrics.json"
-    write_text_atomic(target, "first")
-    with pytest.raises(RuntimeError):
-        with atomic_path(target) as temp:
-            temp.write_text("half")
-            raise RuntimeError("writer crashed")
-    assert target.read_text() == "first"
-    assert os.listdir(tmp_path) == ["metrics.json"]
+    assert again.limits == ClampConfig(kd=(0.1, 0.9)) and again.msaa == 2
+    assert again.double_sided and again.wrap == "wrap"
+    assert laplacian(again) == expected_laplacian  # the initial mesh's differentials came along

@@ -1,5 +1,6 @@
 """The optimisation loop with a toy differentiable "renderer" (no rasterizer needed):
-convergence, NaN rollback, Ctrl-C checkpoint and resume, determinism, time-budget planning."""
+convergence, NaN rollback, checkpoints, Ctrl-C and resume, determinism, time-budget planning,
+outline views; the rolling view pool."""
 
 from __future__ import annotations
 
@@ -9,9 +10,15 @@ import numpy as np
 import pytest
 import torch
 
-from lookalike.fit.config import COLD_START, WARM_START, Config, config_from_dict
-from lookalike.fit.latent import Latent
-from lookalike.fit.optimize import SNAPSHOT_EVERY, Batch, Fitter, read_checkpoint
+from lookalike.asset import Mesh
+from lookalike.errors import ConfigError
+from lookalike.fit.checkpoint import CHECKPOINT_VERSION, Checkpointer, read_checkpoint
+from lookalike.fit.config import COLD_START, WARM_START, Config, loop_settings, objective
+from lookalike.fit.config_file import config_from_dict, config_to_dict
+from lookalike.fit.loop import SNAPSHOT_EVERY, Fitter, LoopSettings
+from lookalike.fit.objective import Objective
+from lookalike.fit.textured_mesh import TexturedMesh
+from lookalike.fit.training_views import Batch
 from lookalike.shading.camera import Camera
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render_coverage
@@ -22,16 +29,31 @@ SIZE = 4
 
 
 def toy_render(asset, camera, light):
-    """``[B, S, S, 4]``: texel colour times the light's intensity plus a term in the mean
-    vertex position, alpha 1. Differentiable in the textures and the positions."""
+    """``[B, S, S, 4]``: texel colour times the light's intensity plus a term in the first
+    vertex's position, alpha 1. Differentiable in the textures and the positions (moving one
+    vertex alone, so that the Laplacian regulariser has something to hold back)."""
     kd = asset.materials[0].kd.data[..., :3]
-    shift = 0.05 * asset.mesh.v_pos.mean(dim=0)
+    shift = 0.05 * asset.mesh.v_pos[0]
     rgb = kd[None] * light.intensity[:, None, None, :] + shift
     return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
 
 
+class ToyMesh(TexturedMesh):
+    """A ``TexturedMesh`` that draws itself with ``draw`` (``toy_render`` unless a test swaps
+    it); its coverage is the real one."""
+
+    draw = staticmethod(toy_render)
+
+    def render(self, camera, light, resolution):
+        return self.draw(self.as_asset(), camera, light)
+
+
+def toy_latent() -> ToyMesh:
+    return make_latent(SIZE, cls=ToyMesh)
+
+
 class ToySource:
-    def __init__(self, truth: Latent):
+    def __init__(self, truth: TexturedMesh):
         self.truth = truth
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
@@ -53,10 +75,13 @@ def config(**optim) -> Config:
                              "views": {"batch_size": 2}})
 
 
-def fitter(cfg: Config, render=toy_render, checkpoint=None, validate=None) -> Fitter:
+def fitter(cfg: Config, draw=None, checkpointer=None, validate=None) -> Fitter:
     torch.manual_seed(1)
-    truth, start = make_latent(SIZE), make_latent(SIZE)
-    return Fitter(start, ToySource(truth), render, cfg, checkpoint=checkpoint, validate=validate)
+    truth, start = toy_latent(), toy_latent()
+    if draw is not None:
+        start.draw = draw
+    return Fitter(start, ToySource(truth), objective(cfg), loop_settings(cfg, outline=True), validate=validate,
+                  checkpointer=checkpointer)
 
 
 def test_loss_goes_down_and_the_best_state_is_kept():
@@ -130,7 +155,7 @@ def test_a_nan_step_rolls_back_lowers_the_learning_rate_and_carries_on():
         image = toy_render(asset, camera, light)
         return image * math.nan if calls["n"] == poisoned_call else image
 
-    fit = fitter(config(iterations=30), render=poisoned)
+    fit = fitter(config(iterations=30), draw=poisoned)
     for _ in range(poisoned_call - 1):
         fit.step()
     good_kd = fit._good[0]["kd"].clone()
@@ -144,7 +169,7 @@ def test_a_nan_step_rolls_back_lowers_the_learning_rate_and_carries_on():
 
 
 def test_too_many_failures_in_a_row_stop_the_loop():
-    fit = fitter(config(iterations=50, max_rollbacks=3), render=lambda *a: toy_render(*a) * math.nan)
+    fit = fitter(config(iterations=50, max_rollbacks=3), draw=lambda *a: toy_render(*a) * math.nan)
     result = fit.run(progress=False)
     assert result.iterations == 3 and result.rollbacks == 3
 
@@ -162,20 +187,102 @@ def test_ctrl_c_writes_a_checkpoint_and_resume_continues_exactly(tmp_path):
         return toy_render(asset, camera, light)
 
     path = tmp_path / "checkpoint.pt"
-    first = fitter(config(iterations=24), render=interrupting, checkpoint=path)
+    cfg = config(iterations=24)
+    first = fitter(cfg, draw=interrupting,
+                   checkpointer=Checkpointer(path, every_seconds=3600, extra={"config": config_to_dict(cfg)}))
     result = first.run(progress=False)
     assert result.interrupted and result.iterations == 13 and path.exists()
 
-    state, cfg, latent = read_checkpoint(path)
+    state = read_checkpoint(path)
+    cfg = config_from_dict(state["config"])
     assert cfg == config(iterations=24) and state["progress"]["iteration"] == 13
     torch.manual_seed(1)
-    second = Fitter(latent, ToySource(make_latent(SIZE)), toy_render, cfg, checkpoint=path)
+    truth = toy_latent()  # the same reference as above
+    latent = toy_latent()  # another start: the checkpoint replaces its state
+    assert not torch.equal(latent.kd, first.latent.kd)
+    second = Fitter(latent, ToySource(truth), objective(cfg), loop_settings(cfg, outline=True),
+                    checkpointer=Checkpointer(path, every_seconds=3600))
     second.load_state_dict(state)
     assert second.progress.iteration == 13
+    assert second.objective.lambda_0 == straight_fit.objective.lambda_0  # set at step 0, not again now
     resumed = second.run(progress=False)
     assert resumed.iterations == 24 and resumed.losses == straight.losses
     assert torch.equal(second.latent.kd, straight_fit.latent.kd)
     assert torch.equal(second.latent.v_pos, straight_fit.latent.v_pos)
+
+
+def test_a_resume_from_a_periodic_checkpoint_continues_like_the_uninterrupted_run(tmp_path):
+    """Written between steps (not on Ctrl-C), here after 10 of 16, with a validator's scores
+    and the best state so far in it; the uninterrupted run is unaffected by writing it."""
+
+    class AfterTenSteps(Checkpointer):
+        asked = 0
+
+        def due(self):
+            self.asked += 1
+            return self.asked == 10
+
+    straight_fit = fitter(config(iterations=16, validate_every=4), validate=lambda model: -float(model.kd.mean()))
+    straight = straight_fit.run(progress=False)
+
+    path = tmp_path / "checkpoint.pt"
+    first = fitter(config(iterations=16, validate_every=4), validate=lambda model: -float(model.kd.mean()),
+                   checkpointer=AfterTenSteps(path, every_seconds=3600))
+    assert first.run(progress=False).losses == straight.losses
+    state = read_checkpoint(path)
+    assert state["progress"]["iteration"] == 10 and len(state["progress"]["validation"]) == 3
+
+    torch.manual_seed(1)
+    truth, latent = toy_latent(), toy_latent()
+    cfg = config(iterations=16, validate_every=4)
+    second = Fitter(latent, ToySource(truth), objective(cfg), loop_settings(cfg, outline=True),
+                    validate=lambda model: -float(model.kd.mean()))
+    second.load_state_dict(state)
+    resumed = second.run(progress=False)
+    assert resumed.losses == straight.losses
+    # the same scores, and one more where the resumed session started (the loop scores at its start)
+    assert [i for i, _ in resumed.validation] == [0, 4, 8, 10, 12, 16]
+    assert [v for v in resumed.validation if v[0] != 10] == straight.validation
+    assert torch.equal(resumed.best.kd, straight.best.kd) and torch.equal(second.latent.kd, straight_fit.latent.kd)
+
+
+def test_checkpoints_round_trip_with_their_extras_and_refuse_other_versions(tmp_path):
+    path = tmp_path / "checkpoint.pt"
+    checkpointer = Checkpointer(path, every_seconds=3600, extra={"config": {"optim": {"seed": 3}}})
+    assert not checkpointer.due()
+    fit = fitter(config(iterations=3))
+    fit.run(progress=False)
+    checkpointer.save(fit.state_dict())
+    state = read_checkpoint(path)
+    assert state["version"] == CHECKPOINT_VERSION and state["config"] == {"optim": {"seed": 3}}
+    assert state["progress"] == fit.progress.__dict__ and state["objective"] == fit.objective.state_dict()
+    for name, value in fit.latent.state_dict().items():
+        if isinstance(value, torch.Tensor):
+            assert torch.equal(state["latent"][name], value), name
+    assert [p.name for p in tmp_path.iterdir()] == ["checkpoint.pt"]  # no temporary left behind
+
+    torch.save({**state, "version": CHECKPOINT_VERSION - 1}, path)
+    with pytest.raises(ConfigError, match=f"not a lookalike checkpoint of version {CHECKPOINT_VERSION}"):
+        read_checkpoint(path)
+    torch.save([1, 2, 3], path)
+    with pytest.raises(ConfigError, match="not a lookalike checkpoint"):
+        read_checkpoint(path)
+    path.write_bytes(b"not a checkpoint")
+    with pytest.raises(ConfigError, match="cannot read the checkpoint"):
+        read_checkpoint(path)
+
+
+def test_a_checkpoint_is_written_when_due_and_not_before(tmp_path):
+    class Counting(Checkpointer):
+        def save(self, state):
+            self.saves = getattr(self, "saves", 0) + 1
+            super().save(state)
+
+    never, always = Counting(tmp_path / "a.pt", every_seconds=3600), Counting(tmp_path / "b.pt", every_seconds=0.0)
+    fitter(config(iterations=5), checkpointer=never).run(progress=False)
+    fitter(config(iterations=5), checkpointer=always).run(progress=False)
+    assert not hasattr(never, "saves") and not (tmp_path / "a.pt").exists()
+    assert always.saves == 5 and read_checkpoint(tmp_path / "b.pt")["progress"]["iteration"] == 5
 
 
 def test_the_time_budget_fixes_the_iteration_count():
@@ -194,11 +301,10 @@ class PositionTarget:
 
 
 def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
-    from lookalike.fit.targets import ViewPool
-    from lookalike.fit.views import view_sampler
+    from lookalike.fit.training_views import ViewPool, view_sampler
     from mesh_factory import icosphere
 
-    sampler = view_sampler(icosphere(1))
+    sampler = view_sampler(*icosphere(1).bounding_sphere())
     pool = ViewPool(PositionTarget(), sampler, size=4, seed=(7, 1), refresh_every=2)
     first = pool.images.clone()
     rng = np.random.default_rng(0)
@@ -216,7 +322,7 @@ def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
 class CountingSource(ToySource):
     """``ToySource`` that records how many views each step asks for."""
 
-    def __init__(self, truth: Latent):
+    def __init__(self, truth: TexturedMesh):
         super().__init__(truth)
         self.sizes = []
 
@@ -228,27 +334,73 @@ class CountingSource(ToySource):
 def test_outline_views_come_with_the_batch_and_add_a_coverage_term():
     cfg = config(outline_views=3, outline_weight=2.0)
     torch.manual_seed(1)
-    start = make_latent(SIZE)
-    source = CountingSource(make_latent(SIZE))
-    fit = Fitter(start, source, toy_render, cfg)
+    start = make_latent(SIZE, cls=ToyMesh, msaa=cfg.render.latent_msaa)
+    source = CountingSource(toy_latent())
+    fit = Fitter(start, source, objective(cfg), loop_settings(cfg, outline=True))
     fit.step()
     assert source.sizes == [2 + 3]
     batch = source.sample(np.random.default_rng(0), 5)
     background = torch.zeros(2, 3)
     shaded, outline = batch.split(2)
     with torch.no_grad():
-        with_outline, _ = fit.loss(batch, background)
-        plain, _ = fit.loss(shaded, background)
-        coverage = render_coverage(start.as_asset().mesh, outline.camera, outline.target.shape[1:3],
-                                   cfg.render.latent_msaa)
+        with_outline = fit.objective.image_loss(start, batch, background)
+        plain = fit.objective.image_loss(start, shaded, background)
+        coverage = render_coverage(Mesh(v_pos=start.world_positions(), t_pos_idx=start.t_pos_idx), outline.camera,
+                                   outline.target.shape[1:3], cfg.render.latent_msaa)
     assert outline.camera.batch_size == 3 and coverage.mean() < 1
     assert torch.allclose(with_outline, plain + 2.0 * (1 - coverage).mean())  # the toy targets are opaque
 
 
-@pytest.mark.parametrize("pool, alpha_mode, expected", [(0, "OPAQUE", 3), (16, "OPAQUE", 3), (4, "OPAQUE", 2),
-                                                        (16, "BLEND", 0)])
-def test_outline_views_fit_the_pool_and_skip_latents_with_alpha(pool, alpha_mode, expected):
-    cfg = config_from_dict({"optim": {"outline_views": 3}, "views": {"batch_size": 2, "pool_size": pool}})
-    latent = make_latent(SIZE)
-    latent.alpha_mode = alpha_mode
-    assert Fitter(latent, ToySource(make_latent(SIZE)), toy_render, cfg).outline_count == expected
+class FlatLatent(torch.nn.Module):
+    """The smallest ``Latent``: one grey colour ``value`` at full coverage, regularised towards 0."""
+
+    def __init__(self):
+        super().__init__()
+        self.value = torch.nn.Parameter(torch.tensor(0.9))
+
+    def parameter_groups(self):
+        return {"colour": [self.value]}
+
+    def render(self, camera, light, resolution):
+        rgb = self.value.expand(camera.batch_size, resolution, resolution, 3)
+        return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
+
+    def coverage(self, camera, resolution):
+        return None
+
+    def clamp_(self):
+        with torch.no_grad():
+            self.value.clamp_(0.0, 0.6)
+
+    def regularizers(self):
+        return {"size": self.value ** 2}
+
+    def regularizer_scales(self):
+        return {"size": 1.0}
+
+
+class GreySource(ToySource):
+    """References of grey 0.25 at full coverage."""
+
+    def __init__(self):
+        pass
+
+    def sample(self, rng, batch_size):
+        eye = torch.from_numpy(rng.normal(size=(batch_size, 3)).astype(np.float32)) + 3
+        camera = Camera.looking_at(eye, torch.zeros_like(eye))
+        light = PointLight(position=eye, intensity=torch.ones(batch_size, 3))
+        target = torch.full((batch_size, 2, 2, 4), 0.25)
+        target[..., 3] = 1
+        return Batch(camera, light, target)
+
+
+def test_the_loop_optimises_any_latent_by_its_own_groups_and_clamps():
+    latent = FlatLatent()
+    settings = LoopSettings(learning_rates={"colour": 0.02}, iterations=150, lr_decades=0.0)
+    fit = Fitter(latent, GreySource(), Objective("l2", batch_size=1, regularizer_weight=0.0), settings)
+    assert [group["lr"] for group in fit.optimizer.param_groups] == [0.02]
+    fit.step()
+    assert latent.value.item() == pytest.approx(0.6)  # clamped after the first step
+    result = fit.run(progress=False)
+    assert float(result.best.value) == pytest.approx(0.25, abs=0.03) and not result.best.value.requires_grad
+    assert result.losses[-1] < 1e-3 < result.losses[0]

@@ -1,30 +1,23 @@
-"""Image losses and schedules against hand-computed values."""
+"""Image losses, schedules and the objective that combines them, against hand-computed values
+(the tone map itself: ``test_colour``)."""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
 from lookalike.fit import losses, schedule
+from lookalike.fit.objective import LAMBDA_HEURISTIC, Objective
+from lookalike.fit.training_views import Batch
+from lookalike.shading.camera import Camera
+from lookalike.shading.light import PointLight
 
 
 def _hand_srgb(x: float) -> float:
     return 12.92 * x if x <= 0.0031308 else 1.055 * x ** (1 / 2.4) - 0.055
-
-
-def test_tonemap_matches_the_papers_formula():
-    xs = [0.0, 0.001, 0.003, 0.01, 0.5, 1.0, 7.0, 1000.0]
-    got = losses.tonemap(torch.tensor(xs, dtype=torch.float64))
-    want = [_hand_srgb(math.log(x + 1)) for x in xs]
-    assert got.tolist() == pytest.approx(want, rel=1e-12, abs=1e-15)
-
-
-def test_srgb_is_continuous_at_the_knee():
-    knee = torch.tensor([0.0031308 - 1e-9, 0.0031308 + 1e-9], dtype=torch.float64)
-    low, high = losses.srgb(knee).tolist()
-    assert abs(low - high) < 1e-6
 
 
 @pytest.fixture
@@ -103,3 +96,101 @@ def test_laplacian_schedule_decays_to_two_percent_over_the_run():
     assert at[1] == pytest.approx(0.02 + 0.98 * 10 ** (-2 * 161 / 160), rel=1e-9)  # excess ~1 % at 20 % of the run
     assert at[2] == pytest.approx(0.02, abs=1e-9)
     assert schedule.laplacian_decay_rate(10_000, 0.2) == pytest.approx(1e-6)  # the paper's k on its runs
+
+
+# -- the objective --------------------------------------------------------------------------
+
+
+class FlatLatent(torch.nn.Module):
+    """A fake latent: every pixel has the colour ``value`` (grey) and coverage ``alpha``; its
+    regularisers are ``(value - 1)^2`` and ``value^2``, with the given scales."""
+
+    def __init__(self, value: float, scales: dict[str, float], alpha: float = 1.0):
+        super().__init__()
+        self.value = torch.nn.Parameter(torch.tensor(value, dtype=torch.float64))
+        self.alpha = alpha
+        self.scales = scales
+
+    def parameter_groups(self):
+        return {"all": [self.value]}
+
+    def render(self, camera, light, resolution):
+        rgb = (self.value * self.alpha).expand(camera.batch_size, resolution, resolution, 3)
+        return torch.cat([rgb, torch.full_like(rgb[..., :1], self.alpha)], dim=-1)
+
+    def coverage(self, camera, resolution):
+        return torch.full((camera.batch_size, resolution, resolution), self.alpha, dtype=torch.float64)
+
+    def clamp_(self):
+        pass
+
+    def regularizers(self):
+        return {"smooth": (self.value - 1) ** 2, "small": self.value ** 2}
+
+    def regularizer_scales(self):
+        return dict(self.scales)
+
+
+def black_batch(views: int, alpha: float = 1.0, size: int = 2) -> Batch:
+    """``views`` views whose reference is black with coverage ``alpha``."""
+    eye = torch.tensor([[0.0, 0.0, 3.0]]).expand(views, 3)
+    camera = Camera.looking_at(eye, torch.zeros_like(eye))
+    light = PointLight(position=eye.clone(), intensity=torch.ones(views, 3))
+    target = torch.zeros(views, size, size, 4, dtype=torch.float64)
+    target[..., 3] = alpha
+    return Batch(camera, light, target)
+
+
+def test_the_objective_sets_lambda_0_from_the_first_image_loss_then_follows_the_schedule():
+    objective = Objective("l2", batch_size=2)
+    latent = FlatLatent(0.5, {"smooth": 4.0, "small": 0.5})
+    rng = np.random.default_rng(0)
+    terms = objective(latent, black_batch(2), rng, 0, 100)
+    image = 0.25  # (0.5 - 0)^2 on every pixel; full coverage hides the background
+    lambda_0 = {"smooth": 0.25 * image / 4.0, "small": 0.25 * image / 0.5}
+    assert LAMBDA_HEURISTIC == 0.25 and objective.lambda_0 == pytest.approx(lambda_0)
+    assert terms.image == pytest.approx(image) and terms.regularizers == pytest.approx({"smooth": 0.25, "small": 0.25})
+    assert float(terms.total.detach()) == pytest.approx(image + lambda_0["smooth"] * 0.25 + lambda_0["small"] * 0.25)
+
+    with torch.no_grad():
+        latent.value.fill_(2.0)  # a larger image loss no longer moves lambda_0
+    terms = objective(latent, black_batch(2), rng, 30, 100)
+    # k = 4 / (0.2 * 100)^2 = 0.01: lambda_t = lambda_0 * (0.02 + 0.98 * 10^(-0.01 * 30 * 31 / 2))
+    decay = 0.02 + 0.98 * 10 ** (-0.01 * 30 * 31 / 2)
+    assert objective.lambda_0 == pytest.approx(lambda_0)
+    assert float(terms.total.detach()) == pytest.approx(4.0 + decay * (lambda_0["smooth"] * 1.0 + lambda_0["small"] * 4.0))
+    assert objective.weights(latent, 123.0, 100, 100) == pytest.approx({k: 0.02 * v for k, v in lambda_0.items()},
+                                                                       rel=1e-6)
+    assert objective.weights(latent, 123.0, 50, None) == pytest.approx(lambda_0)  # no total: no decay yet
+
+
+def test_a_configured_lambda_0_is_kept_and_the_schedule_takes_its_fractions():
+    objective = Objective("l2", batch_size=1, regularizer_weight=3.0, min_fraction=0.1, decay_fraction=0.5)
+    latent = FlatLatent(0.5, {"smooth": 4.0, "small": 0.5})
+    objective(latent, black_batch(1), np.random.default_rng(0), 0, 100)
+    assert objective.lambda_0 == {"smooth": 3.0, "small": 3.0}
+    # k = 4 / (0.5 * 100)^2 = 0.0016
+    expected = 3.0 * (0.1 + 0.9 * 10 ** (-0.0016 * 50 * 51 / 2))
+    assert objective.weights(latent, 1.0, 50, 100) == pytest.approx({"smooth": expected, "small": expected})
+
+
+def test_the_objective_state_carries_lambda_0():
+    first = Objective("l2", batch_size=1)
+    first(FlatLatent(0.5, {"smooth": 1.0, "small": 1.0}), black_batch(1), np.random.default_rng(0), 0, 10)
+    resumed = Objective("l2", batch_size=1)
+    resumed.load_state_dict(first.state_dict())
+    resumed(FlatLatent(3.0, {"smooth": 1.0, "small": 1.0}), black_batch(1), np.random.default_rng(0), 5, 10)
+    assert resumed.lambda_0 == first.lambda_0 == pytest.approx({"smooth": 0.0625, "small": 0.0625})
+
+
+def test_the_objective_composites_over_backgrounds_drawn_from_the_rng_and_adds_the_outline_term():
+    objective = Objective("l2", batch_size=2, outline_weight=2.0)
+    latent = FlatLatent(0.0, {"smooth": 1.0, "small": 1.0}, alpha=0.0)  # empty: the background shows
+    batch = black_batch(3, alpha=0.25)  # two shaded views and one outline view
+    background = np.random.default_rng(7).uniform(0.0, 1.0, size=(2, 3))
+    # composites: the background against 0.75 of it; outline: |0 - 0.25|
+    image = float(np.mean((0.25 * background) ** 2))
+    rng = np.random.default_rng(7)
+    terms = objective(latent, batch, rng, 0, 10)
+    assert terms.image == pytest.approx(image + 2.0 * 0.25, rel=1e-6)
+    assert rng.uniform() == np.random.default_rng(7).uniform(size=7)[-1]  # drew the 2 x 3 colours, nothing more

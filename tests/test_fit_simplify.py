@@ -11,9 +11,10 @@ from lookalike import io
 from lookalike.asset import Asset, Material, Texture
 from lookalike.cli import main
 from lookalike.errors import ConfigError
-from lookalike.fit.config import config_from_dict, load_config
-from lookalike.fit.optimize import Fitter
-from lookalike.fit.simplify import simplify
+from lookalike.fit.config_file import config_from_dict, load_config
+from lookalike.fit.loop import Fitter
+from lookalike.jobs import simplify as simplify_job
+from lookalike.jobs.simplify import simplify
 from mesh_factory import icosphere
 
 TINY = {"views": {"pool_size": 16, "refresh_every": 2, "heldout": 16, "batch_size": 2},
@@ -121,9 +122,38 @@ def test_ctrl_c_leaves_the_best_result_and_a_checkpoint_that_resume_finishes(tmp
     monkeypatch.setattr(Fitter, "step", step)
     with pytest.raises(ConfigError, match="--force"):
         simplify(bumpy_sphere(), outdir, triangles=100, progress=False)
+    whole = simplify(bumpy_sphere(), tmp_path / "whole", triangles=100, iterations=8, config=cfg, progress=False)
+    monkeypatch.setattr(simplify_job, "build_initial_guess", _no_second_initial_guess)
     second = simplify(bumpy_sphere(), outdir, resume=True, progress=False)
     assert not second.interrupted and second.metrics["iterations"] == 8
     assert not (outdir / "checkpoint.pt").exists()
+    assert second.metrics["validation"]["psnr"][-1] == whole.metrics["validation"]["psnr"][-1]
+    assert second.metrics["heldout"]["ours"] == whole.metrics["heldout"]["ours"]
+    resumed, uninterrupted = io.load(second.model), io.load(whole.model)
+    assert torch.equal(resumed.mesh.v_pos, uninterrupted.mesh.v_pos)
+    assert torch.equal(resumed.materials[0].kd.data, uninterrupted.materials[0].kd.data)
+
+
+def _no_second_initial_guess(*args, **kwargs):
+    raise AssertionError("a resumed run must take its initial guess from the checkpoint")
+
+
+def test_a_killed_run_can_resume_from_the_checkpoint_written_after_the_initial_guess(tmp_path, monkeypatch):
+    outdir = tmp_path / "out"
+    cfg = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 2, "batch_size": 1}})
+
+    def killed(self, *args, **kwargs):
+        raise SystemExit(137)
+
+    run = Fitter.run
+    monkeypatch.setattr(Fitter, "run", killed)
+    with pytest.raises(SystemExit):
+        simplify(bumpy_sphere(), outdir, triangles=100, iterations=4, config=cfg, progress=False)
+    assert (outdir / "checkpoint.pt").exists() and not (outdir / "model.glb").exists()
+    monkeypatch.setattr(Fitter, "run", run)
+    monkeypatch.setattr(simplify_job, "build_initial_guess", _no_second_initial_guess)
+    resumed = simplify(bumpy_sphere(), outdir, resume=True, progress=False)
+    assert resumed.metrics["iterations"] == 4 and (outdir / "model.glb").exists()
 
 
 def test_the_command_line_reports_bad_input_without_a_traceback(tmp_path, capsys):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from lookalike.report import ReportData, score_method, write_report
+from lookalike.report import RunRecord, score_method, write_report
 from lookalike.report.images import image_grid, signed_difference, to_srgb_uint8
 from lookalike.report.plot import plot_loss, smooth
 
@@ -20,17 +20,20 @@ def _views(rng, n=3, size=24, blur=0.0):
     return (images + blur * rng.normal(size=images.shape)).clip(0).astype(np.float32)
 
 
-def _data(asset_name="bunny", baked=False) -> ReportData:
+def _data(asset_name="bunny", baked=False) -> RunRecord:
     rng = np.random.default_rng(0)
     reference = _views(rng)
     methods = [score_method("decimated", "Plain decimation", reference, _views(rng, blur=0.3), 1500)]
     if baked:
         methods.append(score_method("baked", "Classic bake", reference, _views(rng, blur=0.2), 1500, 512))
     methods.append(score_method("ours", "Ours", reference, _views(rng, blur=0.05), 1500, 1024))
-    return ReportData(
-        asset_name=asset_name, reference=reference, methods=methods, input_triangles=69451,
-        loss_history=np.exp(-np.arange(300) / 80) + 0.01 * rng.random(300), wall_time=432.0,
-        iterations=300, seconds_per_iteration=1.25,
+    return RunRecord(
+        asset_name=asset_name, input=f"{asset_name}.obj", reference=reference,
+        silhouette=np.zeros(reference.shape[:3], bool), methods=methods, input_triangles=69451,
+        output_triangles=1500, texture_size=1024, resolution=24,
+        loss_history=np.exp(-np.arange(300) / 80) + 0.01 * rng.random(300),
+        validation_history=np.array([[0, 30.0], [300, 33.0]]), validation_views=4, iterations=300, rollbacks=0,
+        interrupted=False, wall_time=432.0, seconds_per_iteration=1.25,
         config={"seed": 7, "optim": {"lr_positions": 0.002, "batch": 4}},
         timings={"reference views": 12.5, "optimisation": 375.0}, notes=["the input has no UVs"],
     )
@@ -122,3 +125,18 @@ def test_the_validation_curve_is_drawn_on_the_loss_plot(tmp_path):
     orange = np.array([0xc0, 0x56, 0x2b])
     assert (np.abs(both - orange).sum(axis=-1) < 30).sum() > 200
     assert (np.abs(plain - orange).sum(axis=-1) < 30).sum() == 0
+
+
+def test_metrics_are_the_records_figures():
+    """``metrics.json`` is read off the same record as the page: the same scores per method, in
+    the record's order, and the last finite loss."""
+    record = _data(baked=True)
+    record.loss_history = np.array([3.0, 2.0, np.nan])
+    metrics = record.metrics()
+    assert metrics["methods"] == ["decimated", "baked", "ours"]
+    for method in record.methods:
+        assert metrics["heldout"][method.key]["psnr"] == method.psnr
+        assert metrics["heldout"][method.key]["label"] == method.label
+    assert metrics["final_loss"] == 2.0 and metrics["heldout"]["views"] == 3
+    assert metrics["validation"] == {"views": 4, "iterations": [0, 300], "psnr": [30.0, 33.0]}
+    assert metrics["seconds"]["total"] == 432.0 and metrics["seconds"]["optimisation"] == 375.0

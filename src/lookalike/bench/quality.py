@@ -98,14 +98,14 @@ def check_assets_dir(assets_dir: str | Path) -> Path:
 
 
 def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget: float, init: str | None = None,
-                  iterations: int | None = None):
-    """``simplify`` of one benchmark case with default settings (and ``init``, and a fixed
-    ``iterations`` count instead of the time budget where given) into ``outdir``; returns its
-    ``SimplifyResult``."""
+                  iterations: int | None = None, init_mesh: Path | None = None):
+    """``simplify`` of one benchmark case with default settings (and ``init``, a fixed
+    ``iterations`` count instead of the time budget, and a starting mesh ``init_mesh`` where
+    given) into ``outdir``; returns its ``SimplifyResult``."""
     from ..jobs.simplify import simplify
 
     return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget, init=init,
-                    iterations=iterations, force=True, progress=False,
+                    iterations=iterations, init_mesh=init_mesh, force=True, progress=False,
                     material_override=scan_material() if case.scan else None)
 
 

@@ -134,9 +134,9 @@ class OptimConfig:
         loss: image loss, one of ``LOSSES`` (see ``lookalike.fit.losses``).
         lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
             radius; ``None`` picks ``COLD_START``'s (the paper's [0.001, 0.003] for a
-            decimated start) where the textures start from scratch (``average``, ``random``)
-            and ``WARM_START``'s where they start close (``bake``, ``source``; see
-            ``learning_rates``).
+            decimated start) where the textures start from scratch (``average``, ``random``),
+            ``WARM_START``'s where they start close (``bake``, ``source``; see
+            ``learning_rates``) and ``REPAIR_START``'s from a user's mesh (``io.init_mesh``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
             ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
@@ -264,10 +264,17 @@ COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0,
 """Where the textures start from scratch (``average``, ``random``)."""
 WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
+REPAIR_START = WARM_START._replace(lr_positions=COLD_START.lr_positions)
+"""Where the start is the user's own low-poly mesh (``io.init_mesh``): textures as close as a
+warm start's, but vertices that may be far from the surface (a shrunk or broken LOD), so they
+move at the cold rate (the paper's for a decimated start)."""
 
 
 def start_defaults(config: Config) -> StartDefaults:
-    """``WARM_START`` or ``COLD_START`` for ``config.latent.init``."""
+    """``REPAIR_START`` for a user's mesh, else ``WARM_START`` or ``COLD_START`` for
+    ``config.latent.init``."""
+    if config.io.init_mesh:
+        return REPAIR_START
     return WARM_START if config.latent.init in WARM_INITS else COLD_START
 
 

@@ -64,13 +64,14 @@ class Objective:
 
     def image_loss(self, latent: Latent, batch: Batch, background: torch.Tensor) -> torch.Tensor:
         """L_image + w_outline * L_outline of ``latent`` on ``batch``, composited over
-        ``background [batch_size, 3]`` (differentiable scalar)."""
+        ``background [batch_size, 3]`` (differentiable scalar); no outline term where the
+        latent's coverage is not geometry's alone (``coverage`` gives ``None``)."""
         shaded, outline = batch.split(self.batch_size)
         resolution = shaded.target.shape[1]
         pred = latent.render(shaded.camera, shaded.light, resolution)
         loss = self.loss_fn(composite(pred, background), composite(shaded.target, background))
-        if outline is not None:
-            coverage = latent.coverage(outline.camera, resolution)
+        coverage = None if outline is None else latent.coverage(outline.camera, resolution)
+        if coverage is not None:
             loss = loss + self.outline_weight * (coverage - outline.target[..., 3]).abs().mean()
         return loss
 

@@ -1,4 +1,5 @@
-"""The initial guess: triangle targets, texture starts, and the decimation baseline."""
+"""The initial guess: triangle targets, texture starts, the decimation baseline, and a user's
+own low-poly mesh as the start (``--init-mesh``)."""
 
 from __future__ import annotations
 
@@ -10,11 +11,16 @@ import torch
 
 from lookalike.asset import Asset, Material, Texture
 from lookalike.errors import ConfigError
-from lookalike.fit.config import ClampConfig, LatentConfig
-from lookalike.fit.demo_asset import knot_mesh
-from lookalike.fit.initial import (decimation_baseline, initial_latent, resample, surface_mean_material,
-                                   target_triangle_count)
-from lookalike.init import decimate
+from lookalike.fit.config import ClampConfig
+from lookalike.fit.textured_mesh import TexturedMesh
+from lookalike.init import decimate, unwrap
+from lookalike.init.initial_guess import (UV_OVERLAP_LIMIT, Ranges, decimation_baseline, initial_guess,
+                                          initial_guess_from_mesh, resample, surface_mean_material,
+                                          target_triangle_count, uses_alpha, uv_overlap)
+from lookalike.jobs.demo import knot_mesh
+
+CLAMP = ClampConfig()
+RANGES = Ranges(kd=CLAMP.kd, ks=(CLAMP.gamma, CLAMP.roughness, CLAMP.metalness))
 
 
 def painted_knot(materials: int = 1) -> Asset:
@@ -27,12 +33,17 @@ def painted_knot(materials: int = 1) -> Asset:
     return Asset(mesh=mesh, materials=painted)
 
 
+def latent_of(asset: Asset, start: Asset) -> TexturedMesh:
+    """The latent ``simplify`` builds from the initial guess ``start`` of ``asset``."""
+    centre, radius = asset.mesh.bounding_sphere()
+    return TexturedMesh.from_asset(start, centre, radius, CLAMP, msaa=1, train_alpha=uses_alpha(asset))
+
+
 def start(asset: Asset, init: str, size: int = 32):
     decimated = decimate(asset.mesh, 300)
-    latent, baked = initial_latent(asset, decimated, LatentConfig(texture_size=size, init=init), ClampConfig(),
-                                   np.random.default_rng(0))
-    assert (baked is not None) == (init == "bake")
-    return decimated, latent
+    guess = initial_guess(asset, decimated, init, size, RANGES, np.random.default_rng(0))
+    assert (guess.baked is not None) == (init == "bake")
+    return decimated, latent_of(asset, guess.start)
 
 
 def test_source_init_reuses_the_inputs_uvs_and_textures():
@@ -65,11 +76,12 @@ def test_mean_material_weights_materials_by_area():
 
 
 def test_triangle_targets():
-    assert target_triangle_count(LatentConfig(triangles=100), 1000) == 100
-    assert target_triangle_count(LatentConfig(ratio=0.25), 1000) == 250
-    assert target_triangle_count(LatentConfig(), 10_000) == 200  # default ratio 0.02
+    assert target_triangle_count(100, 0.5, 1000) == 100
+    assert target_triangle_count(None, 0.25, 1000) == 250
     with pytest.raises(ConfigError, match="not below"):
-        target_triangle_count(LatentConfig(triangles=1000), 1000)
+        target_triangle_count(1000, 0.5, 1000)
+    with pytest.raises(ConfigError, match="leaves no triangles"):
+        target_triangle_count(None, 1e-6, 1000)
 
 
 def test_the_baseline_keeps_the_inputs_materials_without_normal_maps():
@@ -86,12 +98,13 @@ def test_bake_init_starts_from_the_classic_bake():
     bake comes back for the report."""
     asset = painted_knot()
     decimated = decimate(asset.mesh, 300)
-    latent, baked = initial_latent(asset, decimated, LatentConfig(texture_size=128), ClampConfig(), np.random.default_rng(0))
+    guess = initial_guess(asset, decimated, "bake", 128, RANGES, np.random.default_rng(0))
+    baked, latent = guess.baked, latent_of(asset, guess.start)
     material = baked.materials[0]
     assert torch.equal(latent.v_tex, baked.mesh.v_tex) and torch.equal(latent.t_pos_idx, baked.mesh.t_pos_idx)
     assert torch.allclose(latent.kd, material.kd.data[..., :3].clamp(0, 1))
     assert torch.allclose(latent.ks[..., 1], material.ks.data[..., 1].clamp(0.08, 1))
-    facing = material.normal.data[..., 2] > 1 / ClampConfig().normal_max_slope
+    facing = material.normal.data[..., 2] > 1 / CLAMP.normal_max_slope
     assert torch.allclose(latent.unit_normal()[facing], material.normal.data[facing], atol=1e-5)
     assert not torch.equal(latent.kd, latent.kd.mean(dim=(0, 1)).expand_as(latent.kd))
 
@@ -102,5 +115,41 @@ def test_the_bake_of_a_multi_material_input_is_one_material_asset():
     asset = painted_knot(materials=3)
     decimated = decimate(asset.mesh, 300)
     assert decimated.t_mat_idx.max() > 0
-    _, baked = initial_latent(asset, decimated, LatentConfig(texture_size=128), ClampConfig(), np.random.default_rng(0))
+    baked = initial_guess(asset, decimated, "bake", 128, RANGES, np.random.default_rng(0)).baked
     assert len(baked.materials) == 1 and int(baked.mesh.t_mat_idx.max()) == 0 and baked.mesh.v_color is None
+
+
+def scrambled(mesh):
+    """``mesh`` with its UV corners shuffled among the triangles (overlapping, flipped charts)."""
+    v_tex, t_tex_idx = mesh.uv[0]
+    order = torch.from_numpy(np.random.default_rng(1).permutation(t_tex_idx.numel()))
+    return dataclasses.replace(mesh, uv=[(v_tex, t_tex_idx.reshape(-1)[order].reshape(-1, 3))])
+
+
+def test_an_atlas_barely_overlaps_and_scrambled_uvs_do():
+    atlas = unwrap(decimate(painted_knot().mesh, 300), texture_size=256)
+    assert uv_overlap(atlas) <= UV_OVERLAP_LIMIT
+    assert uv_overlap(scrambled(atlas)) > 5 * UV_OVERLAP_LIMIT
+
+
+def test_a_users_textured_atlas_is_kept_and_nothing_is_baked():
+    asset = painted_knot()
+    lod_mesh = unwrap(decimate(asset.mesh, 300), texture_size=256)
+    lod = Asset(mesh=lod_mesh, materials=[Material(kd=Texture(torch.rand(64, 64, 4).clamp(0.1, 1)),
+                                                   ks=Texture.constant([0.0, 0.5, 0.0]))])
+    guess = initial_guess_from_mesh(asset, lod, "lod.glb", 32)
+    assert guess.baked is None and guess.baseline is lod
+    assert torch.equal(guess.start.mesh.uv[0][1], lod_mesh.uv[0][1])
+    assert torch.allclose(guess.start.materials[0].kd.data, resample(lod.materials[0].kd.data, 32))
+    assert any("kept lod.glb's UVs and textures" in note for note in guess.notes)
+
+
+def test_a_users_mesh_with_overlapping_uvs_gets_a_fresh_atlas_and_the_bake():
+    asset = painted_knot()
+    lod_mesh = scrambled(unwrap(decimate(asset.mesh, 300), texture_size=256))
+    lod = Asset(mesh=lod_mesh, materials=[Material(kd=Texture(torch.rand(64, 64, 4)), ks=Texture.constant([0.0, 0.5, 0.0]))])
+    guess = initial_guess_from_mesh(asset, lod, "lod.glb", 256)
+    assert guess.baked is not None and torch.equal(guess.start.mesh.t_pos_idx, lod_mesh.t_pos_idx)
+    assert uv_overlap(guess.start.mesh) <= UV_OVERLAP_LIMIT
+    assert torch.equal(guess.start.materials[0].kd.data, guess.baked.materials[0].kd.data)
+    assert any("fresh atlas" in note for note in guess.notes)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from lookalike.cli import build_parser
-from lookalike.fit.demo_asset import demo_asset, knot_mesh
+from lookalike.jobs.demo import demo_asset, knot_mesh
 
 
 def test_the_demo_asset_is_a_closed_outward_facing_textured_knot():
