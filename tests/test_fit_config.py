@@ -81,14 +81,14 @@ def test_overrides_name_fields_and_a_count_replaces_a_ratio(tmp_path):
     assert config.latent.triangles == 500 and config.latent.ratio is None
     assert config.optim.seed == 4 and config.optim.time_budget == 90.0
     assert with_overrides(config, ratio=0.3).latent.triangles is None
-    with pytest.raises(ConfigError, match="texture_size must be at least 4"):
+    with pytest.raises(ConfigError, match=r"texture_size \(--texture-size\) must lie in \[4, 4096\]"):
         with_overrides(None, texture_size=2)
 
 
 def test_the_command_offers_every_texture_start():
     """``lookalike simplify --init`` lists its choices without importing torch; they must stay
     those of the configuration."""
-    from lookalike.commands.simplify import INITS as command_inits
+    from lookalike.commands._options import INITS as command_inits
     from lookalike.fit.config import INITS
 
     assert command_inits == INITS

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 import torch
@@ -139,20 +143,24 @@ def _no_second_initial_guess(*args, **kwargs):
 
 
 def test_a_killed_run_can_resume_from_the_checkpoint_written_after_the_initial_guess(tmp_path, monkeypatch):
+    """SIGKILL as soon as the first checkpoint exists (before any step): the resumed run takes
+    the initial guess from it and finishes."""
+    source = tmp_path / "ball.glb"
+    io.save(bumpy_sphere(), source)
+    (tmp_path / "run.toml").write_text("[views]\npool_size = 4\nheldout = 2\nbatch_size = 1\n[render]\n"
+                                       "resolution = 64\n[latent]\ntexture_size = 64\n")
     outdir = tmp_path / "out"
-    cfg = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 2, "batch_size": 1}})
-
-    def killed(self, *args, **kwargs):
-        raise SystemExit(137)
-
-    run = Fitter.run
-    monkeypatch.setattr(Fitter, "run", killed)
-    with pytest.raises(SystemExit):
-        simplify(bumpy_sphere(), outdir, triangles=100, iterations=4, config=cfg, progress=False)
+    process = subprocess.Popen([sys.executable, "-m", "lookalike.cli", "simplify", str(source), "-o", str(outdir),
+                                "--triangles", "100", "--iterations", "4", "--config", str(tmp_path / "run.toml"),
+                                "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not (outdir / "checkpoint.pt").exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=60)
     assert (outdir / "checkpoint.pt").exists() and not (outdir / "model.glb").exists()
-    monkeypatch.setattr(Fitter, "run", run)
     monkeypatch.setattr(simplify_job, "build_initial_guess", _no_second_initial_guess)
-    resumed = simplify(bumpy_sphere(), outdir, resume=True, progress=False)
+    resumed = simplify(source, outdir, resume=True, progress=False)
     assert resumed.metrics["iterations"] == 4 and (outdir / "model.glb").exists()
 
 

@@ -16,6 +16,7 @@ import pytest
 import torch
 
 from io_factory import covered_texels, npm_package, plane, two_material_asset
+from log_capture import expect_warning
 from lookalike import io
 from lookalike.asset import Animation, Asset, Channel, Material, Node, Skin
 from lookalike.errors import AssetError
@@ -110,13 +111,13 @@ def test_accessors_strided_normalized_and_sparse(tmp_path):
     assert torch.equal(colours[1, 2, :3], torch.tensor([0.0, 0, 1]))
 
 
-def test_strips_fans_and_skipped_lines(tmp_path):
+def test_strips_fans_and_skipped_lines(tmp_path, caplog):
     doc = Doc()
     pos = doc.accessor(QUAD)
     doc.mesh_node([{"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1, 3, 2], 5123), "mode": 5},
                    {"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1, 2, 3], 5123), "mode": 6},
                    {"attributes": {"POSITION": pos}, "indices": doc.accessor([0, 1], 5123), "mode": 1}])
-    with pytest.warns(UserWarning, match="points or lines"):
+    with expect_warning(caplog, "points or lines"):
         asset = io.load(doc.write(tmp_path / "s.gltf"))
     corners = asset.mesh.v_pos[asset.mesh.t_pos_idx]
     normals = torch.linalg.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0], dim=-1)
@@ -179,7 +180,7 @@ def test_materials_factors_textures_and_extensions(tmp_path):
     assert torch.allclose(m.emissive.data.reshape(-1), torch.tensor([3.0, 0, 0]))
 
 
-def test_skin_and_animations(tmp_path):
+def test_skin_and_animations(tmp_path, caplog):
     doc, prim = quad_doc()
     prim["attributes"]["JOINTS_0"] = doc.accessor(np.array([[0, 1, 0, 0]] * 4, np.uint8), 5121)
     prim["attributes"]["WEIGHTS_0"] = doc.accessor(np.array([[0.25, 0.75, 0, 0]] * 4, np.float32))
@@ -198,7 +199,7 @@ def test_skin_and_animations(tmp_path):
         {"input": times, "output": doc.accessor(cubic), "interpolation": "CUBICSPLINE"}],
         "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}},
                      {"sampler": 1, "target": {"node": 0, "path": "translation"}}]}]
-    with pytest.warns(UserWarning, match="CUBICSPLINE"):
+    with expect_warning(caplog, "CUBICSPLINE"):
         asset = io.load(doc.write(tmp_path / "skin.gltf"))
     skin = asset.skin
     assert [n.name for n in skin.nodes[:2]] == ["root", "tip"] and skin.nodes[1].parent == 0

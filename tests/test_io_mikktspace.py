@@ -18,7 +18,7 @@ from lookalike.asset.normals import vertex_normals
 from lookalike.io.mikktspace import mikktspace_tangents
 from lookalike.io.normal_frames import reexpress_normal_map, reexpress_normal_map_python
 
-SCRIPT = Path(__file__).with_name("mikktspace_reference.js")
+SCRIPT = Path(__file__).with_name("mikktspace_oracle.js")
 
 
 def reference_tangents(positions, normals, uvs) -> np.ndarray:

@@ -13,6 +13,7 @@ from lookalike import io
 from lookalike.asset import Texture
 from lookalike.errors import AssetError
 from lookalike.io.images import srgb_to_linear, write_png
+from log_capture import expect_warning
 
 OBJ = """# a quad, a pentagon with negative indices, a triangle without vt
 mtllib m.mtl
@@ -101,9 +102,9 @@ def test_nvdiffmodeling_pbr_ks(tmp_path):
     assert torch.allclose(asset.materials[0].ks.data.reshape(-1), torch.tensor([0.1, 0.25, 0.5]))
 
 
-def test_faces_without_material_library_get_default(tmp_path):
+def test_faces_without_material_library_get_default(tmp_path, caplog):
     (tmp_path / "a.obj").write_text("mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    with pytest.warns(UserWarning, match="not found"):
+    with expect_warning(caplog, "not found"):
         asset = io.load(tmp_path / "a.obj")
     assert [m.name for m in asset.materials] == ["default"] and asset.mesh.uv == []
 
@@ -142,11 +143,11 @@ def test_degenerate_and_non_manifold_obj_loads(tmp_path):
     assert io.load(tmp_path / "d.obj").mesh.num_triangles == 5
 
 
-def test_obj_round_trip_keeps_geometry_uvs_and_materials(tmp_path):
+def test_obj_round_trip_keeps_geometry_uvs_and_materials(tmp_path, caplog):
     asset = two_material_asset(normal_map=True)
     asset.materials[1].alpha_mode = "OPAQUE"
     asset.materials[1].kd = Texture.constant([0.2, 0.4, 0.6, 1.0])
-    with pytest.warns(UserWarning, match="gamma"):
+    with expect_warning(caplog, "gamma"):
         io.save(asset, tmp_path / "rt.obj")
     assert (tmp_path / "rt.mtl").is_file() and (tmp_path / "rt_textured_basecolor.png").is_file()
     back = io.load(tmp_path / "rt.obj")

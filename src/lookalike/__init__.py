@@ -4,20 +4,27 @@ Implements Hasselgren et al. 2021, "Appearance-Driven Automatic 3D Model Simplif
 a low-poly mesh with PBR textures (the *latent* model) is rendered by a differentiable
 rasterizer and optimised until its pictures match pictures of a reference asset.
 
-Packages, each with one job (``render`` knows nothing of assets, ``asset`` nothing of
-optimisation, ``fit`` composes them):
+Packages in layers, each with one job (a package imports only from those listed after it;
+``render`` knows nothing of assets, ``asset`` nothing of optimisation; ``init`` and ``fit``
+never import each other, ``jobs`` composes them):
 
-- ``lookalike.render``  differentiable rasterizer with nvdiffrast's contracts
-- ``lookalike.colour``  sRGB encoding and the paper's tone map
-- ``lookalike.asset``   Mesh, Material, Skin, Asset and differentiable mesh operations
-- ``lookalike.io``      file formats (glTF, OBJ, PLY), registered by extension
-- ``lookalike.shading`` BSDF, cameras, lights and the deferred rendering pipeline
+- ``lookalike.commands`` the ``lookalike`` command, one module per subcommand
+- ``lookalike.bench``   benchmarks
+- ``lookalike.jobs``    applications: ``simplify``, ``bake``, ``demo``
+- ``lookalike.report``  the run's record, held-out scores, pictures and the HTML report
 - ``lookalike.init``    initial guesses (decimation, UV atlas, material atlas, bake)
-- ``lookalike.fit``     targets, losses, schedules and the optimisation loop
-- ``lookalike.report``  metrics, pictures and the HTML report
+- ``lookalike.fit``     references, latent models, the objective, the loop, checkpoints
+- ``lookalike.shading`` BSDF, cameras, lights and the deferred rendering pipeline
+- ``lookalike.io``      file formats (glTF, OBJ, PLY), registered by extension; atomic writes
+- ``lookalike.render``  differentiable rasterizer with nvdiffrast's contracts
+- ``lookalike.asset``   Mesh, Material, Skin, Asset and differentiable mesh operations
+- ``lookalike.colour``  sRGB encoding and the paper's tone map
 """
 
+from . import kernel_cache
 from .version import __version__  # noqa: F401  (re-exported)
+
+kernel_cache.choose()
 
 
 def __getattr__(name: str):

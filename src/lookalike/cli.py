@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
+import signal
 import sys
 
 from .commands import command_modules
@@ -31,16 +33,56 @@ def _command_module(name: str):
     return importlib.import_module(f"lookalike.commands.{command_modules()[name]}")
 
 
+class StopSignals:
+    """While active, SIGTERM (what ``docker stop``, ``timeout``, Slurm and Ray send) stops the
+    run the way Ctrl-C does: it raises ``KeyboardInterrupt`` where the program is, so that the
+    loop writes its checkpoint and the best model so far. ``terminated`` tells which it was."""
+
+    def __init__(self):
+        self.terminated = False
+
+    def __enter__(self) -> "StopSignals":
+        self.previous = signal.signal(signal.SIGTERM, self._stop)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        signal.signal(signal.SIGTERM, self.previous)
+
+    def _stop(self, signum, frame) -> None:
+        self.terminated = True
+        raise KeyboardInterrupt
+
+
+def _log_one_line_warnings(command: str) -> None:
+    """Warnings of the library (``logging``, logger ``lookalike``) print as one line each:
+    ``lookalike COMMAND: warning: ...``."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter(f"lookalike {command}: warning: %(message)s"))
+    logger = logging.getLogger("lookalike")
+    logger.handlers[:] = [handler]
+    logger.setLevel(logging.WARNING)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the command; its exit status: 0 done, 2 the user's input or an OS error on a path
+    (one line on stderr naming it), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
+    after saving what the command saves when stopped)."""
     args = build_parser().parse_args(argv)
-    try:
-        return _command_module(args.command).run(args)
-    except LookalikeError as e:
-        print(f"lookalike {args.command}: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"lookalike {args.command}: interrupted", file=sys.stderr)
-        return 130
+    _log_one_line_warnings(args.command)
+    with StopSignals() as stop:
+        try:
+            status = _command_module(args.command).run(args)
+        except LookalikeError as e:
+            print(f"lookalike {args.command}: error: {e}", file=sys.stderr)
+            return 2
+        except OSError as e:
+            where = f"{e.filename}: " if e.filename else ""
+            print(f"lookalike {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"lookalike {args.command}: {'stopped' if stop.terminated else 'interrupted'}", file=sys.stderr)
+            status = 130
+    return 128 + signal.SIGTERM if status == 130 and stop.terminated else status
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ its materials, and optionally a skin with animations."""
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,3 +33,19 @@ class Asset:
     @property
     def name(self) -> str:
         return self.source.stem if self.source else "asset"
+
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of the content: positions, triangles, UVs, vertex colours, material
+        indices and every material's textures and alpha mode; the same wherever the asset was
+        read from, different when any of these differ."""
+        mesh = self.mesh
+        tensors = [mesh.v_pos, mesh.t_pos_idx, mesh.t_mat_idx, *(t for uv in mesh.uv for t in uv)]
+        tensors += [mesh.v_color] if mesh.v_color is not None else []
+        digest = hashlib.sha256()
+        for material in self.materials:
+            digest.update(material.alpha_mode.encode())
+            tensors += [t.data for t in (material.kd, material.ks, material.normal) if t is not None]
+        for tensor in tensors:
+            digest.update(str((tensor.dtype, tuple(tensor.shape))).encode())
+            digest.update(tensor.detach().to("cpu", copy=False).contiguous().numpy().tobytes())
+        return digest.hexdigest()

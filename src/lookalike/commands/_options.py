@@ -1,9 +1,13 @@
-"""Options shared by the commands that turn one asset into a low-poly model in a folder
-(``simplify``, ``bake``)."""
+"""Options shared by the commands that turn assets into low-poly models in folders
+(``simplify``, ``bake``, ``batch``)."""
 
 from __future__ import annotations
 
 import argparse
+
+from ..limits import MAX_RESOLUTION, MAX_TEXTURE_SIZE
+
+INITS = ("bake", "source", "average", "random")   # lookalike.fit.config.INITS, without importing torch
 
 
 def add_job_arguments(parser: argparse.ArgumentParser, verb: str, outdir_suffix: str) -> None:
@@ -11,6 +15,41 @@ def add_job_arguments(parser: argparse.ArgumentParser, verb: str, outdir_suffix:
     parser.add_argument("input", help=f"the asset to {verb} (glTF/GLB, OBJ, PLY)")
     parser.add_argument("-o", "--output", metavar="OUTDIR", default=None,
                         help=f"output folder (default: INPUT's name + '{outdir_suffix}' in the current folder)")
+    add_count_arguments(parser)
+
+
+def add_count_arguments(parser: argparse.ArgumentParser) -> None:
+    """The target count: ``--triangles N`` or ``--ratio R``."""
     count = parser.add_mutually_exclusive_group()
     count.add_argument("--triangles", type=int, metavar="N", help="target triangle count")
     count.add_argument("--ratio", type=float, metavar="R", help="target count as a fraction of the input's (default 0.02)")
+
+
+def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
+    """The settings of an optimisation run that a user sets on the command line."""
+    parser.add_argument("--texture-size", type=int, metavar="S",
+                        help=f"side of the square textures (default 1024, at most {MAX_TEXTURE_SIZE})")
+    parser.add_argument("--resolution", type=int, metavar="PX",
+                        help=f"side of the training images (default 512, at most {MAX_RESOLUTION})")
+    length = parser.add_mutually_exclusive_group()
+    length.add_argument("--time-budget", metavar="T",
+                        help="wall time for the whole run: 90s, 10m, 1h or seconds (default 10m)")
+    length.add_argument("--iterations", type=int, metavar="N", help="number of optimisation steps (overrides the budget)")
+    parser.add_argument("--init", choices=INITS, help="how the textures start: the classic projection bake (default), "
+                        "the input's own maps, its mean material, or noise as in the paper")
+    parser.add_argument("--seed", type=int, metavar="S", help="random seed (default 0): same seed, same result")
+    parser.add_argument("--config", metavar="RUN.toml", help="settings file (e.g. a previous run's config.toml)")
+    parser.add_argument("--obj", action="store_true", help="also write model.obj (+ .mtl and PNG textures)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def fit_options(args: argparse.Namespace) -> dict:
+    """The keyword arguments of ``lookalike.jobs.simplify.simplify`` that ``add_count_arguments``
+    and ``add_fit_arguments`` set (``None`` where not given)."""
+    from ..fit.config_file import parse_duration
+
+    return {"triangles": args.triangles, "ratio": args.ratio, "texture_size": args.texture_size,
+            "resolution": args.resolution,
+            "time_budget": None if args.time_budget is None else parse_duration(args.time_budget),
+            "iterations": args.iterations, "init": args.init, "seed": args.seed, "config": args.config,
+            "export_obj": True if args.obj else None}

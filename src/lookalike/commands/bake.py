@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..limits import MAX_BAKE_TEXTURE_SIZE
 from ._options import add_job_arguments
 
 HELP = "decimate, unwrap and bake an asset the classic way (the baseline simplify beats)"
@@ -13,7 +14,7 @@ HELP = "decimate, unwrap and bake an asset the classic way (the baseline simplif
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_job_arguments(parser, verb="bake", outdir_suffix="-baked")
     parser.add_argument("--texture-size", type=int, default=1024, metavar="S",
-                        help="side of the square baked textures (default 1024)")
+                        help=f"side of the square baked textures (default 1024, at most {MAX_BAKE_TEXTURE_SIZE})")
     parser.add_argument("--cage", type=float, metavar="D",
                         help="ray reach on each side of the low-poly surface, in the asset's units "
                              "(default 2%% of the bounding-box diagonal)")

@@ -9,6 +9,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..limits import MAX_BAKE_TEXTURE_SIZE
 
 HELP = "convert an asset to .glb or .obj (optionally merging its materials into one atlas)"
 
@@ -18,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("output", type=Path, help="file to write (.glb or .obj)")
     parser.add_argument("--force", action="store_true", help="overwrite OUTPUT if it exists")
     parser.add_argument("--atlas", type=int, default=None, metavar="SIZE",
-                        help="merge all materials into one with a SIZE x SIZE texture atlas")
+                        help=f"merge all materials into one with a SIZE x SIZE texture atlas (at most {MAX_BAKE_TEXTURE_SIZE})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -29,8 +30,8 @@ def run(args: argparse.Namespace) -> int:
                           f"OUTPUT must end in one of {', '.join(writable_extensions())}")
     if args.output.exists() and not args.force:
         raise ConfigError(f"{args.output} exists; pass --force to overwrite it")
-    if args.atlas is not None and args.atlas < 8:
-        raise ConfigError(f"--atlas must be at least 8 texels, not {args.atlas}")
+    if args.atlas is not None and not 8 <= args.atlas <= MAX_BAKE_TEXTURE_SIZE:
+        raise ConfigError(f"--atlas must lie in [8, {MAX_BAKE_TEXTURE_SIZE}] texels, not {args.atlas}")
     if not args.output.parent.is_dir():
         raise ConfigError(f"the folder of {args.output} does not exist")
     asset = load(args.input)

@@ -13,22 +13,27 @@ import math
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..limits import MAX_RESOLUTION, MAX_SPP, MAX_VIEWS
 
 HELP = "render PNG pictures of an asset from random views with a point light"
 
 SHEET_BACKGROUND = 0.5
 """Grey (sRGB-encoded value) behind the views on the contact sheet."""
 
+MAX_LAYERS = 16
+"""Depth-peeled layers at most (each is a full-resolution pass)."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, help="asset file (.gltf, .glb, .obj, .ply)")
     parser.add_argument("-o", "--output", type=Path, required=True, help="folder for the pictures")
-    parser.add_argument("--views", type=int, default=8, help="number of views (default 8)")
-    parser.add_argument("--resolution", type=int, default=512, help="picture size in pixels (default 512)")
-    parser.add_argument("--spp", type=int, default=2, help="supersampling factor per axis (default 2)")
+    parser.add_argument("--views", type=int, default=8, help=f"number of views (default 8, at most {MAX_VIEWS})")
+    parser.add_argument("--resolution", type=int, default=512,
+                        help=f"picture size in pixels (default 512, at most {MAX_RESOLUTION})")
+    parser.add_argument("--spp", type=int, default=2, help=f"supersampling factor per axis (default 2, at most {MAX_SPP})")
     parser.add_argument("--layers", type=int, default=None,
-                        help="depth-peeled layers (default: 4 when a material blends, else 2, so that "
-                             "culled back faces and alpha cut-outs show what lies behind them)")
+                        help=f"depth-peeled layers (default: 4 when a material blends, else 2, so that "
+                             "culled back faces and alpha cut-outs show what lies behind them; at most {MAX_LAYERS})")
     parser.add_argument("--seed", type=int, default=0, help="random seed of the views (default 0)")
     parser.add_argument("--force", action="store_true", help="overwrite existing pictures")
 
@@ -77,11 +82,12 @@ def run(args: argparse.Namespace) -> int:
     from ..shading import render
     from ..shading.view_sampling import random_lights, random_views
 
-    for name in ("views", "resolution", "spp"):
-        if getattr(args, name) < 1:
-            raise ConfigError(f"--{name} must be at least 1, not {getattr(args, name)}")
-    if args.layers is not None and args.layers < 1:
-        raise ConfigError(f"--layers must be at least 1, not {args.layers}")
+    for name, most in (("views", MAX_VIEWS), ("resolution", MAX_RESOLUTION), ("spp", MAX_SPP), ("layers", MAX_LAYERS)):
+        value = getattr(args, name)
+        if value is not None and not 1 <= value <= most:
+            raise ConfigError(f"--{name} must lie in [1, {most}], not {value}")
+    if args.output.exists() and not args.output.is_dir():
+        raise ConfigError(f"{args.output} exists and is not a folder")
     paths = output_paths(args.output, args.views)
     existing = [p for p in paths if p.exists()]
     if existing and not args.force:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Callable
 
 import torch
 
@@ -21,23 +22,23 @@ class Checkpointer:
     Args:
         path: the checkpoint file.
         every_seconds: the least time between periodic writes.
-        extra: more entries stored beside the loop's state (e.g. what the job needs to resume
-            without redoing its initial guess).
+        extra: called at each write for more entries to store beside the loop's state (what
+            the job needs to resume without redoing its initial guess, the time it has used).
     """
 
-    def __init__(self, path: Path, every_seconds: float, extra: dict | None = None):
+    def __init__(self, path: Path, every_seconds: float, extra: Callable[[], dict] | None = None):
         self.path = Path(path)
         self.every_seconds = every_seconds
-        self.extra = extra or {}
+        self.extra = extra or dict
         self.last = time.monotonic()
 
     def due(self) -> bool:
         return time.monotonic() - self.last > self.every_seconds
 
     def save(self, state: dict) -> None:
-        """Write ``state`` (and ``extra``) with the version atomically."""
+        """Write ``state`` (and ``extra()``) with the version atomically."""
         with atomic_path(self.path) as temp:
-            torch.save({"version": CHECKPOINT_VERSION, **self.extra, **state}, temp)
+            torch.save({"version": CHECKPOINT_VERSION, **self.extra(), **state}, temp)
         self.last = time.monotonic()
 
 

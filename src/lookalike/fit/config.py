@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ..errors import ConfigError
+from ..limits import MAX_POOL_BYTES, MAX_RESOLUTION, MAX_SPP, MAX_TEXTURE_SIZE, MAX_VIEWS
 from .loop import LoopSettings
 from .losses import IMAGE_LOSSES
 from .objective import Objective
@@ -216,14 +217,21 @@ class Config:
              f"target triangle count must be positive, got {lat.triangles} (latent.triangles)"),
             (lat.ratio is None or 0.0 < lat.ratio < 1.0, f"latent.ratio must lie in (0, 1), not {lat.ratio}"),
             (lat.triangles is None or lat.ratio is None, "give latent.triangles or latent.ratio, not both"),
-            (lat.texture_size >= 4, f"latent.texture_size must be at least 4, not {lat.texture_size}"),
+            (4 <= lat.texture_size <= MAX_TEXTURE_SIZE,
+             f"latent.texture_size (--texture-size) must lie in [4, {MAX_TEXTURE_SIZE}], not {lat.texture_size}"),
             (lat.init in INITS, f"latent.init must be one of {', '.join(INITS)}, not {lat.init!r}"),
-            (ren.resolution >= 16, f"render.resolution must be at least 16, not {ren.resolution}"),
-            (ren.target_spp >= 1, f"render.target_spp must be at least 1, not {ren.target_spp}"),
-            (ren.latent_msaa >= 1, f"render.latent_msaa must be at least 1, not {ren.latent_msaa}"),
-            (vw.batch_size >= 1, f"views.batch_size must be at least 1, not {vw.batch_size}"),
-            (vw.pool_size == 0 or vw.pool_size >= vw.batch_size,
-             f"views.pool_size must be 0 or at least views.batch_size, not {vw.pool_size}"),
+            (16 <= ren.resolution <= MAX_RESOLUTION,
+             f"render.resolution (--resolution) must lie in [16, {MAX_RESOLUTION}], not {ren.resolution}"),
+            (1 <= ren.target_spp <= MAX_SPP, f"render.target_spp must lie in [1, {MAX_SPP}], not {ren.target_spp}"),
+            (1 <= ren.latent_msaa <= MAX_SPP, f"render.latent_msaa must lie in [1, {MAX_SPP}], not {ren.latent_msaa}"),
+            (1 <= vw.batch_size <= MAX_VIEWS, f"views.batch_size must lie in [1, {MAX_VIEWS}], not {vw.batch_size}"),
+            (vw.pool_size == 0 or vw.batch_size <= vw.pool_size <= MAX_VIEWS,
+             f"views.pool_size must be 0 or lie in [views.batch_size, {MAX_VIEWS}], not {vw.pool_size}"),
+            (vw.pool_size * ren.resolution ** 2 * 8 <= MAX_POOL_BYTES,
+             f"views.pool_size x render.resolution^2 x 8 bytes must stay within {MAX_POOL_BYTES >> 30} GiB "
+             f"({vw.pool_size} views of {ren.resolution}^2 need {vw.pool_size * ren.resolution ** 2 * 8 / 2 ** 30:.1f})"),
+            (vw.heldout <= MAX_VIEWS and vw.validation <= MAX_VIEWS,
+             f"views.heldout and views.validation must be at most {MAX_VIEWS}"),
             (vw.refresh_every >= 0, f"views.refresh_every must not be negative, not {vw.refresh_every}"),
             (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
             (vw.validation >= 0, f"views.validation must not be negative, not {vw.validation}"),

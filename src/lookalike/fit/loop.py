@@ -245,6 +245,9 @@ class Fitter:
         timed) from their pace, and re-planned every ``REPLAN_EVERY`` steps from the pace of
         the recent ones (each step's share of the validation time included), so that the loop
         ends in time even when the machine's load changes.
+
+        The start is scored only at step 0: a resumed run scores where the uninterrupted one
+        would, so it keeps the same best state.
         """
         p = self.progress
         if p.total is None and seconds_available is None:
@@ -254,7 +257,8 @@ class Fitter:
                    desc="optimising")
         loop_start = time.monotonic()
         durations: list[float] = []
-        self._score()
+        if p.iteration == 0:
+            self._score()
         try:
             while p.total is None or p.iteration < p.total:
                 started = time.monotonic()

@@ -22,17 +22,14 @@ RENDER_CHUNK = 4
 
 
 class Reference(Protocol):
-    """A reference renderer.
+    """A reference renderer."""
 
-    Attributes:
-        resolution: side, in pixels, of the square images it renders.
-    """
-
-    resolution: int
-
-    def render(self, camera: Camera, light: PointLight) -> torch.Tensor:
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               time: torch.Tensor | None = None) -> torch.Tensor:
         """``[B, H, W, 4]`` float32 linear RGB (weighted by coverage) and coverage, row 0 at
-        the top, for B cameras and lights; no gradients."""
+        the top (H = W = ``resolution``), for B cameras and lights, with ``spp`` x ``spp``
+        samples per pixel, at times ``time [B]`` where the reference moves (an animation);
+        no gradients."""
         ...
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:
@@ -41,30 +38,25 @@ class Reference(Protocol):
 
 
 class MeshReference:
-    """An asset rendered by ``lookalike.shading.render`` with ``spp`` x ``spp`` supersampling.
+    """A static asset rendered by ``lookalike.shading.render``, supersampled (it does not move:
+    ``time`` is ignored)."""
 
-    Args:
-        asset: the reference.
-        resolution: image side in pixels.
-        spp: samples per pixel per axis.
-    """
-
-    def __init__(self, asset: Asset, resolution: int, spp: int):
+    def __init__(self, asset: Asset):
         self.asset = asset
-        self.resolution = resolution
-        self.spp = spp
 
     @torch.no_grad()
-    def render(self, camera: Camera, light: PointLight) -> torch.Tensor:
-        return render(self.asset, camera, light, (self.resolution, self.resolution), spp=self.spp)
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               time: torch.Tensor | None = None) -> torch.Tensor:
+        return render(self.asset, camera, light, (resolution, resolution), spp=spp)
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:
         return self.asset.mesh.bounding_sphere()
 
 
-def render_in_chunks(reference: Reference, camera: Camera, light: PointLight, dtype=torch.float32) -> torch.Tensor:
+def render_in_chunks(reference: Reference, camera: Camera, light: PointLight, resolution: int, spp: int,
+                     dtype=torch.float32) -> torch.Tensor:
     """``reference.render`` over a large batch, ``RENDER_CHUNK`` views at a time, stored as
     ``dtype``: ``[B, H, W, 4]``."""
     n = camera.batch_size
-    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK]).to(dtype)
+    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK], resolution, spp).to(dtype)
                       for i in range(0, n, RENDER_CHUNK)])

@@ -76,13 +76,21 @@ class ViewPool:
     Views are drawn one at a time from the pool's own generator, so the pool after ``drawn``
     views is the same however it got there; ``state_dict``/``load_state_dict`` rebuild it.
 
+    Args:
+        reference: renders the images, at ``resolution`` with ``spp`` x ``spp`` samples.
+        sampler: draws the views; size: views in the pool; seed: of the pool's generator;
+        refresh_every: steps between refreshes (0: a fixed pool).
+
     Attributes:
         camera, light: the pool's views (batch ``size``); slot ``j % size`` holds view ``j``.
         images: ``[size, H, W, 4]`` float16 reference images.
     """
 
-    def __init__(self, reference: Reference, sampler: ViewSampler, size: int, seed, refresh_every: int = 0):
+    def __init__(self, reference: Reference, sampler: ViewSampler, size: int, seed, refresh_every: int = 0,
+                 resolution: int = 512, spp: int = 2):
         self.reference = reference
+        self.resolution = resolution
+        self.spp = spp
         self.sampler = sampler
         self.size = size
         self.seed = seed
@@ -97,7 +105,7 @@ class ViewPool:
         order = sorted(range(self.size), key=lambda k: (drawn - self.size + k) % self.size)
         self.camera = Camera.cat([views[k][0] for k in order])
         self.light = PointLight.cat([views[k][1] for k in order])
-        self.images = render_in_chunks(self.reference, self.camera, self.light, torch.float16)
+        self.images = render_in_chunks(self.reference, self.camera, self.light, self.resolution, self.spp, torch.float16)
         self.drawn = drawn
 
     def _refresh(self) -> None:
@@ -106,7 +114,7 @@ class ViewPool:
         slot = self.drawn % self.size
         self.camera.mv[slot], self.camera.proj[slot], self.camera.position[slot] = camera.mv[0], camera.proj[0], camera.position[0]
         self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
-        self.images[slot] = self.reference.render(camera, light)[0].to(torch.float16)
+        self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp)[0].to(torch.float16)
         self.drawn += 1
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
@@ -126,15 +134,18 @@ class ViewPool:
 
 
 class FreshViews:
-    """New random views, rendered by ``reference`` at every step."""
+    """New random views, rendered by ``reference`` at ``resolution`` with ``spp`` x ``spp``
+    samples at every step."""
 
-    def __init__(self, reference: Reference, sampler: ViewSampler):
+    def __init__(self, reference: Reference, sampler: ViewSampler, resolution: int = 512, spp: int = 2):
         self.reference = reference
         self.sampler = sampler
+        self.resolution = resolution
+        self.spp = spp
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
         camera, light = self.sampler(rng, batch_size)
-        return Batch(camera, light, self.reference.render(camera, light))
+        return Batch(camera, light, self.reference.render(camera, light, self.resolution, self.spp))
 
     def state_dict(self) -> dict:
         return {}

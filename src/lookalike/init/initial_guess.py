@@ -25,7 +25,8 @@ from ..asset import Asset, Material, Mesh, Texture
 from ..asset.normals import face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
-from .bake import bake
+from .bake import BakeResult, bake
+from .closest_point import SurfaceQuery
 from .decimate import check_triangle_target
 from .unwrap import unwrap
 
@@ -54,14 +55,23 @@ class InitialGuess:
         start: the initial guess (one material, atlas in UV set 0).
         baseline: the low-poly model as users know it: plain decimation with the input's
             materials (``decimation_baseline``), or the user's mesh as given.
-        baked: the classic bake onto ``start``'s mesh where the start is a bake, else ``None``.
+        bake: the classic bake onto ``start``'s mesh (material and how the projection went)
+            where the start is a bake, else ``None``.
         notes: remarks for the report (e.g. why the user's UVs were replaced).
     """
 
     start: Asset
     baseline: Asset
-    baked: Asset | None
+    bake: BakeResult | None
     notes: list[str]
+
+    @property
+    def baked(self) -> Asset | None:
+        """The classic bake as an asset of its own (``start``'s mesh, the baked material), or
+        ``None``."""
+        if self.bake is None:
+            return None
+        return Asset(mesh=self.start.mesh, materials=[self.bake.material], source=self.start.source)
 
 
 def target_triangle_count(triangles: int | None, ratio: float, input_triangles: int) -> int:
@@ -163,15 +173,8 @@ def _material(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, like: As
                     double_sided=any(m.double_sided for m in like.materials))
 
 
-def baked_onto(asset: Asset, mesh: Mesh, size: int, cage: float | None = None) -> Asset:
-    """The classic projection bake of ``asset`` onto ``mesh`` (its atlas in UV set 0): one
-    material with base colour, specular and normal maps (``lookalike.init.bake``)."""
-    mesh = Mesh(v_pos=mesh.v_pos, t_pos_idx=mesh.t_pos_idx, uv=[mesh.uv[0]])
-    return Asset(mesh=mesh, materials=[bake(asset, mesh, texture_size=size, cage=cage).material], source=asset.source)
-
-
 def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ranges,
-                  rng: np.random.Generator, keep_uvs: bool = False) -> InitialGuess:
+                  rng: np.random.Generator, keep_uvs: bool = False, cage: float | None = None) -> InitialGuess:
     """The initial guess on ``low_poly`` for the input ``asset`` (see the module docstring).
 
     Args:
@@ -183,6 +186,7 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
         ranges: the valid ranges of random textures.
         rng: draws random textures.
         keep_uvs: bake onto ``low_poly``'s own UVs (a user's atlas) instead of a fresh atlas.
+        cage: the bake's ray reach (default: ``lookalike.init.bake``'s).
     """
     source = reusable_source_material(asset, low_poly) if init == "source" else None
     baked = None
@@ -195,25 +199,36 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
         start = Asset(mesh=mesh, materials=[material], source=asset.source)
     elif init == "bake":
         atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
-        baked = baked_onto(asset, atlas, size)
-        bake_material = baked.materials[0]
-        material = _material(bake_material.kd.data, bake_material.ks.data, bake_material.normal.data, asset)
-        start = Asset(mesh=baked.mesh, materials=[material], source=asset.source)
+        mesh = Mesh(v_pos=atlas.v_pos, t_pos_idx=atlas.t_pos_idx, uv=[atlas.uv[0]])
+        baked = bake(asset, mesh, texture_size=size, cage=cage)
+        material = _material(baked.material.kd.data, baked.material.ks.data, baked.material.normal.data, asset)
+        start = Asset(mesh=mesh, materials=[material], source=asset.source)
     else:
         mesh = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
         mesh = Mesh(v_pos=mesh.v_pos, t_pos_idx=mesh.t_pos_idx, uv=[mesh.uv[0]])
         kd, ks, normal = initial_textures(asset, size, "average" if init == "source" else init, ranges, rng)
         start = Asset(mesh=mesh, materials=[_material(kd, ks, normal, asset)], source=asset.source)
-    return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), baked=baked, notes=[])
+    return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), bake=baked, notes=[])
+
+
+def snapped(mesh: Mesh, surface: Mesh) -> Mesh:
+    """``mesh`` with every vertex moved to the closest point of ``surface``
+    (``lookalike.init.closest_point.SurfaceQuery``); everything else kept."""
+    query = SurfaceQuery(surface.v_pos.numpy(), surface.t_pos_idx.numpy())
+    points = query.closest(mesh.v_pos.double().numpy()).point
+    return dataclasses.replace(mesh, v_pos=torch.from_numpy(points).to(mesh.v_pos.dtype))
 
 
 def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) -> InitialGuess:
-    """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``): its own UVs and
-    textures where it has one textured material and its UV set 0 is an atlas
-    (``uv_overlap`` at most ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake
-    of ``asset``, onto its UVs where they are an atlas, else onto a fresh one."""
-    mesh = lod.mesh
-    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation"]
+    """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``), its vertices first
+    snapped onto the input's surface (``snapped``: a shrunk, inflated or displaced LOD starts on
+    the surface, where the fit's small steps can refine it): its own UVs and textures where it
+    has one textured material and its UV set 0 is an atlas (``uv_overlap`` at most
+    ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its UVs
+    where they are an atlas, else onto a fresh one. The baseline is ``lod`` as given."""
+    mesh = snapped(lod.mesh, asset.mesh)
+    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, its vertices snapped "
+             "onto the input's surface"]
     overlap = uv_overlap(mesh) if mesh.uv else None
     atlas = overlap is not None and overlap <= UV_OVERLAP_LIMIT
     if overlap is not None and not atlas:
@@ -221,11 +236,12 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) 
                      "so a fresh atlas was unwrapped and baked")
     textured = reusable_source_material(lod, mesh) is not None and lod.materials[0].kd.data.shape[0] > 1
     if atlas and textured:
-        guess = initial_guess(lod, mesh, "source", size, Ranges(), np.random.default_rng(0))
+        guess = initial_guess(dataclasses.replace(lod, mesh=mesh), mesh, "source", size, Ranges(),
+                              np.random.default_rng(0))
         notes.append(f"kept {lod_name}'s UVs and textures")
-        return InitialGuess(start=guess.start, baseline=lod, baked=None, notes=notes)
+        return InitialGuess(start=guess.start, baseline=lod, bake=None, notes=notes)
     guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
-    return InitialGuess(start=guess.start, baseline=lod, baked=guess.baked, notes=notes)
+    return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes)
 
 
 def decimation_baseline(asset: Asset, decimated: Mesh) -> Asset:

@@ -9,11 +9,12 @@ twin (Moeller-Trumbore against every triangle), kept to test it against.
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..threads import thread_count
 
 THREAD_BLOCK = 1 << 16              # fewest rays worth a thread of their own
 _REFERENCE_CHUNK = 1 << 22          # rays x triangles tested at once by the NumPy twin
@@ -52,7 +53,8 @@ class RayCaster:
 
     Embree builds its BVH over the float32 triangle corners once (committed by a first query
     here, before any threads share the scene); ``intersect`` then traces any number of rays,
-    in blocks of at least ``THREAD_BLOCK`` rays on up to ``os.cpu_count()`` threads (Embree
+    in blocks of at least ``THREAD_BLOCK`` rays on up to ``lookalike.threads.thread_count()``
+    threads (Embree
     releases the GIL while it traces). Coordinates are float32 inside Embree (relative error
     ~1e-7 of the mesh's size).
     """
@@ -74,7 +76,7 @@ class RayCaster:
         origins = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
         directions = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
         t_max = np.ascontiguousarray(np.broadcast_to(t_max, (len(origins),)), dtype=np.float32)
-        blocks = max(1, min(os.cpu_count() or 1, len(origins) // THREAD_BLOCK))
+        blocks = max(1, min(thread_count(), len(origins) // THREAD_BLOCK))
         parts = [np.array_split(a, blocks) for a in (origins, directions, t_max)]
         with ThreadPoolExecutor(max_workers=blocks) as pool:
             traced = list(pool.map(self._trace, *parts))

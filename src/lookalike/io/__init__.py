@@ -3,8 +3,9 @@ file extension; each format lives in its own module and registers itself on impo
 
 Formats: ``gltf_read`` (.gltf, .glb), ``gltf_write`` (.glb), ``obj`` (+ ``mtl``; .obj read and
 write), ``ply`` (.ply read). Shared pieces: ``gltf_data`` (buffers, accessors, images of a glTF),
-``images`` (PNG/JPEG, sRGB), ``mikktspace`` (reference tangent frames), ``normal_frames``
-(normal maps between tangent frames), ``transforms``, ``arrays``.
+``images`` (PNG/JPEG, sRGB), ``mikktspace`` (MikkTSpace tangent frames), ``normal_frames``
+(normal maps between tangent frames), ``transforms``, ``arrays``, ``atomic`` (files that appear
+complete or not at all).
 """
 
 from . import gltf_read, gltf_write, obj, ply  # noqa: F401  (register their readers and writers)

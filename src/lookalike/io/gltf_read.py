@@ -16,7 +16,7 @@ morph targets are ignored.
 
 from __future__ import annotations
 
-import warnings
+import logging
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +32,8 @@ from .images import resize, srgb_to_linear
 from .normal_frames import import_normal_maps
 from .registry import reader
 from .transforms import matrix_to_trs
+
+log = logging.getLogger(__name__)
 
 SUPPORTED_EXTENSIONS = frozenset({
     "KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
@@ -116,10 +118,10 @@ def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin
         raise AssetError(data.path, f"{where}: index {int(indices.max())} out of range for {n} vertices")
     triangles = _triangles(prim.mode if prim.mode is not None else 4, indices)
     if triangles is None:
-        warnings.warn(f"{data.path}: {where} has mode {prim.mode} (points or lines); skipped")
+        log.warning(f"{data.path}: {where} has mode {prim.mode} (points or lines); skipped")
         return None
     if prim.targets:
-        warnings.warn(f"{data.path}: {where} has morph targets; they are ignored (base shape kept)")
+        log.warning(f"{data.path}: {where} has morph targets; they are ignored (base shape kept)")
     linear = world[:3, :3]
     with np.errstate(invalid="ignore", over="ignore"):  # non-finite input is reported by _merge
         positions = local @ linear.T + world[:3, 3]
@@ -362,14 +364,14 @@ def _read_animations(data: GltfData) -> list[Animation]:
         channels = []
         for ch in anim.channels:
             if ch.target.node is None or ch.target.path not in _TRS_PATHS:
-                warnings.warn(f"{data.path}: animation {a_index} channel on {ch.target.path!r} skipped")
+                log.warning(f"{data.path}: animation {a_index} channel on {ch.target.path!r} skipped")
                 continue
             sampler = anim.samplers[ch.sampler]
             times = data.accessor(sampler.input).astype(np.float32).reshape(-1)
             values = data.accessor(sampler.output).astype(np.float32)
             interpolation = sampler.interpolation or "LINEAR"
             if interpolation == "CUBICSPLINE":
-                warnings.warn(f"{data.path}: animation {a_index} uses CUBICSPLINE; tangents dropped, keys kept")
+                log.warning(f"{data.path}: animation {a_index} uses CUBICSPLINE; tangents dropped, keys kept")
                 values = values.reshape(len(times), 3, -1)[:, 1]
                 interpolation = "LINEAR"
             channels.append(Channel(node=int(ch.target.node), path=ch.target.path, times=torch.from_numpy(times),
@@ -416,12 +418,12 @@ def read_gltf(path: Path) -> Asset:
     skin, animations = None, []
     if skins:
         if len(skins) > 1:
-            warnings.warn(f"{path}: {len(skins)} skins; only skin {skins[0]} is kept")
+            log.warning(f"{path}: {len(skins)} skins; only skin {skins[0]} is kept")
         skinned_node = next(i for i in order if gltf.nodes[i].skin == skins[0])
         skin = _read_skin(data, skins[0], world[skinned_node], parents)
         animations = _read_animations(data)
     elif gltf.animations:
-        warnings.warn(f"{path}: animations of an unskinned scene are not kept")
+        log.warning(f"{path}: animations of an unskinned scene are not kept")
     nan_tangents = _stack_nan(parts, "tangents", 4)
     file_normals = _file_corner_normals(mesh, parts, corners)
     materials = import_normal_maps(mesh, materials, file_normals, nan_tangents[corners])

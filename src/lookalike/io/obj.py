@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import io
 import re
-import warnings
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +23,8 @@ from ..errors import AssetError
 from .mtl import read_mtl, write_mtl
 from .normal_frames import export_normal_maps, import_normal_maps
 from .registry import reader, writer
+
+log = logging.getLogger(__name__)
 
 _STATEMENT = re.compile(r"^[ \t]*(v|vt|vn|f|usemtl|mtllib)[ \t]+(.*?)[ \t]*$", re.M)
 
@@ -172,13 +174,13 @@ def _materials(path: Path, statements, keywords: np.ndarray, is_face: np.ndarray
             if mtl.is_file():
                 library.update(read_mtl(mtl))
             else:
-                warnings.warn(f"{path}: material library '{rest.strip()}' not found; using default materials")
+                log.warning(f"{path}: material library '{rest.strip()}' not found; using default materials")
     is_use = keywords == "usemtl"
     use_names = [rest.strip() for (kw, rest) in statements if kw == "usemtl"]
     names = list(dict.fromkeys(use_names))
     for name in names:
         if name not in library:
-            warnings.warn(f"{path}: material {name!r} is not defined in any material library; using the default")
+            log.warning(f"{path}: material {name!r} is not defined in any material library; using the default")
     materials = [library.get(name, Material(name=name)) for name in names]
     name_index = np.array([names.index(n) for n in use_names] + [len(names)], dtype=np.int64)
     # The material of a face is the last usemtl before it (index len(names) = default when none).
@@ -214,7 +216,7 @@ def write_obj(asset: Asset, path: Path) -> None:
     names = _unique_names(asset.materials)
     materials = export_normal_maps(mesh, asset.materials)
     if any(float(m.ks.data[..., 0].abs().max()) > 0 for m in asset.materials):
-        warnings.warn(f"{path}: gamma (specular scale) cannot be stored in MTL; dropped")
+        log.warning(f"{path}: gamma (specular scale) cannot be stored in MTL; dropped")
     mtl_path = path.with_suffix(".mtl")
     write_mtl(materials, names, mtl_path)
     v_nrm = vertex_normals(mesh.v_pos, mesh.t_pos_idx)

@@ -1,5 +1,6 @@
 """``bake_asset``: the classic pipeline end to end (load -> decimate -> unwrap -> bake -> write
-``OUTDIR/model.glb``), the baseline that ``simplify`` is compared with.
+``OUTDIR/model.glb``), the baseline that ``simplify`` is compared with: ``simplify``'s own
+initial guess (``lookalike.init.initial_guess``) written as a model.
 
 The decimation target follows the same rule as ``simplify`` (``lookalike.init.initial_guess.
 target_triangle_count``), so both start from the same low-poly mesh. Every step is
@@ -9,25 +10,24 @@ existing non-empty folder is refused without ``force``; files are written atomic
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import torch
+import numpy as np
 
 from .. import io
 from ..asset.asset import Asset
 from ..asset.material import Material
+from ..errors import ConfigError
 from ..fit.config import LatentConfig
-from ..init.bake import bake
 from ..init.decimate import decimate
-from ..init.initial_guess import target_triangle_count
-from ..init.unwrap import unwrap
+from ..init.initial_guess import Ranges, initial_guess, target_triangle_count
 from ..io.atomic import write_text_atomic
-from .outdir import check_outdir, prepare_outdir
-from .outputs import write_model
+from ..limits import MAX_BAKE_TEXTURE_SIZE
+from .outdir import check_outdir, left_as_found, prepare_outdir
+from .outputs import METRICS_NAME, MODEL_NAME, staged_outputs, write_model
 from .simplify import prepare_input
 
 OUTDIR_SUFFIX = "-baked"
@@ -74,6 +74,8 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
     Raises:
         ConfigError, AssetError: with a message naming the problem.
     """
+    if not 4 <= texture_size <= MAX_BAKE_TEXTURE_SIZE:
+        raise ConfigError(f"the texture size (--texture-size) must lie in [4, {MAX_BAKE_TEXTURE_SIZE}], not {texture_size}")
     started = time.monotonic()
     name = input.name if isinstance(input, Asset) else Path(input).stem
     outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
@@ -85,29 +87,30 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
                                   asset.mesh.num_triangles)
     seconds["load"] = time.monotonic() - clock
     clock = time.monotonic()
-    low = unwrap(decimate(asset.mesh, count), texture_size=texture_size)
-    low = dataclasses.replace(low, t_mat_idx=torch.zeros_like(low.t_mat_idx), v_color=None,
-                              v_joints=None, v_weights=None)
-    seconds["decimate and unwrap"] = time.monotonic() - clock
+    decimated = decimate(asset.mesh, count)
+    seconds["decimate"] = time.monotonic() - clock
     clock = time.monotonic()
-    result = bake(asset, low, texture_size=texture_size, cage=cage)
-    seconds["bake"] = time.monotonic() - clock
-    baked = Asset(mesh=low, materials=[result.material], source=asset.source)
+    guess = initial_guess(asset, decimated, "bake", texture_size, Ranges(), np.random.default_rng(0), cage=cage)
+    seconds["unwrap and bake"] = time.monotonic() - clock
+    baked, result = guess.baked, guess.bake
 
-    outdir = prepare_outdir(outdir, force=force, resume=False)
-    clock = time.monotonic()
-    model = write_model(baked, outdir, obj=False)
-    seconds["export"] = time.monotonic() - clock
-    seconds["total"] = time.monotonic() - started
-    metrics = {
-        "input": str(asset.source or name),
-        "triangles": {"input": asset.mesh.num_triangles, "output": low.num_triangles},
-        "texture_size": texture_size,
-        "cage": result.cage,
-        "texels": result.texels,
-        "hit_fraction": result.hit_fraction,
-        "mean_offset": result.mean_offset,
-        "seconds": seconds,
-    }
-    write_text_atomic(outdir / "metrics.json", json.dumps(metrics, indent=2))
+    with left_as_found(outdir):
+        outdir = prepare_outdir(outdir, force=force, resume=False)
+        clock = time.monotonic()
+        with staged_outputs(outdir) as staging:
+            write_model(baked, staging, obj=False)
+            seconds["export"] = time.monotonic() - clock
+            seconds["total"] = time.monotonic() - started
+            metrics = {
+                "input": str(asset.source or name),
+                "triangles": {"input": asset.mesh.num_triangles, "output": baked.mesh.num_triangles},
+                "texture_size": texture_size,
+                "cage": result.cage,
+                "texels": result.texels,
+                "hit_fraction": result.hit_fraction,
+                "mean_offset": result.mean_offset,
+                "seconds": seconds,
+            }
+            write_text_atomic(staging / METRICS_NAME, json.dumps(metrics, indent=2))
+    model = outdir / MODEL_NAME
     return BakeJobResult(outdir=outdir, model=model, asset=baked, metrics=metrics)

@@ -3,7 +3,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import shutil
 from pathlib import Path
+from typing import Iterator
 
 from ..errors import ConfigError
 
@@ -36,3 +39,20 @@ def prepare_outdir(outdir: str | Path, *, force: bool, resume: bool) -> Path:
         (outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
     outdir.mkdir(parents=True, exist_ok=True)
     return outdir
+
+
+@contextlib.contextmanager
+def left_as_found(outdir: Path) -> Iterator[None]:
+    """Run the block; if it fails, and ``outdir`` did not exist before it, remove ``outdir``,
+    unless an interruption (Ctrl-C, SIGTERM) left a checkpoint in it to resume from."""
+    created = not Path(outdir).exists()
+    try:
+        yield
+    except KeyboardInterrupt:
+        if created and not (Path(outdir) / CHECKPOINT_NAME).exists():
+            shutil.rmtree(outdir, ignore_errors=True)
+        raise
+    except BaseException:
+        if created:
+            shutil.rmtree(outdir, ignore_errors=True)
+        raise

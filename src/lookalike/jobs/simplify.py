@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import time
 from dataclasses import dataclass
 from functools import partial
@@ -26,6 +27,7 @@ import torch
 
 from .. import io
 from ..asset import Asset, Material
+from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.config import Config, LatentConfig, loop_settings, objective
 from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
@@ -39,8 +41,10 @@ from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_g
 from ..io.atomic import write_text_atomic
 from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
-from .outdir import CHECKPOINT_NAME, check_outdir, prepare_outdir
-from .outputs import write_model, write_record
+from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
+from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
+
+log = logging.getLogger(__name__)
 
 OUTDIR_SUFFIX = "-lookalike"
 OUTPUT_TIME_FACTOR = 2.0
@@ -122,15 +126,20 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
             otherwise the input is baked onto it (onto a fresh atlas where its UVs overlap).
         seed: random seed (default 0); same seed, same result.
         config: a ``Config`` or a TOML file with further settings; the arguments above override it.
-        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` (with the settings
-            and the initial guess stored in it; ``input`` must be the same asset). A fixed
-            ``iterations`` count is completed exactly; under a time budget the resumed session
-            gets the budget afresh.
+        resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` bit-exactly, with the
+            settings and the initial guess stored in it (other options given are ignored, and
+            a warning names them); ``input`` must be the same asset (the same content), else
+            ``ConfigError``. The time budget is the run's total over all its sessions, unless
+            ``time_budget`` is given again: then this session gets it.
         force: overwrite an existing ``outdir``.
         material_override: render the input with this material on every triangle (e.g. a
             colour for untextured scans).
         export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures.
         progress: show a progress bar.
+
+    Outputs appear only when complete (written into a temporary folder inside ``outdir`` and
+    moved into place, ``metrics.json`` last). A run that fails leaves ``outdir`` as it found it
+    (a folder it created is removed; an interrupted run keeps its checkpoint).
 
     Raises:
         ConfigError, AssetError: with a message naming the problem.
@@ -140,39 +149,61 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     name = given.name if given is not None else Path(input).stem
     outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
     check_outdir(outdir, force=force, resume=resume)
+    options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
+               "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj}
+    with left_as_found(outdir):
+        return _simplify(input, given, outdir, options, time_budget, init_mesh, config, resume, force,
+                         material_override, progress, started)
+
+
+def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budget: float | None,
+              init_mesh, config, resume: bool, force: bool, material_override: Material | None, progress: bool,
+              started: float) -> SimplifyResult:
+    """``simplify`` once its output folder is checked (see there)."""
     checkpoint = outdir / CHECKPOINT_NAME
     saved = read_checkpoint(checkpoint) if resume else None
     if saved is not None:
-        cfg = config_from_dict(saved["config"], origin=str(checkpoint))
+        cfg = resumed_config(saved, checkpoint, {**options, "time_budget": time_budget, "config": config,
+                                                 "init_mesh": init_mesh})
+        seconds_before = saved["seconds_used"]
+        budget = time_budget if time_budget is not None else cfg.optim.time_budget - seconds_before
     else:
-        cfg = with_overrides(config, triangles=triangles, ratio=ratio, texture_size=texture_size,
-                             resolution=resolution, time_budget=time_budget, iterations=iterations, init=init, seed=seed,
-                             export_obj=export_obj)
+        cfg = with_overrides(config, time_budget=time_budget, **options)
         input_name = str(input) if given is None else str(given.source or given.name)
         cfg.io = dataclasses.replace(cfg.io, input=input_name, init_mesh="" if init_mesh is None else str(init_mesh),
                                      outdir=str(outdir))
+        seconds_before, budget = 0.0, cfg.optim.time_budget
 
     timings: dict[str, float] = {}
     with _stage(timings, "load and initial guess"):
-        asset, notes = prepare_input(given if given is not None else io.load(input), material_override)
-        guess = saved["initial_guess"] if saved is not None else None
-        if guess is None:
+        loaded = given if given is not None else io.load(input)
+        asset, notes = prepare_input(loaded, material_override)
+        fingerprint = asset.fingerprint()
+        if saved is not None:
+            check_same_input(saved, checkpoint, fingerprint, str(input) if given is None else given.name)
+            guess = saved["initial_guess"]
+        else:
             count = None if cfg.io.init_mesh else _triangle_target(cfg.latent, asset)
             prepare_outdir(outdir, force=force, resume=resume)
-            write_text_atomic(outdir / "config.toml", to_toml(cfg))
             guess = build_initial_guess(asset, cfg, count)
-        reference = MeshReference(asset, cfg.render.resolution, cfg.render.target_spp)
+        checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds, extra=lambda: {
+            "config": config_to_dict(cfg), "initial_guess": guess, "input_fingerprint": fingerprint,
+            "seconds_used": seconds_before + time.monotonic() - started})
+        if saved is None:
+            checkpointer.save({})
+        reference = MeshReference(asset)
         centre, radius = reference.bounding_sphere()
         latent = TexturedMesh.from_asset(guess.start, centre, radius, cfg.clamp, cfg.render.latent_msaa,
                                          train_alpha=uses_alpha(asset))
     with _stage(timings, "reference views"):
         sampler = view_sampler(centre, radius)
-        heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed)
-        validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed)
+        size, spp = cfg.render.resolution, cfg.render.target_spp
+        heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed, size, spp)
+        validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed, size, spp)
                       if cfg.views.validation else None)
         source = (ViewPool(reference, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                           cfg.views.refresh_every)
-                  if cfg.views.pool_size else FreshViews(reference, sampler))
+                           cfg.views.refresh_every, size, spp)
+                  if cfg.views.pool_size else FreshViews(reference, sampler, size, spp))
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
     baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \
         else ("decimated", "Plain decimation")
@@ -183,24 +214,18 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         with _stage(timings, "scoring the classic bake"):
             methods.append(heldout.score("baked", "Classic bake", guess.baked, draw, cfg.latent.texture_size))
 
-    checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds,
-                                extra={"config": config_to_dict(cfg), "initial_guess": guess})
     fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(asset)),
                     validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
                     checkpointer=checkpointer)
-    if saved is not None:
+    if saved is not None and "latent" in saved:
         fitter.load_state_dict(saved)
-    else:
-        checkpointer.save(fitter.state_dict())
     output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
-    available = max(cfg.optim.time_budget - (time.monotonic() - started) - output_time, 0.0)
+    available = max(budget - (time.monotonic() - started) - output_time, 0.0)
     with _stage(timings, "optimisation"):
         fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
     export = fit.best.export()
     with _stage(timings, "scoring ours"):
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
-    with _stage(timings, "export"):
-        model = write_model(export, outdir, cfg.io.export_obj)
     record = RunRecord(
         asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
         methods=methods, input_triangles=asset.mesh.num_triangles, output_triangles=export.mesh.num_triangles,
@@ -208,15 +233,55 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         loss_history=np.asarray(fit.losses, dtype=np.float64),
         validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
         validation_views=cfg.views.validation, iterations=fit.iterations, rollbacks=fit.rollbacks,
-        interrupted=fit.interrupted, wall_time=time.monotonic() - started,
+        interrupted=fit.interrupted, wall_time=seconds_before + time.monotonic() - started,
         seconds_per_iteration=fit.seconds / max(fit.iterations, 1), timings=timings,
         config=config_to_dict(cfg), notes=notes + guess.notes,
     )
-    with _stage(timings, "report"):
-        report, metrics = write_record(outdir, record, started)
+    with staged_outputs(outdir) as staging:
+        with _stage(timings, "export"):
+            write_model(export, staging, cfg.io.export_obj)
+        write_text_atomic(staging / "config.toml", to_toml(cfg))
+        with _stage(timings, "report"):
+            metrics = write_record(staging, record, started - seconds_before)
     if not fit.interrupted:
         checkpoint.unlink(missing_ok=True)
-    return SimplifyResult(outdir=outdir, model=model, report=report, metrics=metrics, interrupted=fit.interrupted)
+    return SimplifyResult(outdir=outdir, model=outdir / MODEL_NAME, report=outdir / REPORT_NAME, metrics=metrics,
+                          interrupted=fit.interrupted)
+
+
+def resumed_config(saved: dict, checkpoint: Path, given: dict) -> Config:
+    """The configuration stored in the checkpoint ``saved``; logs one line naming the given
+    options (``given``, ``None`` where not given) that it overrides: every setting of a resumed
+    run is the checkpoint's, except a new ``time_budget`` for this session."""
+    cfg = config_from_dict(saved["config"], origin=str(checkpoint))
+    ignored = []
+    for key, value in given.items():
+        if value is None or key == "time_budget":
+            continue
+        if key in ("config", "init_mesh"):
+            ignored.append(f"--{key.replace('_', '-')} {value}")
+            continue
+        section = _SECTION_OF[key]
+        current = getattr(getattr(cfg, section), key)
+        if getattr(getattr(with_overrides(cfg, **{key: value}), section), key) != current:
+            ignored.append(f"--{key.replace('_', '-')} {value} (the run has {current})")
+    if ignored:
+        log.warning("%s: resuming with the checkpoint's settings; ignored: %s", checkpoint, ", ".join(ignored))
+    return cfg
+
+
+_SECTION_OF = {"triangles": "latent", "ratio": "latent", "texture_size": "latent", "init": "latent",
+               "resolution": "render", "iterations": "optim", "seed": "optim", "export_obj": "io"}
+
+
+def check_same_input(saved: dict, checkpoint: Path, fingerprint: str, input_name) -> None:
+    """``ConfigError`` naming both inputs unless the asset being resumed has the content the
+    checkpoint's run started from."""
+    if saved.get("input_fingerprint") != fingerprint:
+        raise ConfigError(f"{checkpoint}: this run was started from {saved['config']['io']['input']}, and "
+                          f"{input_name} is a different asset (content {fingerprint[:12]}, not "
+                          f"{str(saved.get('input_fingerprint'))[:12]}); resume with the same input, or start "
+                          "afresh with --force")
 
 
 def _triangle_target(latent: LatentConfig, asset: Asset) -> int:

@@ -26,7 +26,8 @@ AssetRenderer = Callable[[Asset, Camera, PointLight], torch.Tensor]
 
 
 class HeldoutViews:
-    """``count`` views drawn from ``np.random.default_rng(seed)`` and the reference's images.
+    """``count`` views drawn from ``np.random.default_rng(seed)`` and the reference's images,
+    rendered at ``resolution`` with ``spp`` x ``spp`` samples per pixel.
 
     Attributes:
         camera, light: the views (batch ``count``).
@@ -35,9 +36,9 @@ class HeldoutViews:
             (``lookalike.report.metrics.silhouette_band``).
     """
 
-    def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int):
+    def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int, resolution: int, spp: int):
         self.camera, self.light = sampler(np.random.default_rng(seed), count)
-        rgba = render_in_chunks(reference, self.camera, self.light)
+        rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp)
         self.reference = self._composite(rgba)
         self.silhouette = silhouette_band(rgba[..., 3])
 

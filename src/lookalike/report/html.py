@@ -24,7 +24,7 @@ EXPANDED_VIEWS = 4                 # views shown open; the rest sit in a collaps
 _JPEG_QUALITY = 90
 _MIN_CELL_PX = 180                 # views sit side by side while their pictures stay this wide
 
-_CSS = """
+PAGE_CSS = """
 :root { --ink:#1d1f21; --muted:#62666d; --faint:#9a9ea5; --line:#e4e4e1; --paper:#fafaf8;
   --card:#ffffff; --accent:#1f4e8c; --good:#1b7f4b; --good-bg:#e8f5ed; --bad:#b3261e; }
 * { box-sizing:border-box; }
@@ -283,7 +283,7 @@ Written by lookalike {_esc(__version__)} on {_dt.datetime.now().strftime("%Y-%m-
 </main>"""
     page = (f'<!doctype html>\n<html lang="en"><head><meta charset="utf-8">'
             f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>{_esc(data.asset_name)} · lookalike report</title><style>{_CSS}</style></head>"
+            f"<title>{_esc(data.asset_name)} · lookalike report</title><style>{PAGE_CSS}</style></head>"
             f"<body>{body}</body></html>\n")
     path = outdir / "report.html"
     partial = path.with_suffix(".html.partial")

@@ -1,6 +1,6 @@
 // Per-corner MikkTSpace tangents from the npm package `mikktspace` (WASM build of the reference
 // implementation). Reads {"position": [...9T], "normal": [...9T], "texcoord": [...6T]} as JSON on
-// stdin, prints the [...12T] tangents as JSON. Usage: node mikktspace_reference.js NODE_MODULES_DIR
+// stdin, prints the [...12T] tangents as JSON. Usage: node mikktspace_oracle.js NODE_MODULES_DIR
 const path = require("path");
 const { generateTangents } = require(path.resolve(process.argv[2], "mikktspace"));
 let input = "";

@@ -1,0 +1,25 @@
+"""Upper bounds of the settings that allocate memory or time in proportion to them, so that a
+typo (``--texture-size 65536``) is a one-line error instead of minutes of swapping. Each bound
+leaves a default run far inside the 24 GB of a development machine."""
+
+MAX_TEXTURE_SIZE = 4096
+"""Side of optimised textures: parameters, gradients, Adam's two moments and the best and
+last-good copies make about 30 floats per texel (2 GB at 4096²)."""
+
+MAX_BAKE_TEXTURE_SIZE = 8192
+"""Side of baked or merged textures (no optimiser state: about 10 floats per texel)."""
+
+MAX_RESOLUTION = 2048
+"""Side of training, held-out and rendered images (the paper's largest)."""
+
+MAX_SPP = 8
+"""Samples per pixel per axis of supersampled or multisampled images."""
+
+MAX_VIEWS = 1024
+"""Views in a pool, a held-out or validation set, or a batch of pictures."""
+
+MAX_POOL_BYTES = 8 << 30
+"""Memory of the pool of reference images (float16 RGBA: 8 bytes per pixel)."""
+
+MAX_WORKERS = 1024
+"""Tasks at once, and CPUs per task, of a batch."""
