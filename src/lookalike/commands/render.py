@@ -32,8 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"picture size in pixels (default 512, at most {MAX_RESOLUTION})")
     parser.add_argument("--spp", type=int, default=2, help=f"supersampling factor per axis (default 2, at most {MAX_SPP})")
     parser.add_argument("--layers", type=int, default=None,
-                        help=f"depth-peeled layers (default: 4 when a material blends, else 2, so that "
-                             "culled back faces and alpha cut-outs show what lies behind them; at most {MAX_LAYERS})")
+                        help="depth-peeled layers (default: 4 when a material blends, else 2, so that "
+                             f"culled back faces and alpha cut-outs show what lies behind them; at most {MAX_LAYERS})")
     parser.add_argument("--seed", type=int, default=0, help="random seed of the views (default 0)")
     parser.add_argument("--force", action="store_true", help="overwrite existing pictures")
 
