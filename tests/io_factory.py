@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
+from lookalike.asset.normals import weld_normals
 
 NPM_CACHE = Path(os.environ.get("LOOKALIKE_NPM_CACHE", Path.home() / ".cache" / "lookalike-tests" / "npm"))
 
@@ -70,6 +71,36 @@ def uv_sphere(n_lat: int = 12, n_lon: int = 24, dtype=torch.float32) -> Mesh:
     tris_p.append(torch.stack([pos(rings - 1, j), torch.full_like(j, south), pos(rings - 1, jn)], 1))
     tris_t.append(torch.stack([tex(rings - 1, j), g + n_lon + j, tex(rings - 1, j + 1)], 1))
     return Mesh(v_pos=v_pos, t_pos_idx=torch.cat(tris_p), uv=[(v_tex, torch.cat(tris_t))])
+
+
+def box(n: int = 2, flat_normals: bool = True) -> Mesh:
+    """The cube [-1, 1]^3, each face an ``n x n`` vertex grid, positions welded across faces,
+    counter-clockwise outward; each face's UVs fill one tile of a 3 x 2 layout (v down). With
+    ``flat_normals`` it carries authored face normals (three slots at every cube corner)."""
+    coords = torch.linspace(-1, 1, n)
+    ys, xs = torch.meshgrid(coords, coords, indexing="ij")
+    idx = torch.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].reshape(-1), idx[:-1, 1:].reshape(-1), idx[1:, :-1].reshape(-1), idx[1:, 1:].reshape(-1)
+    grid_tris = torch.cat([torch.stack([a, b, d], 1), torch.stack([a, d, c], 1)])
+    positions, uvs, tris, normals = [], [], [], []
+    for face, (axis, sign) in enumerate((a, s) for a in range(3) for s in (1.0, -1.0)):
+        p = torch.zeros(n * n, 3)
+        p[:, axis] = sign
+        p[:, (axis + 1) % 3] = xs.reshape(-1)
+        p[:, (axis + 2) % 3] = sign * ys.reshape(-1)
+        tile = torch.tensor([face % 3, face // 3], dtype=torch.float32)
+        uv01 = torch.stack([(xs.reshape(-1) + 1) / 2, (1 - ys.reshape(-1)) / 2], -1)
+        uvs.append((tile + 0.05 + 0.9 * uv01) / torch.tensor([3.0, 2.0]))
+        tris.append(grid_tris + face * n * n)
+        positions.append(p)
+        normals.append(torch.zeros(len(grid_tris), 3, 3).index_fill_(2, torch.tensor([axis]), sign))
+    v_pos, weld = torch.unique(torch.cat(positions), dim=0, return_inverse=True)
+    t_tex_idx = torch.cat(tris)
+    t_pos_idx = weld[t_tex_idx]
+    mesh = Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, uv=[(torch.cat(uvs), t_tex_idx)])
+    if flat_normals:
+        mesh.v_nrm, mesh.t_nrm_idx = weld_normals(t_pos_idx, torch.cat(normals))
+    return mesh
 
 
 def mirrored_plane(n: int = 5) -> Mesh:

@@ -97,3 +97,66 @@ def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, caps
     assert "--assets-dir: bench render does not run the benchmark assets" in capsys.readouterr().err
     assert main(["bench", "quality", "--assets-dir", str(tmp_path / "nowhere")]) != 0
     assert "benchmark assets are missing: no folder" in capsys.readouterr().err
+
+
+def _judged(ours_cycles: float, blender_cycles: float, ours_ours: float, baked_ours: float) -> dict:
+    """A ``judged_row``-shaped result with the given PSNRs (FLIP lower for ours)."""
+    def scores(values):
+        return {key: {"psnr": psnr, "flip": 0.02 if key == "ours" else 0.03} for key, psnr in values.items()}
+
+    cycles = scores({"decimated": 20.0, "baked": 25.0, "blender": blender_cycles, "ours": ours_cycles})
+    judged = {"views": 16, "resolution": 384,
+              "scores": {"ours": scores({"decimated": 21.0, "baked": baked_ours, "blender": 26.0, "ours": ours_ours}),
+                         "cycles": cycles, "cycles_no_shadows": cycles},
+              "blender_bake": {"seconds": {"total": 12.0}}, "seconds": {"cycles_per_view": 1.5},
+              "agreement": {key: {"psnr": 37.4, "flip": 0.01} for key in ("reference", "decimated", "baked", "blender", "ours")}}
+    judged["gain_over_blender_db"] = ours_cycles - blender_cycles
+    judged["gain_over_baked_db"] = ours_ours - baked_ours
+    judged["meets_bar"] = judged["gain_over_blender_db"] >= 1 and judged["gain_over_baked_db"] >= 1
+    return judged
+
+
+def test_judge_reuses_earlier_runs_and_prints_both_renderers(stub_simplify, tmp_path, monkeypatch, capsys):
+    from lookalike.cli import main
+
+    calls, assets = stub_simplify
+    out = tmp_path / "out"
+    (out / "spot").mkdir(parents=True)
+    (out / "spot" / "metrics.json").write_text(json.dumps(_metrics(1000, 27.0, 31.0, baked=29.0)))
+    judged = []
+    monkeypatch.setattr(quality, "check_judge", lambda judge: None)
+    monkeypatch.setattr(quality, "judged_row", lambda case, assets_dir, run_dir, baselines: judged.append(
+        (case.name, run_dir, baselines)) or _judged(30.0, 28.5, 31.0, 29.5))
+    assert main(["bench", "quality", "--asset", "spot", "--asset", "nefertiti", "--assets-dir", str(assets),
+                 "--out", str(out), "--judge", "blender", "--reuse"]) == 0
+    assert [c.outdir.name for c in calls] == ["nefertiti"]                     # spot was reused, not simplified again
+    assert [(name, run.name, base) for name, run, base in judged] == [("nefertiti", "nefertiti", None),
+                                                                       ("spot", "spot", None)]
+    table = capsys.readouterr().out
+    assert "Cycles, shadows" in table and "Cycles, no shadows" in table and "our renderer" in table
+    assert "PSNR Blender" in table and "+1.50" in table and "judge bar" in table and "met" in table
+    assert "spot: our renderer vs Cycles without shadows on the same file, PSNR dB: input 37.4, dec 37.4" in table
+    result = quality.run(out=out, assets_dir=assets, assets=quality.select_assets(["spot"]), judge="blender", reuse=True)
+    assert result["runs"][0]["judge"]["gain_over_blender_db"] == pytest.approx(1.5)
+    json.dumps(result)
+
+
+def test_judge_bar_counts_in_the_runs_bar(stub_simplify, tmp_path, monkeypatch):
+    _, assets = stub_simplify
+    monkeypatch.setattr(quality, "check_judge", lambda judge: None)
+    monkeypatch.setattr(quality, "judged_row", lambda *args: _judged(29.0, 28.5, 31.0, 29.5))  # +0.5 dB over Blender
+    result = quality.run(out=tmp_path, assets_dir=assets, assets=quality.select_assets(["nefertiti"]), judge="blender")
+    assert result["runs"][0]["meets_bar"] and not result["runs"][0]["judge"]["meets_bar"]
+    assert not result["all_meet_bar"]
+    first, judged = quality.format_table(result).split("judge:")
+    assert "MISSED" not in first and "MISSED" in judged and "judge bar" in judged and "NOT met" in judged
+
+
+def test_judge_options_are_checked(tmp_path, monkeypatch):
+    assets = tmp_path / "assets"
+    assets.mkdir()
+    monkeypatch.delenv(quality.OUT_ENVIRONMENT, raising=False)
+    with pytest.raises(ConfigError, match="unknown judge 'mitsuba'"):
+        quality.run(assets_dir=assets, judge="mitsuba")
+    with pytest.raises(ConfigError, match="--reuse judges earlier runs"):
+        quality.run(assets_dir=assets, reuse=True)

@@ -127,7 +127,9 @@ def test_the_loop_settings_follow_the_configuration(init):
                                       "rollback_lr_factor": 0.25, "max_rollbacks": 5, "outline_views": 0}})
     settings = loop_settings(cfg, outline=True)
     lr_positions, lr_textures = learning_rates(cfg)
-    assert settings.learning_rates == {"positions": lr_positions, "textures": lr_textures}
+    assert settings.learning_rates == {"positions": lr_positions, "textures": lr_textures, "emissive": lr_textures}
+    emissive = config_from_dict({"optim": {"lr_emissive": 0.002}})
+    assert loop_settings(emissive, outline=True).learning_rates["emissive"] == 0.002
     assert (settings.views_per_step, settings.iterations, settings.lr_decay, settings.seed) == (3, 40, 0.01, 9)
     assert settings.lr_decades == (WARM_START if init == "bake" else COLD_START).lr_decades
     assert (settings.validate_every, settings.rollback_lr_factor, settings.max_rollbacks) == (7, 0.25, 5)

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 import torch
 
-from io_factory import bumpy_normal_map, mirrored_plane, npm_package, uv_sphere
+from io_factory import box, bumpy_normal_map, mirrored_plane, npm_package, uv_sphere
 from lookalike.asset import Texture
 from lookalike.asset.frames import our_corner_frame
-from lookalike.asset.normals import vertex_normals
+from lookalike.asset.normals import crease_normal_index
 from lookalike.io.mikktspace import mikktspace_tangents
 from lookalike.io.normal_frames import reexpress_normal_map, reexpress_normal_map_python
 
@@ -35,8 +35,8 @@ def reference_tangents(positions, normals, uvs) -> np.ndarray:
 
 
 def corner_arrays(mesh):
-    v_nrm = vertex_normals(mesh.v_pos.float(), mesh.t_pos_idx)
-    return (mesh.v_pos.float()[mesh.t_pos_idx].numpy(), v_nrm[mesh.t_pos_idx].numpy(),
+    v_nrm, t_nrm_idx = mesh.normals()
+    return (mesh.v_pos.float()[mesh.t_pos_idx].numpy(), v_nrm.float()[t_nrm_idx].numpy(),
             mesh.uv[0][0].float()[mesh.uv[0][1]].numpy())
 
 
@@ -45,6 +45,12 @@ def bumpy(mesh, amount=0.05):
     p = mesh.v_pos
     offset = amount * torch.sin(5 * p[:, :1] + 3 * p[:, 1:2] + 2 * p[:, 2:])
     mesh.v_pos = p + offset * torch.tensor([0.3, 1.0, 0.6])
+    return mesh
+
+
+def creased(mesh):
+    """The mesh with its normals split at creases (``crease_normal_index``)."""
+    mesh.t_nrm_idx = crease_normal_index(mesh.v_pos, mesh.t_pos_idx)
     return mesh
 
 
@@ -65,9 +71,10 @@ def with_degenerate_triangles(mesh):
 
 @pytest.mark.parametrize("make", [lambda: uv_sphere(10, 20), lambda: bumpy(uv_sphere(7, 11)),
                                   lambda: with_degenerate_triangles(bumpy(uv_sphere(7, 11))),
-                                  lambda: bumpy(mirrored_plane(5), 0.2), lambda: bumpy(mirrored_plane(6), 0.2)],
+                                  lambda: bumpy(mirrored_plane(5), 0.2), lambda: bumpy(mirrored_plane(6), 0.2),
+                                  lambda: bumpy(creased(box(4, flat_normals=False)), 0.1)],
                          ids=["sphere", "bumpy-sphere-with-seam", "degenerate", "mirrored-uvs",
-                              "mirror-inside-triangles"])
+                              "mirror-inside-triangles", "hard-edged-box"])
 def test_matches_reference_implementation(make):
     positions, normals, uvs = corner_arrays(make())
     ours = mikktspace_tangents(positions, normals, uvs)

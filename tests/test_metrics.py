@@ -99,3 +99,18 @@ def test_the_error_share_is_the_squared_error_in_the_mask_over_all_of_it():
     mask[0, :2, :2] = True
     assert error_share(reference, test, mask) == pytest.approx(0.12 / 0.28, abs=1e-4)
     assert error_share(reference, reference, mask) == 0.0
+
+
+def test_masked_psnr_scores_only_the_masked_pixels():
+    from lookalike.report.metrics import coverage_union, masked_psnr_views
+
+    reference = np.zeros((2, 8, 8, 3), dtype=np.float32)
+    test = reference.copy()
+    test[:, :2] = _linear_for_display(0.1)                                     # error only in rows 0-1
+    alpha_ref, alpha_test = np.zeros((2, 8, 8)), np.zeros((2, 8, 8))
+    alpha_ref[:, :2], alpha_test[:, 2:4] = 1.0, 0.5                             # union: rows 0-3
+    mask = coverage_union(torch.as_tensor(alpha_ref), alpha_test)
+    assert mask.shape == (2, 8, 8) and mask.sum() == 2 * 32
+    np.testing.assert_allclose(masked_psnr_views(reference, test, mask), 10 * np.log10(200), atol=1e-4)  # MSE 0.005
+    np.testing.assert_allclose(masked_psnr_views(reference, test, np.ones((2, 8, 8), bool)), psnr_views(reference, test))
+    assert masked_psnr_views(reference, test, np.zeros((2, 8, 8), bool)).tolist() == [PSNR_CAP_DB, PSNR_CAP_DB]

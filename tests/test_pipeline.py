@@ -413,3 +413,25 @@ def test_renders_shared_asset(shared_assets, relative):
     mean_colour = image[..., :3][covered].mean().item()
     assert 0.01 < mean_colour < 1.5  # lit, neither black nor blown out
     assert image[0, 0, 0, 3] == 0 and image[0, -1, -1, 3] == 0  # corners are background
+
+
+def test_the_horizon_test_darkens_normal_mapped_points_whose_surface_faces_away_from_the_light():
+    tilt = torch.nn.functional.normalize(torch.tensor([0.8, 0.0, 0.6]), dim=0)   # towards +x, 53 degrees
+    grey = Material(kd=Texture.constant([0.6, 0.6, 0.6, 1.0]), ks=Texture.constant(NO_SPECULAR),
+                    normal=Texture.constant(tilt.tolist()))
+    asset = Asset(quad(), [grey])
+    position = [[3.0, 0.0, -0.5]]   # slightly behind the quad's plane, on the side the normals lean to
+
+    def centre(horizon) -> float:
+        light = PointLight(torch.tensor(position), torch.full((1, 3), 9.0),
+                           horizon=None if horizon is None else torch.tensor([horizon]))
+        return float(render(asset, front_camera(), light, 33)[0, 16, 16, 0])
+
+    assert centre(None) > 0.05 and centre(False) == centre(None)
+    assert centre(True) == 0.0
+    lit = [[3.0, 0.0, 0.5]]   # above the plane: both conventions light it alike
+    position[:] = lit
+    assert centre(True) == centre(None) > 0.05
+    two = PointLight.cat([PointLight(torch.tensor(position), torch.ones(1, 3)),
+                          PointLight(torch.tensor(position), torch.ones(1, 3), horizon=torch.tensor([True]))])
+    assert two.horizon.tolist() == [False, True] and two[1:].horizon.tolist() == [True]

@@ -35,12 +35,12 @@ class Asset:
         return self.source.stem if self.source else "asset"
 
     def fingerprint(self) -> str:
-        """SHA-256 (hex) of the content: positions, triangles, UVs, vertex colours, material
-        indices and every material's textures and alpha mode; the same wherever the asset was
-        read from, different when any of these differ."""
+        """SHA-256 (hex) of the content: positions, triangles, normals, UVs, vertex colours,
+        material indices and every material's textures and alpha mode; the same wherever the
+        asset was read from, different when any of these differ."""
         mesh = self.mesh
         tensors = [mesh.v_pos, mesh.t_pos_idx, mesh.t_mat_idx, *(t for uv in mesh.uv for t in uv)]
-        tensors += [mesh.v_color] if mesh.v_color is not None else []
+        tensors += [t for t in (mesh.v_nrm, mesh.t_nrm_idx, mesh.v_color) if t is not None]
         digest = hashlib.sha256()
         for material in self.materials:
             digest.update(material.alpha_mode.encode())

@@ -1,8 +1,9 @@
 """Tangent frames of a surface point, interpolated from per-corner frames as a renderer does, and
 re-expressing tangent-space normals from one frame into another.
 
-Our frame is ``lookalike.asset.tangents.vertex_tangents`` on the smooth normals of
-``lookalike.asset.normals.vertex_normals``; files use others (``lookalike.io.normal_frames``).
+Our frame is ``lookalike.asset.tangents.vertex_tangents`` on the mesh's shading normals
+(``lookalike.asset.mesh.Mesh.normals``: authored, or split smooth normals of the positions); files
+use others (``lookalike.io.normal_frames``).
 
 A frame is given per triangle corner: normals ``[T, 3, 3]`` and tangents ``[T, 3, 4]`` (xyz, w).
 At a point of triangle ``f`` with barycentrics ``l``, a renderer interpolates
@@ -15,10 +16,10 @@ surface normal in the source frame, then normalises.
 from __future__ import annotations
 
 import numpy as np
+import torch
 from numba import njit
 
 from .mesh import Mesh
-from .normals import vertex_normals
 from .tangents import vertex_tangents
 
 
@@ -83,21 +84,27 @@ def reexpress_texels(values: np.ndarray, src: tuple[np.ndarray, np.ndarray], dst
     return unit(np.stack([(surface * t2).sum(-1), (surface * b2).sum(-1), (surface * n2).sum(-1)], axis=-1))
 
 
-def smooth_corner_normals(mesh: Mesh) -> np.ndarray:
-    """``[T, 3, 3]`` float64 corner normals: ``vertex_normals`` (float32, as renderers and writers
-    use them) at each corner."""
-    v_nrm = vertex_normals(mesh.v_pos.detach().float(), mesh.t_pos_idx)
-    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64)
+def _float_normals(mesh: Mesh) -> tuple[torch.Tensor, torch.Tensor]:
+    """``Mesh.normals`` of the detached mesh as float32 ``([VN, 3], [T, 3])``, as renderers and
+    writers use them."""
+    v_nrm, t_nrm_idx = mesh.detach().normals()
+    return v_nrm.float(), t_nrm_idx
+
+
+def corner_normals(mesh: Mesh) -> np.ndarray:
+    """``[T, 3, 3]`` float64 shading normals (``Mesh.normals``, float32) at each corner."""
+    v_nrm, t_nrm_idx = _float_normals(mesh)
+    return v_nrm[t_nrm_idx].numpy().astype(np.float64)
 
 
 def our_corner_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
-    """Our frame per corner: smooth normals ``[T, 3, 3]`` and ``vertex_tangents`` ``[T, 3, 4]``
+    """Our frame per corner: shading normals ``[T, 3, 3]`` and ``vertex_tangents`` ``[T, 3, 4]``
     of UV set ``uv_set``, float64."""
-    v_pos = mesh.v_pos.detach().float()
-    v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
+    v_nrm, t_nrm_idx = _float_normals(mesh)
     v_tex, t_tex_idx = mesh.uv[uv_set]
-    v_tng, t_tng_idx = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex.detach().float(), t_tex_idx, v_nrm)
-    return v_nrm[mesh.t_pos_idx].numpy().astype(np.float64), v_tng[t_tng_idx].numpy().astype(np.float64)
+    v_tng, t_tng_idx = vertex_tangents(mesh.v_pos.detach().float(), mesh.t_pos_idx, v_tex.detach().float(), t_tex_idx,
+                                       v_nrm, t_nrm_idx)
+    return v_nrm[t_nrm_idx].numpy().astype(np.float64), v_tng[t_tng_idx].numpy().astype(np.float64)
 
 
 def corner_uvs(mesh: Mesh, uv_set: int) -> np.ndarray:

@@ -10,6 +10,11 @@ sampled with glTF's UV convention: ``uv = (0, 0)`` is the top-left corner of the
              bitangent, z out of the surface) in *our* tangent frame
              (``lookalike.asset.tangents.vertex_tangents``), or ``None`` for a flat map.
              File formats convert from and to MikkTSpace at the boundary.
+- ``emissive`` ``[H, W, 3]`` linear emitted radiance (factor and strength multiplied in, so values
+             may exceed 1), added to the shaded colour, or ``None``.
+- ``occlusion`` ``[H, W, 1]`` ambient occlusion in [0, 1] (glTF ``occlusionTexture``'s R channel
+             with its ``strength`` applied: ``1 + strength * (R - 1)``), or ``None``. Only
+             engines' ambient light uses it; our point-light renderer does not.
 
 A constant channel is a 1x1 texture. Colour is linear inside; sRGB only at file boundaries.
 """
@@ -68,6 +73,8 @@ class Material:
         alpha_cutoff: threshold for ``"MASK"``.
         double_sided: render back faces (with flipped normals).
         emissive: optional emission texture, 3 channels (linear), rendered additively.
+        occlusion: optional ambient occlusion texture, 1 channel, strength applied; kept and
+            written for engines (it darkens ambient light only, which we do not render).
     """
 
     name: str = "material"
@@ -79,6 +86,7 @@ class Material:
     alpha_cutoff: float = 0.5
     double_sided: bool = False
     emissive: Texture | None = None
+    occlusion: Texture | None = None
 
     def __post_init__(self):
         if self.alpha_mode not in ALPHA_MODES:

@@ -1,8 +1,8 @@
 """Triangle meshes with one index buffer per attribute (as in OBJ).
 
-Position topology stays welded: a UV seam duplicates texture coordinates, never positions,
-so the Laplacian and the antialiaser see shared vertices. Unweld only when exporting
-(``Mesh.unwelded``).
+Position topology stays welded: a UV seam duplicates texture coordinates, a hard edge duplicates
+normal slots, never positions, so the Laplacian and the antialiaser see shared vertices. Unweld
+only when exporting.
 """
 
 from __future__ import annotations
@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import torch
+
+from .normals import split_normals
 
 
 @dataclass
@@ -21,8 +23,14 @@ class Mesh:
         t_pos_idx: ``[T, 3]`` int64 indices into ``v_pos``, counter-clockwise front faces.
         uv: list of UV sets; set ``k`` is a pair ``(v_tex [VT_k, 2] float32,
             t_tex_idx [T, 3] int64)``, glTF convention (``(0, 0)`` = top-left of the image).
-        v_nrm, t_nrm_idx: optional authored normals ``[VN, 3]`` / ``[T, 3]`` (kept for
-            round trips; the renderer computes smooth normals from positions).
+        t_nrm_idx: optional ``[T, 3]`` int64 normal slot of each corner: the corners sharing a
+            slot form one smoothing group, and every slot is used at one position only (so a
+            hard edge is two slots at each of its ends). ``None``: one slot per position
+            (``t_pos_idx``), smooth everywhere.
+        v_nrm: optional ``[VN, 3]`` float32 authored unit normals of the slots (as read from a
+            file), valid for the positions they were authored with; ``None``: each slot's
+            normal is recomputed from the current positions (split smooth normals,
+            ``lookalike.asset.normals.split_normals``). ``normals()`` gives the ones in use.
         v_color: optional ``[V, 4]`` linear RGBA vertex colours (scans), indexed by ``t_pos_idx``.
         t_mat_idx: ``[T]`` int64 material index of each triangle.
         v_joints, v_weights: optional skinning influences ``[V, K]`` int64 / float32 (K = 4
@@ -40,6 +48,8 @@ class Mesh:
     v_weights: torch.Tensor | None = None
 
     def __post_init__(self):
+        if self.v_nrm is not None and self.t_nrm_idx is None:
+            raise ValueError("authored normals v_nrm need their corner index t_nrm_idx")
         if self.t_mat_idx is None:
             self.t_mat_idx = torch.zeros(self.t_pos_idx.shape[0], dtype=torch.int64)
 
@@ -50,6 +60,24 @@ class Mesh:
     @property
     def num_triangles(self) -> int:
         return int(self.t_pos_idx.shape[0])
+
+    @property
+    def num_normals(self) -> int:
+        """``VN``, the number of normal slots."""
+        if self.v_nrm is not None:
+            return int(self.v_nrm.shape[0])
+        if self.t_nrm_idx is None:
+            return self.num_vertices
+        return int(self.t_nrm_idx.max()) + 1 if self.t_nrm_idx.numel() else 0
+
+    def normals(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """The shading normals: ``(v_nrm [VN, 3], t_nrm_idx [T, 3] int64)``, the authored ones
+        where the mesh has them, else split smooth normals of the current positions per slot
+        (differentiable with respect to ``v_pos``); dtype and device of ``v_pos``."""
+        t_nrm_idx = self.t_pos_idx if self.t_nrm_idx is None else self.t_nrm_idx
+        if self.v_nrm is not None:
+            return self.v_nrm.to(self.v_pos), t_nrm_idx
+        return split_normals(self.v_pos, self.t_pos_idx, t_nrm_idx, self.num_normals), t_nrm_idx
 
     @property
     def v_tex(self) -> torch.Tensor | None:
@@ -74,8 +102,9 @@ class Mesh:
         return centre, radius
 
     def with_positions(self, v_pos: torch.Tensor) -> "Mesh":
-        """The same topology and attributes with new positions ``[V, 3]`` (e.g. skinned)."""
-        return replace(self, v_pos=v_pos)
+        """The same topology and attributes with new positions ``[V, 3]`` (e.g. skinned): normal
+        slots are kept, authored normal values dropped (they are recomputed from ``v_pos``)."""
+        return replace(self, v_pos=v_pos, v_nrm=None)
 
     def detach(self) -> "Mesh":
         """A copy whose tensors carry no autograd history."""

@@ -4,8 +4,8 @@
 
 with ``m_xy`` a new vertex at the midpoint of edge ``xy``. Topology is built once (it depends
 on no parameter that needs gradients); attribute values are recomputed differentiably on every
-call. Each index buffer of a ``Mesh`` (positions, every UV set, authored normals) is
-subdivided on its own, so UV seams stay seams and positions stay welded.
+call. Each index buffer of a ``Mesh`` (positions, every UV set, normal slots) is subdivided on
+its own, so UV seams stay seams, hard edges stay hard and positions stay welded.
 """
 
 from __future__ import annotations
@@ -55,7 +55,8 @@ class MeshSubdivision:
 
     ``MeshSubdivision(coarse)(mesh)`` subdivides any mesh with the same index buffers (e.g.
     the same mesh with optimised positions), recomputing positions, UVs, authored normals
-    (renormalised), vertex colours and skinning influences. A midpoint vertex takes the
+    (renormalised; the split smooth normals of a mesh without them follow the fine positions),
+    vertex colours and skinning influences. A midpoint vertex takes the
     influences of both edge ends with halved weights (``2K`` slots; original vertices are
     padded with zero weights).
     """
@@ -64,7 +65,7 @@ class MeshSubdivision:
         self.positions = EdgeMidpointTopology(coarse.t_pos_idx, coarse.num_vertices)
         self.uvs = [EdgeMidpointTopology(t_tex_idx, v_tex.shape[0]) for v_tex, t_tex_idx in coarse.uv]
         self.normals = (None if coarse.t_nrm_idx is None
-                        else EdgeMidpointTopology(coarse.t_nrm_idx, coarse.v_nrm.shape[0]))
+                        else EdgeMidpointTopology(coarse.t_nrm_idx, coarse.num_normals))
 
     def __call__(self, mesh: Mesh) -> Mesh:
         """The subdivided mesh: ``4T`` triangles, ``t_mat_idx`` repeated per child."""
@@ -80,7 +81,8 @@ class MeshSubdivision:
             v_color=None if mesh.v_color is None else pos(mesh.v_color),
         )
         if self.normals is not None:
-            fine.v_nrm, fine.t_nrm_idx = safe_normalize(self.normals(mesh.v_nrm)), self.normals.t_idx
+            fine.t_nrm_idx = self.normals.t_idx
+            fine.v_nrm = None if mesh.v_nrm is None else safe_normalize(self.normals(mesh.v_nrm))
         if mesh.v_joints is not None:
             fine.v_joints, fine.v_weights = self._influences(mesh.v_joints, mesh.v_weights)
         return fine

@@ -1,11 +1,12 @@
 """Per-vertex tangent frames from UVs: lookalike's own tangent space for normal maps.
 
 Convention (glTF's TANGENT attribute, with UVs in glTF's convention, v pointing DOWN the image):
-a tangent is ``(t, w)`` with ``t`` the unit direction of increasing u, orthogonal to the smooth
-normal ``n``, and ``w = +-1``. The bitangent is ``b = w * cross(n, t)``, and ``w`` is chosen so
-that ``b`` points towards DEcreasing v, i.e. up the image: a normal-map texel ``(x, y, z)`` means
-``x`` along ``t`` (right in the image), ``y`` along ``b`` (up in the image, the "OpenGL"/+Y
-convention of glTF and MikkTSpace) and ``z`` along ``n``.
+a tangent is ``(t, w)`` with ``t`` the unit direction of increasing u, orthogonal to the shading
+normal ``n`` (``lookalike.asset.mesh.Mesh.normals``), and ``w = +-1``. The bitangent is
+``b = w * cross(n, t)``, and ``w`` is chosen so that ``b`` points towards DEcreasing v, i.e. up
+the image: a normal-map texel ``(x, y, z)`` means ``x`` along ``t`` (right in the image), ``y``
+along ``b`` (up in the image, the "OpenGL"/+Y convention of glTF and MikkTSpace) and ``z`` along
+``n``.
 
 Per triangle with edges ``e1 = p1 - p0``, ``e2 = p2 - p0`` and UV edges ``d1 = uv1 - uv0``,
 ``d2 = uv2 - uv0``, ``det = d1.u * d2.v - d2.u * d1.v`` and the UV gradient
@@ -14,13 +15,14 @@ the bitangent ``cross(n, dP/du)`` points along ``+dP/dv`` (down the image) exact
 ``det > 0``; hence ``w = -sign(det)`` (``det = 0`` counts as negative, so ``w = +1``, the
 unmirrored case).
 
-Corners are grouped by (position index, UV index, w): a UV seam or a mirror line (change of
-``w``) splits the tangent, positions never split. Each group's tangent is the sum over its
-corners of the triangle's unit ``dP/du`` direction weighted by the triangle area, made
-orthogonal to ``n`` (Gram-Schmidt) and normalised. Triangles with degenerate UVs contribute
-nothing; a group whose sum is (nearly) parallel to ``n`` or zero falls back to
-``normalize(cross(n, a))`` with ``a`` the coordinate axis least aligned with ``n``, so every
-output is a finite unit vector orthogonal to ``n`` and gradients are finite everywhere.
+Corners are grouped by (normal slot, UV index, w): a UV seam, a hard edge (a change of normal
+slot) or a mirror line (a change of ``w``) splits the tangent, so tangent frames follow split
+normals. Each group's tangent is the sum over its corners of the triangle's unit ``dP/du``
+direction weighted by the triangle area, made orthogonal to ``n`` (Gram-Schmidt) and normalised.
+Triangles with degenerate UVs contribute nothing; a group whose sum is (nearly) parallel to ``n``
+or zero falls back to ``normalize(cross(n, a))`` with ``a`` the coordinate axis least aligned
+with ``n``, so every output is a finite unit vector orthogonal to ``n`` and gradients are finite
+everywhere.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ def _fallback_tangent(n: torch.Tensor) -> torch.Tensor:
 
 
 def vertex_tangents(v_pos: torch.Tensor, t_pos_idx: torch.Tensor, v_tex: torch.Tensor, t_tex_idx: torch.Tensor,
-                    v_nrm: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+                    v_nrm: torch.Tensor, t_nrm_idx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Smooth tangent frames (see the module docstring for the convention and the formula).
 
     Differentiable pure torch with respect to ``v_pos``, ``v_tex`` and ``v_nrm``.
@@ -52,7 +54,8 @@ def vertex_tangents(v_pos: torch.Tensor, t_pos_idx: torch.Tensor, v_tex: torch.T
         t_pos_idx: ``[T, 3]`` int64 counter-clockwise triangles.
         v_tex: ``[VT, 2]`` float UVs (glTF convention, v down the image).
         t_tex_idx: ``[T, 3]`` int64 UV indices.
-        v_nrm: ``[V, 3]`` float unit smooth normals indexed by ``t_pos_idx``.
+        v_nrm: ``[VN, 3]`` float unit shading normals.
+        t_nrm_idx: ``[T, 3]`` int64 normal slot of each corner (each slot used at one position).
     Returns:
         ``v_tng [N, 4]`` (dtype of ``v_pos``): unit tangent ``xyz`` orthogonal to the normal and
         handedness ``w = +-1``; ``t_tng_idx [T, 3]`` int64 indices into ``v_tng``.
@@ -68,9 +71,9 @@ def vertex_tangents(v_pos: torch.Tensor, t_pos_idx: torch.Tensor, v_tex: torch.T
     area2 = torch.linalg.cross(e1, e2, dim=-1).norm(dim=-1, keepdim=True)
     handedness = -sign
 
-    # One int64 key per corner: (position index, UV index, w > 0), unique keys = tangent groups.
+    # One int64 key per corner: (normal slot, UV index, w > 0), unique keys = tangent groups.
     n_tex = max(int(v_tex.shape[0]), 1)
-    keys = (t_pos_idx * n_tex + t_tex_idx) * 2 + (handedness > 0).to(torch.int64)[:, None]
+    keys = (t_nrm_idx * n_tex + t_tex_idx) * 2 + (handedness > 0).to(torch.int64)[:, None]
     unique_keys, group = torch.unique(keys.reshape(-1), return_inverse=True)
     contribution = (face_dir * area2).repeat_interleave(3, dim=0)
     summed = torch.zeros(unique_keys.shape[0], 3, dtype=v_pos.dtype, device=v_pos.device)

@@ -9,7 +9,7 @@ import inspect
 import json
 
 from ..bench import benchmark_modules
-from ..bench.quality import ASSETS, select_assets
+from ..bench.quality import ASSETS, JUDGES, select_assets
 from ..errors import ConfigError
 
 HELP = "run a benchmark and print its figures"
@@ -26,6 +26,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
                         help="folder holding the benchmark assets (quality and warmstart; default: "
                              "../shared/assets beside the source checkout)")
+    parser.add_argument("--judge", choices=JUDGES, default=None,
+                        help="quality: also render every method in Blender Cycles (shadows on and off) and run "
+                             "Blender's own decimate + bake; needs pip install -e \".[judge]\"")
+    parser.add_argument("--reuse", action="store_true",
+                        help="quality: take the runs already in --out instead of simplifying again (with --judge: "
+                             "judge earlier runs)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         kwargs["out"] = args.out
     asset_options = {"--asset": ("assets", select_assets(args.asset) if args.asset else None),
-                     "--assets-dir": ("assets_dir", args.assets_dir)}
+                     "--assets-dir": ("assets_dir", args.assets_dir), "--judge": ("judge", args.judge),
+                     "--reuse": ("reuse", True if args.reuse else None)}
     for flag, (parameter, value) in asset_options.items():
         if value is None:
             continue

@@ -1,7 +1,8 @@
 """``lookalike convert INPUT OUTPUT``: read an asset in any readable format (.gltf, .glb, .obj,
 .ply) and write it as ``.glb`` or ``.obj`` (+ .mtl + PNGs). Refuses to overwrite an existing
 OUTPUT unless ``--force``. ``--atlas SIZE`` first merges all materials into one material with a
-``SIZE x SIZE`` texture atlas (``lookalike.init.atlas``)."""
+``SIZE x SIZE`` texture atlas (``lookalike.init.atlas``). The geometry is not changed, so the
+input's normals (hard edges included) are written as they were read."""
 
 from __future__ import annotations
 

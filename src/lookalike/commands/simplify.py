@@ -19,6 +19,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
     parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree (default: "
                         "the cores this process may use)")
+    parser.add_argument("--judge", choices=("blender",), default=None,
+                        help="afterwards, also render the input, plain decimation, our classic bake, Blender's own "
+                             "decimate + bake and ours in Blender Cycles on the held-out views and score them "
+                             "(OUTDIR/judge/, and \"judge\" in metrics.json; minutes more; needs "
+                             "pip install -e \".[judge]\")")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -30,7 +35,16 @@ def run(args: argparse.Namespace) -> int:
         if not 1 <= args.threads <= MAX_WORKERS:
             raise ConfigError(f"--threads must lie in [1, {MAX_WORKERS}], not {args.threads}")
         set_threads(args.threads)
+    if args.judge is not None:
+        from ..judge import require_judge
+
+        require_judge()
     result = simplify(args.input, args.output, init_mesh=args.init_mesh, resume=args.resume, force=args.force,
                       progress=not args.quiet, **fit_options(args))
     print(result.summary())
+    if args.judge is not None and not result.interrupted:
+        from ..jobs.judge import judge_run, judge_summary, reference_of_run
+
+        judged = judge_run(result.outdir, reference_of_run(result.outdir, input_path=args.input), result.baselines)
+        print(judge_summary(judged))
     return 130 if result.interrupted else 0

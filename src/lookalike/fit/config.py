@@ -64,6 +64,14 @@ class LatentConfig:
             has one material with UVs; else as ``"average"``), ``"average"`` (a fresh atlas
             holding the input's mean material) or ``"random"`` (a fresh atlas with uniform
             noise, as in the paper). Fresh normal maps start flat.
+        texture_scales: how far each level of the textures moves per step, relative to a
+            plain texture, finest level first, then levels of 2, 4 and 8 texels
+            (``lookalike.fit.texture_pyramid``): the fine level takes small steps, so texels the
+            views seldom reach do not grow grain, and the coarse levels carry what many texels
+            agree on. ``(1, 0, 0, 0)`` is a plain texture.
+        constant_colour: hold base colour and specular as one value each where the input's
+            are one value (an untextured scan), so that the fit cannot paint shading into them;
+            the normal map carries the relief.
     """
 
     DEFAULT_RATIO = 0.02
@@ -72,6 +80,8 @@ class LatentConfig:
     ratio: float | None = None
     texture_size: int = 1024
     init: str = "bake"
+    texture_scales: tuple[float, float, float, float] = (0.25, 0.25, 0.25, 0.25)
+    constant_colour: bool = True
 
 
 @dataclass
@@ -85,11 +95,17 @@ class RenderConfig:
             i.e. ``target_spp**2`` samples per pixel.
         latent_msaa: visibility samples per axis for the latent model (MSAA, paper Sec. 6.2):
             coverage is sampled ``latent_msaa**2`` times per pixel, shading once. 1 disables.
+        horizon_share: the share of training views whose light also tests the geometric
+            horizon (``lookalike.shading.light.PointLight``): no light where the geometric
+            surface faces away from it, as Cycles and most offline renderers shade, while the
+            other views light by the shading normal alone, as real-time engines do. Fitting
+            against both keeps the normal map right in both kinds of renderer.
     """
 
     resolution: int = 512
     target_spp: int = 2
     latent_msaa: int = 2
+    horizon_share: float = 0.5
 
 
 @dataclass
@@ -140,6 +156,9 @@ class OptimConfig:
             ``learning_rates``) and ``REPAIR_START``'s from a user's mesh (``io.init_mesh``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
             ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
+        lr_emissive: Adam's lr_0 for the emission map (where the input emits), in units of the
+            start's brightest emission (at least 1; see ``lookalike.fit.textured_mesh``);
+            ``None`` takes the texels' rate.
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
             k = decades / iterations, with ``COLD_START``'s two decades (the paper's; its 0.0002
             is that for its 10k steps) or ``WARM_START``'s one, as for ``lr_positions`` (see
@@ -168,6 +187,7 @@ class OptimConfig:
     loss: str = "l1-tonemapped"
     lr_positions: float | None = None
     lr_textures: float | None = None
+    lr_emissive: float | None = None
     lr_decay: float | None = None
     outline_views: int | None = None
     outline_weight: float = 1.0
@@ -220,10 +240,13 @@ class Config:
             (4 <= lat.texture_size <= MAX_TEXTURE_SIZE,
              f"latent.texture_size (--texture-size) must lie in [4, {MAX_TEXTURE_SIZE}], not {lat.texture_size}"),
             (lat.init in INITS, f"latent.init must be one of {', '.join(INITS)}, not {lat.init!r}"),
+            (all(scale >= 0 for scale in lat.texture_scales) and lat.texture_scales[0] > 0,
+             f"latent.texture_scales must not be negative, and the first must be positive: {lat.texture_scales}"),
             (16 <= ren.resolution <= MAX_RESOLUTION,
              f"render.resolution (--resolution) must lie in [16, {MAX_RESOLUTION}], not {ren.resolution}"),
             (1 <= ren.target_spp <= MAX_SPP, f"render.target_spp must lie in [1, {MAX_SPP}], not {ren.target_spp}"),
             (1 <= ren.latent_msaa <= MAX_SPP, f"render.latent_msaa must lie in [1, {MAX_SPP}], not {ren.latent_msaa}"),
+            (0 <= ren.horizon_share <= 1, f"render.horizon_share must lie in [0, 1], not {ren.horizon_share}"),
             (1 <= vw.batch_size <= MAX_VIEWS, f"views.batch_size must lie in [1, {MAX_VIEWS}], not {vw.batch_size}"),
             (vw.pool_size == 0 or vw.batch_size <= vw.pool_size <= MAX_VIEWS,
              f"views.pool_size must be 0 or lie in [views.batch_size, {MAX_VIEWS}], not {vw.pool_size}"),
@@ -240,7 +263,8 @@ class Config:
             (opt.iterations is None or opt.iterations >= 0,
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
-            (all(lr is None or lr >= 0 for lr in (opt.lr_positions, opt.lr_textures)), "learning rates must not be negative"),
+            (all(lr is None or lr >= 0 for lr in (opt.lr_positions, opt.lr_textures, opt.lr_emissive)),
+             "learning rates must not be negative"),
             (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
             (opt.outline_views is None or opt.outline_views >= 0, "optim.outline_views must not be negative"),
             (opt.outline_weight >= 0, "optim.outline_weight must not be negative"),
@@ -314,8 +338,8 @@ def outline_views(config: Config) -> int:
 
 
 def loop_settings(config: Config, outline: bool) -> LoopSettings:
-    """The loop's settings for ``config``: learning rates of the ``"positions"`` and
-    ``"textures"`` groups, and the outline views per step on top of the batch where
+    """The loop's settings for ``config``: learning rates of the ``"positions"``,
+    ``"textures"`` and ``"emissive"`` groups, and the outline views per step on top of the batch where
     ``outline`` (a latent whose coverage is geometry's alone), at most the pool's views besides
     the batch."""
     opt, views = config.optim, config.views
@@ -323,7 +347,8 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
     count = outline_views(config) if outline else 0
     if views.pool_size:
         count = min(count, views.pool_size - views.batch_size)
-    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures},
+    lr_emissive = lr_textures if opt.lr_emissive is None else opt.lr_emissive
+    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive},
                         views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
                         lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
                         validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,

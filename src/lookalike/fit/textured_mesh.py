@@ -22,27 +22,40 @@ from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render, render_coverage
 from .config import ClampConfig
+from .texture_pyramid import TexturePyramid
 
 
 class TexturedMesh(torch.nn.Module):
     """Trainable mesh and textures.
 
-    Parameters (float32), in groups ``"positions"`` (``v_pos``) and ``"textures"`` (the rest):
+    Parameters (float32), in groups ``"positions"`` (``v_pos``) and ``"textures"`` (the levels
+    of the three texture pyramids):
         v_pos: ``[V, 3]`` positions in the unit frame.
-        kd: ``[S, S, 4]`` base colour + alpha when alpha is trained, else ``[S, S, 3]``
-            (alpha is then 1).
-        ks: ``[S, S, 3]`` (gamma, roughness, metalness).
-        normal: ``[S, S, 2]`` slopes (x, y) of the tangent-space normal, which is
-            normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and two
-            parameters per texel instead of three with a unit-length constraint.
+        kd: ``TexturePyramid`` of ``[S, S, 4]`` base colour + alpha when alpha is trained, else
+            ``[S, S, 3]`` (alpha is then 1).
+        ks: ``TexturePyramid`` of ``[S, S, 3]`` (gamma, roughness, metalness).
+        normal: ``TexturePyramid`` of ``[S, S, 2]`` slopes (x, y) of the tangent-space normal,
+            which is normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and
+            two parameters per texel instead of three with a unit-length constraint.
+        emissive: ``TexturePyramid`` of ``[S, S, 3]`` linear emission divided by
+            ``emissive_scale`` (the start's brightest texel, at least 1), in its own group
+            ``"emissive"``, where the start emits (else ``None``): Adam's steps are then relative
+            to the map's range, which may exceed 1. It is clamped at 0 from below only.
+    A channel given as a ``[1, 1, C]`` texture stays one constant (an untextured input's base
+    colour: shading must not be painted into it).
+    The ambient occlusion map ``occlusion`` ``[S, S, 1]`` (or ``None``) is a fixed buffer: the
+    point-light views cannot see ambient light, so it is carried from the start to the export.
 
-    Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``v_tex [VT, 2]`` float32 and
-    ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32, and
+    Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``t_nrm_idx [T, 3]`` int64 (the normal slots:
+    smoothing groups, fixed at the start; the normals themselves are recomputed from the current
+    positions at every render, ``lookalike.asset.normals.split_normals``), ``v_tex [VT, 2]``
+    float32 and ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32, and
     ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions.
 
     Args:
-        mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0.
-        kd, ks: initial textures as above.
+        mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0 and its
+            normal slots (none: smooth, one per position).
+        kd, ks: initial textures as above (``[S, S, C]`` or ``[1, 1, C]``).
         normal: initial ``[S, S, 3]`` tangent-space normals (z > 0), converted to slopes.
         centre, radius: the unit frame.
         limits: the valid ranges ``clamp_`` projects onto.
@@ -51,23 +64,30 @@ class TexturedMesh(torch.nn.Module):
         double_sided: whether the material renders back faces.
         wrap: texture boundary mode, ``"clamp"`` for an atlas or the input's own mode when
             the latent reuses its UVs.
+        texture_scales: the step scale of each texture level, finest first
+            (``lookalike.fit.texture_pyramid``).
+        emissive: initial ``[S, S, 3]`` linear emission, or ``None`` (no emission).
+        occlusion: ``[S, S, 1]`` (or ``[1, 1, 1]``) ambient occlusion to carry, or ``None``.
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
                  centre: torch.Tensor, radius: float | torch.Tensor, limits: ClampConfig = ClampConfig(),
-                 msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp"):
+                 msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp",
+                 texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
+                 occlusion: torch.Tensor | None = None):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
         self.register_buffer("centre", centre.clone())
         self.register_buffer("radius", radius.clone())
         self.register_buffer("t_pos_idx", mesh.t_pos_idx.clone())
+        self.register_buffer("t_nrm_idx", (mesh.t_pos_idx if mesh.t_nrm_idx is None else mesh.t_nrm_idx).clone())
         self.register_buffer("v_tex", mesh.v_tex.clone())
         self.register_buffer("t_tex_idx", mesh.t_tex_idx.clone())
         self.v_pos = torch.nn.Parameter((mesh.v_pos.float() - centre) / radius)
-        self.kd = torch.nn.Parameter(kd.float().clone())
-        self.ks = torch.nn.Parameter(ks.float().clone())
-        self.normal = torch.nn.Parameter(normal_to_slopes(normal.float()))
+        self.kd = TexturePyramid(kd, texture_scales)
+        self.ks = TexturePyramid(ks, texture_scales)
+        self.normal = TexturePyramid(normal_to_slopes(normal.float()), texture_scales)
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
         self.register_buffer("rest_delta", self.laplacian.differentials(self.v_pos.detach()))
         self.limits = limits
@@ -75,24 +95,35 @@ class TexturedMesh(torch.nn.Module):
         self.alpha_mode = alpha_mode
         self.double_sided = double_sided
         self.wrap = wrap
+        self.emissive_scale = 1.0 if emissive is None else max(float(emissive.detach().max()), 1.0)
+        self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
+                                                                       texture_scales)
+        self.register_buffer("occlusion", None if occlusion is None else occlusion.float().clone())
 
     @classmethod
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
-                   train_alpha: bool) -> "TexturedMesh":
-        """The latent starting from ``asset``: its mesh (UV set 0) and its first material's
+                   train_alpha: bool, constant: frozenset[str] = frozenset(),
+                   texture_scales: tuple[float, ...] = (1.0,)) -> "TexturedMesh":
+        """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
-        normal map where it has none). Normals are lifted to face out by at least
-        ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind), and every
-        texel is clamped into ``limits``."""
+        normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
+        are held as one value, the mean of the start's texels. Normals are lifted to face out
+        by at least ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind),
+        and every texel is clamped into ``limits``."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
-        size = kd.shape[:2]
+        ks = material.ks.data
+        size = max(kd.shape[:2], ks.shape[:2])
         normal = (material.normal.data if material.normal is not None
                   else torch.tensor([0.0, 0.0, 1.0]).expand(*size, 3))
-        mesh = Mesh(v_pos=asset.mesh.v_pos, t_pos_idx=asset.mesh.t_pos_idx, uv=[asset.mesh.uv[0]])
-        latent = cls(mesh, kd, material.ks.data, _facing_outwards(normal, limits), centre, radius, limits=limits,
+        kd, ks = (texels.reshape(-1, texels.shape[-1]).mean(dim=0).reshape(1, 1, -1) if name in constant else texels
+                  for name, texels in (("kd", kd), ("ks", ks)))
+        mesh = Mesh(v_pos=asset.mesh.v_pos, t_pos_idx=asset.mesh.t_pos_idx, uv=[asset.mesh.uv[0]],
+                    t_nrm_idx=asset.mesh.t_nrm_idx)
+        latent = cls(mesh, kd, ks, _facing_outwards(normal, limits), centre, radius, limits=limits,
                      msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
-                     double_sided=material.double_sided, wrap=material.kd.wrap)
+                     double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
+                     **_emission_and_occlusion(material, size))
         latent.clamp_()
         return latent
 
@@ -112,7 +143,11 @@ class TexturedMesh(torch.nn.Module):
         return self.kd.shape[-1] == 4
 
     def parameter_groups(self) -> dict[str, list[torch.nn.Parameter]]:
-        return {"positions": [self.v_pos], "textures": [self.kd, self.ks, self.normal]}
+        groups = {"positions": [self.v_pos],
+                  "textures": [*self.kd.parameters(), *self.ks.parameters(), *self.normal.parameters()]}
+        if self.emissive is not None:
+            groups["emissive"] = list(self.emissive.parameters())
+        return groups
 
     def world_positions(self) -> torch.Tensor:
         """``[V, 3]`` positions in the input's frame: centre + radius * v_pos (differentiable)."""
@@ -120,25 +155,33 @@ class TexturedMesh(torch.nn.Module):
 
     def base_color(self) -> torch.Tensor:
         """``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained)."""
+        kd = self.kd()
         if self.trains_alpha:
-            return self.kd
-        return torch.cat([self.kd, torch.ones_like(self.kd[..., :1])], dim=-1)
+            return kd
+        return torch.cat([kd, torch.ones_like(kd[..., :1])], dim=-1)
+
+    def emission(self) -> torch.Tensor | None:
+        """``[S, S, 3]`` linear emission (``emissive * emissive_scale``), or ``None``."""
+        return None if self.emissive is None else self.emissive() * self.emissive_scale
 
     def unit_normal(self) -> torch.Tensor:
         """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
-        return slopes_to_normal(self.normal)
+        return slopes_to_normal(self.normal())
 
     def as_asset(self) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
         parameters (``export`` gives a detached one)."""
-        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)])
+        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)],
+                    t_nrm_idx=self.t_nrm_idx)
         material = Material(
             name="lookalike",
             kd=Texture(self.base_color(), wrap=self.wrap),
-            ks=Texture(self.ks, wrap=self.wrap),
+            ks=Texture(self.ks(), wrap=self.wrap),
             normal=Texture(self.unit_normal(), wrap=self.wrap),
             alpha_mode=self.alpha_mode,
             double_sided=self.double_sided,
+            emissive=None if self.emissive is None else Texture(self.emission(), wrap=self.wrap),
+            occlusion=None if self.occlusion is None else Texture(self.occlusion, wrap=self.wrap),
         )
         return Asset(mesh=mesh, materials=[material])
 
@@ -174,9 +217,39 @@ class TexturedMesh(torch.nn.Module):
         [-limits.normal_max_slope, limits.normal_max_slope]."""
         limits = self.limits
         self.kd.clamp_(*limits.kd)
-        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=self.ks.dtype)
-        self.ks.clamp_(min=ranges[:, 0], max=ranges[:, 1])
+        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=torch.float32)
+        self.ks.clamp_(ranges[:, 0], ranges[:, 1])
         self.normal.clamp_(-limits.normal_max_slope, limits.normal_max_slope)
+        if self.emissive is not None:
+            self.emissive.clamp_(0.0, float("inf"))
+
+
+def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:
+    """The material channels (``"kd"``, ``"ks"``) that hold one value over the whole of
+    ``asset``: every material's texture of that channel varies by at most ``tolerance`` and all
+    materials agree (and, for ``"kd"``, the mesh has no vertex colours)."""
+    def constant(textures: list[torch.Tensor]) -> bool:
+        texels = torch.cat([t.detach().reshape(-1, t.shape[-1]) for t in textures])
+        return bool((texels.max(dim=0).values - texels.min(dim=0).values).max() <= tolerance)
+
+    channels = set()
+    if asset.mesh.v_color is None and constant([m.kd.data for m in asset.materials]):
+        channels.add("kd")
+    if constant([m.ks.data for m in asset.materials]):
+        channels.add("ks")
+    return frozenset(channels)
+
+
+def _emission_and_occlusion(material: Material, size) -> dict:
+    """``TexturedMesh`` keyword arguments ``emissive`` (``[S, S, 3]``, a constant spread over the
+    texture size ``size``) and ``occlusion`` of ``material``, ``None`` where it has none."""
+    emissive = None
+    if material.emissive is not None:
+        emissive = material.emissive.data.detach().float()
+        if emissive.shape[:2] == (1, 1):
+            emissive = emissive.expand(*size, 3)
+    occlusion = None if material.occlusion is None else material.occlusion.data.detach()[..., :1]
+    return {"emissive": emissive, "occlusion": occlusion}
 
 
 def render_asset(asset: Asset, camera: Camera, light: PointLight, resolution: int, msaa: int) -> torch.Tensor:

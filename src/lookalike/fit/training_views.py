@@ -52,14 +52,19 @@ class BatchSource(Protocol):
         ...
 
 
-def view_sampler(centre: torch.Tensor, radius: float) -> ViewSampler:
+def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0) -> ViewSampler:
     """``sample(rng, n) -> (Camera, PointLight)``: ``n`` random views of the sphere
     (``centre [3]``, ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed
-    point light per view; ``lookalike.shading.view_sampling``)."""
+    point light per view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then
+    each view's light tests the geometric horizon (``PointLight.horizon``) with that
+    probability."""
 
     def sample(rng: np.random.Generator, n: int) -> tuple[Camera, PointLight]:
         camera = random_views(centre, radius, n, rng)
-        return camera, random_lights(camera, centre, rng)
+        light = random_lights(camera, centre, rng)
+        if horizon_share > 0:
+            light.horizon = torch.from_numpy(rng.uniform(size=n) < horizon_share)
+        return camera, light
 
     return sample
 
@@ -114,6 +119,8 @@ class ViewPool:
         slot = self.drawn % self.size
         self.camera.mv[slot], self.camera.proj[slot], self.camera.position[slot] = camera.mv[0], camera.proj[0], camera.position[0]
         self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
+        if self.light.horizon is not None:
+            self.light.horizon[slot] = light.horizon[0]
         self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp)[0].to(torch.float16)
         self.drawn += 1
 

@@ -6,7 +6,8 @@ covered by a triangle (``lookalike.asset.uv_raster.rasterize_uv``) takes, per ch
 triangle's own material sampled bilinearly at the old UV interpolated with the same barycentrics
 (texture transform and wrap mode honoured). Normal maps are re-expressed from our tangent frame
 of the old UVs to our tangent frame of the atlas UVs (``lookalike.asset.frames``); materials
-without a normal map contribute the flat normal. Texels are then dilated ``padding`` texels past
+without a normal map contribute the flat normal, those without emission black, those without
+an occlusion map 1 (unoccluded). Texels are then dilated ``padding`` texels past
 the chart borders so that bilinear filtering and mipmaps do not pull in the background, and any
 texel still uncovered gets the channel's mean.
 
@@ -129,6 +130,7 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
 
     has_normal = any(m.normal is not None for m in materials)
     has_emissive = any(m.emissive is not None for m in materials)
+    has_occlusion = any(m.occlusion is not None for m in materials)
     normal = None
     if has_normal:
         data = bake("normal", 3, _FLAT_NORMAL)
@@ -136,6 +138,7 @@ def merge_materials(asset: Asset, size: int = 1024, padding: int = 4) -> Asset:
     merged = Material(
         name="atlas", kd=Texture(bake("kd", 4, (0.0, 0.0, 0.0, 1.0))), ks=Texture(bake("ks", 3, (0.0, 0.5, 0.0))),
         normal=normal, emissive=Texture(bake("emissive", 3, (0.0, 0.0, 0.0))) if has_emissive else None,
+        occlusion=Texture(bake("occlusion", 1, (1.0,))) if has_occlusion else None,
         **merged_modes(materials),
     )
     return Asset(mesh=atlas_mesh, materials=[merged], skin=asset.skin, animations=asset.animations,

@@ -1,10 +1,11 @@
 """The classic projection bake: a low-poly mesh with a UV atlas gets textures copied from a
 high-poly reference (what Simplygon, Substance, Marmoset or Blender's "selected to active" do).
 
-For every atlas texel (UV set 0 of the low-poly mesh; ``lookalike.asset.uv_raster``) the low-poly
-surface point ``p`` and its smooth interpolated unit normal ``n`` (our tangent frame ``t, b, n``,
-``lookalike.asset.frames``) are found. Two rays leave ``p``: along ``+n`` and along ``-n``,
-each reaching ``cage`` (default ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box
+For every atlas sample (``SAMPLES_PER_AXIS``^2 sub-texels per texel of UV set 0 of the low-poly
+mesh; ``lookalike.asset.uv_raster``) the low-poly surface point ``p`` and its interpolated unit shading normal ``n`` (our tangent frame ``t, b, n``,
+``lookalike.asset.frames``, on the low-poly mesh's split normals, the frame the renderer decodes the
+map in; so at a hard edge each side casts along its own normal, as Blender's bake without a cage
+does) are found. Two rays leave ``p``: along ``+n`` and along ``-n``, each reaching ``cage`` (default ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box
 diagonal). Each starts ``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p``
 itself is found. Only surfaces seen from outside count, as a viewer looking down ``-n`` would
 see them: a ray passes through the back of a triangle (face normal ``. n <= 0``) whose material
@@ -17,9 +18,10 @@ where the point's triangle faces away from ``n`` (a double-sided surface seen fr
 closest point) ``s`` is flipped, as the renderer flips it. The baked normal map holds
 ``normalize(s.t, s.b, s.n)``, so that our renderer's
 ``normalize(x t + y b + z n)`` gives back ``s``; base colour + alpha, (gamma, roughness,
-metalness) and emission are copied. Each texel stands for a patch of the low-poly surface
+metalness), emission and ambient occlusion are copied. Each texel stands for a patch of the low-poly surface
 ``sqrt(A_world / (A_uv S^2))`` across (its triangle's world area over its texel area), which sets
-the mip level the reference's textures are read at. Finally every texel no triangle covers
+the mip level the reference's textures are read at. A texel holds the mean of its samples (the
+normal renormalised), over those of them that some triangle covers. Finally every texel no triangle covers
 takes the value of its nearest covered texel (Euclidean distance in texels), so neither bilinear
 filtering at chart borders nor any mip level pulls in background. (One exact distance transform
 does this for the whole atlas; the neighbour-mean dilation of ``lookalike.asset.uv_raster.dilate``
@@ -58,6 +60,12 @@ MAX_PASSES = 8
 
 PASS_THROUGH_STEP = 1e-5
 """How far past a hidden hit a ray continues, as a fraction of its reach."""
+
+SAMPLES_PER_AXIS = 2
+"""Bake samples per texel and axis: the atlas is baked at this many times the texture's side
+and box-filtered down, so a texel holds the mean of the reference over its footprint (the
+reference's detail finer than a texel averages out instead of aliasing into grain; normals
+are renormalised after averaging)."""
 
 
 @dataclass
@@ -178,7 +186,8 @@ class BakeResult:
 
     Attributes:
         material: kd ``[S, S, 4]``, ks ``[S, S, 3]``, normal ``[S, S, 3]`` (our tangent frame of
-            the low-poly mesh's UV set 0), emissive where the reference emits.
+            the low-poly mesh's UV set 0), emissive where the reference emits, occlusion
+            ``[S, S, 1]`` where it has an occlusion map.
         cage: ray reach used, in the asset's units.
         texels: number of atlas texels covered by the low-poly mesh.
         hit_fraction: fraction of those whose rays hit the reference (the rest took the
@@ -236,8 +245,12 @@ def locate_on_reference(reference: Asset, texels: AtlasTexels, cage: float) -> B
 def to_tangent_space(normals: np.ndarray, texels: AtlasTexels) -> np.ndarray:
     """``[K, 3]`` unit normal-map values ``normalize(s.t, s.b, s.n)`` of world normals
     ``normals [K, 3]`` in the texels' frames (``(0, 0, 1)`` where ``s`` is zero)."""
-    values = np.stack([(normals * texels.tangent).sum(-1), (normals * texels.bitangent).sum(-1),
-                       (normals * texels.normal).sum(-1)], axis=-1)
+    return to_unit_normal(np.stack([(normals * texels.tangent).sum(-1), (normals * texels.bitangent).sum(-1),
+                                    (normals * texels.normal).sum(-1)], axis=-1))
+
+
+def to_unit_normal(values: np.ndarray) -> np.ndarray:
+    """``values [K, 3]`` normalised, ``(0, 0, 1)`` where a row is (nearly) zero."""
     length = np.linalg.norm(values, axis=-1, keepdims=True)
     return np.where(length > 1e-12, values / np.maximum(length, 1e-12), [0.0, 0.0, 1.0])
 
@@ -251,16 +264,39 @@ def nearest_covered(rows: np.ndarray, cols: np.ndarray, size: int) -> tuple[np.n
     return nearest[0], nearest[1]
 
 
-def _texture(texels: AtlasTexels, nearest: tuple[np.ndarray, np.ndarray], values: np.ndarray) -> torch.Tensor:
-    """``[S, S, C]`` float32 texture holding ``values [K, C]`` at the covered texels and each
-    uncovered texel the value of its ``nearest`` covered one."""
+def _texture(rows: np.ndarray, cols: np.ndarray, nearest: tuple[np.ndarray, np.ndarray],
+             values: np.ndarray) -> torch.Tensor:
+    """``[S, S, C]`` float32 texture holding ``values [K, C]`` at the covered texels
+    ``(rows [K], cols [K])`` and each uncovered texel the value of its ``nearest`` covered one."""
     size = nearest[0].shape[0]
     image = np.zeros((size, size, values.shape[1]), np.float32)
-    image[texels.rows, texels.cols] = values
+    image[rows, cols] = values
     return torch.from_numpy(np.ascontiguousarray(image[nearest]))
 
 
-def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | None = None) -> BakeResult:
+def box_filter(rows: np.ndarray, cols: np.ndarray, factor: int,
+               values: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Average samples taken at ``factor x factor`` sub-texels down to texels.
+
+    Args:
+        rows, cols: ``[K]`` int64 sub-texel indices (each once) of a ``S*factor`` image.
+        values: arrays ``[K, C_i]`` of the samples' values.
+    Returns:
+        ``(rows [M], cols [M], means)``: the texels of the ``S`` image that hold at least one
+        sample, and per array ``[M, C_i]`` the mean of the samples inside each.
+    """
+    keys, inverse = np.unique((rows // factor) * (1 << 32) + cols // factor, return_inverse=True)
+    counts = np.bincount(inverse, minlength=len(keys)).astype(np.float64)[:, None]
+    means = []
+    for array in values:
+        total = np.zeros((len(keys), array.shape[1]), np.float64)
+        np.add.at(total, inverse, array)
+        means.append(total / counts)
+    return keys >> 32, keys & ((1 << 32) - 1), means
+
+
+def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | None = None,
+         samples: int = SAMPLES_PER_AXIS) -> BakeResult:
     """Bake ``reference`` onto ``low`` (see the module docstring).
 
     Args:
@@ -269,6 +305,7 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
         texture_size: side S of the square baked textures.
         cage: ray reach on each side of the low-poly surface, in the asset's units (default
             ``default_cage(reference.mesh)``).
+        samples: samples per texel and axis (``SAMPLES_PER_AXIS``).
     Returns:
         ``BakeResult``; ``Asset(low, [result.material])`` renders like the reference.
     Raises:
@@ -281,22 +318,23 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     cage = default_cage(reference.mesh) if cage is None else float(cage)
     if not cage > 0:
         raise ConfigError(f"the bake cage distance must be positive, got {cage!r}")
-    texels = atlas_texels(low, texture_size)
+    texels = atlas_texels(low, texture_size * samples)
     if len(texels.rows) == 0:
         raise ConfigError(f"the low-poly mesh's UV atlas covers no texel of a {texture_size}^2 texture")
     points = locate_on_reference(reference, texels, cage)
     values = ReferenceSurface(reference).sample(torch.from_numpy(points.triangle), torch.from_numpy(points.barycentric),
                                                 torch.from_numpy(texels.footprint))
     seen = values.normal.double().numpy() * np.where(points.back, -1.0, 1.0)[:, None]
-    tangent_space = to_tangent_space(seen, texels)
-    nearest = nearest_covered(texels.rows, texels.cols, texture_size)
-    material = Material(
-        name="baked",
-        kd=Texture(_texture(texels, nearest, values.kd.numpy())),
-        ks=Texture(_texture(texels, nearest, values.ks.numpy())),
-        normal=Texture(_texture(texels, nearest, tangent_space)),
-        emissive=None if values.emissive is None else Texture(_texture(texels, nearest, values.emissive.numpy())),
-        **merged_modes(reference.materials),
-    )
-    return BakeResult(material=material, cage=cage, texels=len(texels.rows), hit_fraction=float(points.hit.mean()),
+    channels = {"kd": values.kd.numpy(), "ks": values.ks.numpy(), "normal": to_tangent_space(seen, texels)}
+    channels.update({name: getattr(values, name).numpy() for name in ("emissive", "occlusion")
+                     if getattr(values, name) is not None})
+    rows, cols, means = box_filter(texels.rows, texels.cols, samples, list(channels.values()))
+    filtered = dict(zip(channels, means))
+    filtered["normal"] = to_unit_normal(filtered["normal"])
+    nearest = nearest_covered(rows, cols, texture_size)
+    textures = {name: Texture(_texture(rows, cols, nearest, value)) for name, value in filtered.items()}
+    material = Material(name="baked", kd=textures["kd"], ks=textures["ks"], normal=textures["normal"],
+                        emissive=textures.get("emissive"), occlusion=textures.get("occlusion"),
+                        **merged_modes(reference.materials))
+    return BakeResult(material=material, cage=cage, texels=len(rows), hit_fraction=float(points.hit.mean()),
                       mean_offset=float(np.abs(points.offset).mean()))

@@ -3,7 +3,9 @@
 Positions are welded first (so that UV-seam duplicates do not open cracks), the maintained
 ``fast-simplification`` library collapses edges by quadric error (Garland and Heckbert 1997),
 the result is cleaned of degenerate triangles and zero-volume fins, and UVs, materials,
-vertex colours and skin weights are carried over from the input (``transfer``).
+vertex colours and skin weights are carried over from the input (``transfer``). Its normals are
+split at creases sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (normal slots
+only: the values follow the positions).
 
 fast-simplification's ``agg`` sets how fast its error threshold grows; low values keep the
 shape better (about 1 to 1.7 dB PSNR over its default 7 on our benchmark assets) but may stop
@@ -16,10 +18,13 @@ first setting of ``SCHEDULE`` that reaches the count is used.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import fast_simplification
 import numpy as np
 
 from ..asset.mesh import Mesh
+from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
 from .transfer import transfer_attributes
 from .weld import weld_tolerance, weld_vertices
@@ -112,7 +117,7 @@ def _simplify_to_count(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int)
     return best[0] * scale + centre, best[1]
 
 
-def decimate(mesh: Mesh, triangles: int) -> Mesh:
+def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_ANGLE) -> Mesh:
     """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes.
 
     Args:
@@ -121,11 +126,14 @@ def decimate(mesh: Mesh, triangles: int) -> Mesh:
         triangles: the target count, ``0 < triangles < mesh.num_triangles``. The result has
             exactly this many triangles unless fins or degenerate triangles had to be removed
             after the last correction run (then within ``_NEARLY`` = 2).
+        crease_angle: dihedral angle in degrees above which an edge of the result is hard
+            (``lookalike.asset.normals.crease_normal_index``).
 
     Returns:
         A welded ``Mesh`` (``v_pos [V, 3]`` float32, ``t_pos_idx [T, 3]`` int64) with the input's
         UV sets, materials, vertex colours and skin weights carried over (see
-        ``lookalike.init.transfer``). A watertight input gives a watertight result.
+        ``lookalike.init.transfer``) and normal slots ``t_nrm_idx`` split at creases (no
+        authored values). A watertight input gives a watertight result.
 
     Raises:
         ConfigError: the target is not a positive whole number below the input's count.
@@ -136,4 +144,5 @@ def decimate(mesh: Mesh, triangles: int) -> Mesh:
     w_pos, w_idx = clean_triangles(w_pos, w_idx)
     if len(w_idx) > triangles:
         w_pos, w_idx = _simplify_to_count(w_pos, w_idx, triangles)
-    return transfer_attributes(mesh, w_pos, w_idx)
+    low = transfer_attributes(mesh, w_pos, w_idx)
+    return replace(low, t_nrm_idx=crease_normal_index(low.v_pos, low.t_pos_idx, crease_angle))

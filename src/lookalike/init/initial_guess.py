@@ -11,6 +11,10 @@ mesh, ours (quadric decimation, ``lookalike.init.decimate``) or the user's own
   input has one material and the low-poly mesh carries its UVs; else as ``"average"``);
 - ``"average"``: a fresh atlas holding the input's mean material; ``"random"``: a fresh atlas
   with uniform noise, as in the paper. Fresh normal maps start flat.
+
+Where the input emits, the start carries an emission map (baked, resampled, the mean, or noise
+up to the input's brightest emission); where it has an ambient occlusion map, an occlusion map
+(baked, resampled, or the mean), which the fit keeps as it is.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 import torch
 
 from ..asset import Asset, Material, Mesh, Texture
-from ..asset.normals import face_normals
+from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from .bake import BakeResult, bake
@@ -98,6 +102,39 @@ def surface_mean_material(asset: Asset) -> tuple[torch.Tensor, torch.Tensor]:
     return kd.float(), ks.float()
 
 
+def surface_mean_channel(asset: Asset, name: str, channels: int, default) -> torch.Tensor | None:
+    """Area-weighted mean ``[channels]`` of material channel ``name`` (``"emissive"`` or
+    ``"occlusion"``) over the surface, ``default`` for materials without it; ``None`` when no
+    material has it."""
+    if all(getattr(m, name) is None for m in asset.materials):
+        return None
+    mesh = asset.mesh
+    area = face_normals(mesh.v_pos.double(), mesh.t_pos_idx).norm(dim=-1)
+    weight = torch.zeros(len(asset.materials), dtype=torch.float64).index_add_(0, mesh.t_mat_idx, area)
+    weight = weight / weight.sum().clamp(min=1e-30)
+    means = [torch.tensor(default, dtype=torch.float64) if getattr(m, name) is None
+             else getattr(m, name).data.detach().double().reshape(-1, channels).mean(dim=0) for m in asset.materials]
+    return sum(w * value for w, value in zip(weight, means)).float()
+
+
+def initial_extras(asset: Asset, size: int, init: str,
+                   rng: np.random.Generator) -> tuple[torch.Tensor | None, torch.Tensor | None]:
+    """``(emissive [S, S, 3], occlusion [1, 1, 1])`` starting maps of a fresh atlas, each
+    ``None`` where no material of the input has it: ``"average"`` the surface means,
+    ``"random"`` uniform emission noise up to the input's brightest texel of each channel (and
+    the mean occlusion, which the fit cannot see)."""
+    emissive = surface_mean_channel(asset, "emissive", 3, (0.0, 0.0, 0.0))
+    occlusion = surface_mean_channel(asset, "occlusion", 1, (1.0,))
+    if emissive is not None:
+        if init == "random":
+            peak = torch.stack([m.emissive.data.detach().reshape(-1, 3).max(dim=0).values
+                                for m in asset.materials if m.emissive is not None]).max(dim=0).values
+            emissive = torch.from_numpy(rng.uniform(0.0, peak.double().numpy(), size=(size, size, 3))).float()
+        else:
+            emissive = emissive.expand(size, size, 3).clone()
+    return emissive, None if occlusion is None else occlusion.reshape(1, 1, 1)
+
+
 def uses_alpha(asset: Asset) -> bool:
     """Whether any material of ``asset`` is not opaque (then the latent trains alpha)."""
     return any(m.uses_alpha for m in asset.materials)
@@ -136,7 +173,8 @@ def reusable_source_material(asset: Asset, low_poly: Mesh) -> Material | None:
     if len(asset.materials) != 1 or not low_poly.uv:
         return None
     material = asset.materials[0]
-    textures = [t for t in (material.kd, material.ks, material.normal) if t is not None]
+    textures = [t for t in (material.kd, material.ks, material.normal, material.emissive, material.occlusion)
+                if t is not None]
     if any(t.uv_set != 0 or t.transform is not None for t in textures):
         return None
     return material
@@ -161,16 +199,30 @@ def uv_overlap(mesh: Mesh, size: int = UV_CHECK_SIZE) -> float:
     return 1.0 - distinct / len(rows)
 
 
-def _material(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, like: Asset, wrap: str = "clamp") -> Material:
-    """One material with these textures, alpha mode and sidedness following the input ``like``:
-    ``"BLEND"`` if any of its materials blends, else ``"MASK"`` if any uses alpha, else opaque."""
+def _material(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, like: Asset, wrap: str = "clamp",
+              emissive: torch.Tensor | None = None, occlusion: torch.Tensor | None = None) -> Material:
+    """One material with these textures (emission and occlusion where given), alpha mode and
+    sidedness following the input ``like``: ``"BLEND"`` if any of its materials blends, else
+    ``"MASK"`` if any uses alpha, else opaque."""
     if not uses_alpha(like):
         mode = "OPAQUE"
     else:
         mode = "BLEND" if any(m.alpha_mode == "BLEND" for m in like.materials) else "MASK"
     return Material(name="lookalike", kd=Texture(kd, wrap=wrap), ks=Texture(ks, wrap=wrap),
                     normal=Texture(normal, wrap=wrap), alpha_mode=mode,
-                    double_sided=any(m.double_sided for m in like.materials))
+                    double_sided=any(m.double_sided for m in like.materials),
+                    emissive=None if emissive is None else Texture(emissive, wrap=wrap),
+                    occlusion=None if occlusion is None else Texture(occlusion, wrap=wrap))
+
+
+def start_mesh(low_poly: Mesh) -> Mesh:
+    """The start's mesh: positions, triangles and UV set 0 of ``low_poly``, and its normal slots
+    (split at creases, ``crease_normal_index``, where it has none) without authored values, since
+    the fit moves the positions and the normals follow them."""
+    t_nrm_idx = low_poly.t_nrm_idx
+    if t_nrm_idx is None:
+        t_nrm_idx = crease_normal_index(low_poly.v_pos, low_poly.t_pos_idx)
+    return Mesh(v_pos=low_poly.v_pos, t_pos_idx=low_poly.t_pos_idx, uv=[low_poly.uv[0]], t_nrm_idx=t_nrm_idx)
 
 
 def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ranges,
@@ -191,32 +243,40 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
     source = reusable_source_material(asset, low_poly) if init == "source" else None
     baked = None
     if source is not None:
-        mesh = Mesh(v_pos=low_poly.v_pos, t_pos_idx=low_poly.t_pos_idx, uv=[low_poly.uv[0]])
+        mesh = start_mesh(low_poly)
         normal = (torch.nn.functional.normalize(resample(source.normal.data, size), dim=-1)
                   if source.normal is not None else torch.tensor([0.0, 0.0, 1.0]).expand(size, size, 3))
         material = _material(resample(source.kd.data, size), resample(source.ks.data, size), normal, asset,
-                             wrap=source.kd.wrap)
+                             wrap=source.kd.wrap,
+                             emissive=None if source.emissive is None else resample(source.emissive.data, size),
+                             occlusion=None if source.occlusion is None else resample(source.occlusion.data, size))
         start = Asset(mesh=mesh, materials=[material], source=asset.source)
     elif init == "bake":
         atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
-        mesh = Mesh(v_pos=atlas.v_pos, t_pos_idx=atlas.t_pos_idx, uv=[atlas.uv[0]])
+        mesh = start_mesh(atlas)
         baked = bake(asset, mesh, texture_size=size, cage=cage)
-        material = _material(baked.material.kd.data, baked.material.ks.data, baked.material.normal.data, asset)
+        made = baked.material
+        material = _material(made.kd.data, made.ks.data, made.normal.data, asset,
+                             emissive=None if made.emissive is None else made.emissive.data,
+                             occlusion=None if made.occlusion is None else made.occlusion.data)
         start = Asset(mesh=mesh, materials=[material], source=asset.source)
     else:
         mesh = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
-        mesh = Mesh(v_pos=mesh.v_pos, t_pos_idx=mesh.t_pos_idx, uv=[mesh.uv[0]])
+        mesh = start_mesh(mesh)
         kd, ks, normal = initial_textures(asset, size, "average" if init == "source" else init, ranges, rng)
-        start = Asset(mesh=mesh, materials=[_material(kd, ks, normal, asset)], source=asset.source)
+        emissive, occlusion = initial_extras(asset, size, "average" if init == "source" else init, rng)
+        start = Asset(mesh=mesh, materials=[_material(kd, ks, normal, asset, emissive=emissive, occlusion=occlusion)],
+                      source=asset.source)
     return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), bake=baked, notes=[])
 
 
 def snapped(mesh: Mesh, surface: Mesh) -> Mesh:
     """``mesh`` with every vertex moved to the closest point of ``surface``
-    (``lookalike.init.closest_point.SurfaceQuery``); everything else kept."""
+    (``lookalike.init.closest_point.SurfaceQuery``); everything else kept but authored normal
+    values (``Mesh.with_positions``)."""
     query = SurfaceQuery(surface.v_pos.numpy(), surface.t_pos_idx.numpy())
     points = query.closest(mesh.v_pos.double().numpy()).point
-    return dataclasses.replace(mesh, v_pos=torch.from_numpy(points).to(mesh.v_pos.dtype))
+    return mesh.with_positions(torch.from_numpy(points).to(mesh.v_pos.dtype))
 
 
 def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) -> InitialGuess:

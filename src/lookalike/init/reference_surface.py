@@ -7,8 +7,8 @@ per-triangle materials behave exactly as in a render. Lookups are trilinear with
 footprint: a point that stands for a patch of ``footprint`` world units across reads each
 texture at the mip level of that patch, ``du/dx = dv/dy = footprint * sqrt(A_uv / A_world)`` of
 its triangle (UV area over world area), so a texture finer than the patch is prefiltered instead
-of aliased. The shading normal is the smooth interpolated normal perturbed by the material's
-normal map in our tangent frame (``lookalike.shading.normal_map.perturb_normal``).
+of aliased. The shading normal is the interpolated shading normal (``Mesh.normals``) perturbed by
+the material's normal map in our tangent frame (``lookalike.shading.normal_map.perturb_normal``).
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import torch
 
 from ..asset.asset import Asset
-from ..asset.normals import face_normals, safe_normalize, vertex_normals
+from ..asset.normals import face_normals, safe_normalize
 from ..asset.tangents import vertex_tangents
 from ..shading.gbuffer import GBuffer
 from ..shading.normal_map import perturb_normal
-from ..shading.surface import sample_surface
+from ..shading.surface import sample_occlusion, sample_surface
 from ..shading.texturing import TextureSampler
 
 
@@ -37,12 +37,15 @@ class SurfaceValues:
         ks: ``[N, 3]`` (gamma, roughness, metalness).
         emissive: ``[N, 3]`` linear emission, or ``None`` when no material emits.
         normal: ``[N, 3]`` unit world-space shading normals.
+        occlusion: ``[N, 1]`` ambient occlusion (1 where a material has none), or ``None``
+            when no material has an occlusion map.
     """
 
     kd: torch.Tensor
     ks: torch.Tensor
     emissive: torch.Tensor | None
     normal: torch.Tensor
+    occlusion: torch.Tensor | None = None
 
 
 def _interpolate(values: torch.Tensor, index: torch.Tensor, bary: torch.Tensor) -> torch.Tensor:
@@ -54,7 +57,7 @@ def _interpolate(values: torch.Tensor, index: torch.Tensor, bary: torch.Tensor) 
 class ReferenceSurface:
     """Samples ``asset`` (its mesh as stored, e.g. a skinned mesh in its bind pose).
 
-    Per-mesh work (smooth normals, tangent frames of the UV sets normal maps use, triangle
+    Per-mesh work (shading normals, tangent frames of the UV sets normal maps use, triangle
     areas) is done once here; ``sample`` then takes any number of points.
     """
 
@@ -63,7 +66,8 @@ class ReferenceSurface:
         self.asset = asset
         self.mesh = mesh
         v_pos = mesh.v_pos.float()
-        self.v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
+        v_nrm, self.t_nrm_idx = mesh.normals()
+        self.v_nrm = v_nrm.float()
         world_area = face_normals(v_pos.double(), mesh.t_pos_idx).norm(dim=-1)
         self.uv_scale = []                                        # per UV set: [T] sqrt(A_uv / A_world)
         for v_tex, t_tex_idx in mesh.uv:
@@ -76,7 +80,8 @@ class ReferenceSurface:
         self.tangents = {}
         for k in sorted(normal_sets):
             v_tex, t_tex_idx = mesh.uv[k]
-            self.tangents[k] = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex.float(), t_tex_idx, self.v_nrm)
+            self.tangents[k] = vertex_tangents(v_pos, mesh.t_pos_idx, v_tex.float(), t_tex_idx, self.v_nrm,
+                                               self.t_nrm_idx)
 
     def sample(self, triangle: torch.Tensor, barycentric: torch.Tensor, footprint: torch.Tensor) -> SurfaceValues:
         """Values at the points ``sum_k barycentric[:, k] * corner_k`` of ``triangle``.
@@ -99,7 +104,7 @@ class ReferenceSurface:
             derivatives = torch.cat([size, zero, zero, size], dim=1)   # (du/dx, du/dy, dv/dx, dv/dy)
             uv.append((_interpolate(v_tex.float(), t_tex_idx[triangle], bary), derivatives))
         tangent = {k: _interpolate(v_tng, t_tng_idx[triangle], bary) for k, (v_tng, t_tng_idx) in self.tangents.items()}
-        normal = _interpolate(self.v_nrm, corners, bary)
+        normal = _interpolate(self.v_nrm, self.t_nrm_idx[triangle], bary)
         gb = GBuffer(
             pixel=torch.arange(count), view=torch.zeros(count, dtype=torch.int64), triangle=triangle,
             position=_interpolate(mesh.v_pos.float(), corners, bary), normal=normal,
@@ -107,11 +112,13 @@ class ReferenceSurface:
             uv=uv, tangent=tangent,
             color=None if mesh.v_color is None else _interpolate(mesh.v_color.float(), corners, bary),
         )
-        surface = sample_surface(self.asset.materials, mesh.t_mat_idx, gb, TextureSampler(), self.asset.source)
+        sampler = TextureSampler()
+        surface = sample_surface(self.asset.materials, mesh.t_mat_idx, gb, sampler, self.asset.source)
+        occlusion = sample_occlusion(self.asset.materials, mesh.t_mat_idx, gb, sampler, self.asset.source)
         shading = safe_normalize(normal)
         if surface.normal_map is not None:
             for uv_set, interpolated in tangent.items():
                 rows = torch.nonzero(surface.normal_uv_set == uv_set).reshape(-1)
                 shading[rows] = perturb_normal(normal[rows], interpolated[rows], surface.normal_map[rows])
         kd = torch.cat([surface.kd[:, :3], surface.alpha], dim=1)
-        return SurfaceValues(kd=kd, ks=surface.ks, emissive=surface.emissive, normal=shading)
+        return SurfaceValues(kd=kd, ks=surface.ks, emissive=surface.emissive, normal=shading, occlusion=occlusion)

@@ -71,7 +71,8 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) 
 
     Args:
         source: the mesh whose UV sets, ``t_mat_idx``, ``v_color``, ``v_joints``/``v_weights``
-            are carried over (authored normals are not: the renderer recomputes them).
+            are carried over (authored normals are not: ``decimate`` gives the new mesh normal
+            slots split at creases, whose normals follow its positions).
         v_pos: ``[V, 3]`` float positions of the new mesh, near the surface of ``source``.
         t_pos_idx: ``[T, 3]`` int64 triangles of the new mesh.
 

@@ -8,10 +8,14 @@ skipped with a warning. A primitive without a material gets the default ``Materi
 Materials follow glTF's metallic-roughness model: ``kd = baseColorFactor * baseColorTexture``
 (sRGB decoded), ``ks = (gamma, roughness, metalness)`` with ``roughness = roughnessFactor * G``,
 ``metalness = metallicFactor * B`` and ``gamma = 1 - specularFactor * specularTexture.A``
-(KHR_materials_specular). Normal maps are scaled by ``normalTexture.scale`` and re-expressed
-from the file's tangent frame (TANGENT, or MikkTSpace where absent, on NORMAL or flat normals
-where that is absent too) into ours (``lookalike.io.normal_frames``). Occlusion textures and
-morph targets are ignored.
+(KHR_materials_specular). The mesh keeps the file's normals: NORMAL, or the flat triangle normal
+where a primitive has none (glTF 2.0, Sec. 3.7.2.1), welded into slots per (position, normal)
+(``lookalike.asset.normals.weld_normals``). Normal maps are scaled by ``normalTexture.scale`` and
+re-expressed from the file's tangent frame (TANGENT, or MikkTSpace where absent, on those normals)
+into ours (``lookalike.io.normal_frames``). Emission is
+``emissiveFactor * emissiveStrength * emissiveTexture`` (sRGB decoded; KHR_materials_emissive_strength);
+occlusion is ``1 + strength * (occlusionTexture.R - 1)``, with its own ``texCoord``. Morph targets
+are ignored.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 import torch
 
 from ..asset import Animation, Asset, Channel, Material, Mesh, Node, Skin, Texture
+from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
 from ..errors import AssetError
 from .arrays import unique_rows
@@ -176,14 +181,15 @@ def _stack_nan(parts: list[_Primitive], name: str, width: int) -> np.ndarray:
                            else getattr(p, name).astype(np.float64) for p in parts])
 
 
-def _file_corner_normals(mesh: Mesh, parts: list[_Primitive], corners: np.ndarray) -> np.ndarray:
-    """``[T, 3, 3]`` float64 normals a glTF client uses at each corner: NORMAL where the primitive
-    has it, else the flat triangle normal (glTF 2.0, Sec. 3.7.2.1)."""
+def _file_corner_normals(positions: np.ndarray, parts: list[_Primitive], corners: np.ndarray) -> np.ndarray:
+    """``[T, 3, 3]`` float32 normals a glTF client uses at each corner: NORMAL where the primitive
+    has it, else the flat triangle normal (glTF 2.0, Sec. 3.7.2.1) of the float32 ``positions``
+    ``[n, 3]`` (the concatenated per-vertex arrays)."""
     normals = _stack_nan(parts, "normals", 3)[corners]
-    p = mesh.v_pos.double()[mesh.t_pos_idx].numpy()
+    p = positions.astype(np.float64)[corners]
     flat = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     flat /= np.maximum(np.linalg.norm(flat, axis=-1, keepdims=True), 1e-30)
-    return np.where(np.isnan(normals), flat[:, None, :], normals)
+    return np.where(np.isnan(normals), flat[:, None, :], normals).astype(np.float32)
 
 
 def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
@@ -212,14 +218,13 @@ def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
         v_tex = np.concatenate([p.uvs[k] if k < len(p.uvs) else np.zeros((len(p.positions), 2), np.float32)
                                 for p in parts])
         uv.append((torch.from_numpy(v_tex), corner_idx.clone()))
-    normals = [p.normals for p in parts]
-    has_normals = all(nrm is not None for nrm in normals)
+    v_nrm, t_nrm_idx = weld_normals(t_pos_idx, torch.from_numpy(_file_corner_normals(positions, parts, corners)))
     mesh = Mesh(
         v_pos=torch.from_numpy(positions[first]),
         t_pos_idx=t_pos_idx,
         uv=uv,
-        v_nrm=torch.from_numpy(np.concatenate(normals)) if has_normals else None,
-        t_nrm_idx=corner_idx.clone() if has_normals else None,
+        v_nrm=v_nrm,
+        t_nrm_idx=t_nrm_idx,
         v_color=None if colors is None else torch.from_numpy(colors[first]),
         t_mat_idx=torch.from_numpy(np.concatenate([np.full(len(p.triangles), p.material) for p in parts])),
         v_joints=None if joints is None else torch.from_numpy(joints[first]),
@@ -326,13 +331,18 @@ class _MaterialReader:
             emissive = self._texture(info, srgb_to_linear(self._pixels(info)[..., :3]) * emissive_factor)
         elif emissive_factor.any():
             emissive = Texture.constant(emissive_factor)
+        occlusion = None
+        if m.occlusionTexture is not None:  # R channel; strength s gives 1 + s * (R - 1)
+            info = _texture_info(m.occlusionTexture)
+            strength = float(info.get("strength", 1.0) if info.get("strength") is not None else 1.0)
+            occlusion = self._texture(info, 1.0 + strength * (self._pixels(info)[..., :1] - 1.0))
         alpha_mode = m.alphaMode or "OPAQUE"
         if alpha_mode not in ("OPAQUE", "MASK", "BLEND"):
             raise AssetError(self.data.path, f"material {m.name!r} has unknown alphaMode {alpha_mode!r}")
         return Material(
             name=m.name or "material", kd=kd, ks=ks, normal=normal, normal_scale=scale, alpha_mode=alpha_mode,
             alpha_cutoff=0.5 if m.alphaCutoff is None else float(m.alphaCutoff),
-            double_sided=bool(m.doubleSided), emissive=emissive,
+            double_sided=bool(m.doubleSided), emissive=emissive, occlusion=occlusion,
         )
 
 
@@ -424,7 +434,5 @@ def read_gltf(path: Path) -> Asset:
         animations = _read_animations(data)
     elif gltf.animations:
         log.warning(f"{path}: animations of an unskinned scene are not kept")
-    nan_tangents = _stack_nan(parts, "tangents", 4)
-    file_normals = _file_corner_normals(mesh, parts, corners)
-    materials = import_normal_maps(mesh, materials, file_normals, nan_tangents[corners])
+    materials = import_normal_maps(mesh, materials, _stack_nan(parts, "tangents", 4)[corners])
     return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path)

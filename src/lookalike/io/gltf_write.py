@@ -1,9 +1,10 @@
 """Binary glTF 2.0 (``.glb``) writer: one mesh with a primitive per material, PNG textures
 embedded in the binary chunk.
 
-Vertices are unwelded per distinct corner (position, UVs, MikkTSpace tangent), as glTF needs one
-index buffer. NORMAL holds the smooth area-weighted normals lookalike renders with; TANGENT holds
-MikkTSpace tangents of the written mesh, and normal maps are converted into that frame, so
+Vertices are unwelded per distinct corner (position, normal slot, UVs, MikkTSpace tangent), as glTF
+needs one index buffer. NORMAL holds the shading normals lookalike renders with (``Mesh.normals``:
+the authored ones, or split smooth normals); TANGENT holds MikkTSpace tangents of the written mesh
+(on those normals, so they follow hard edges), and normal maps are converted into that frame, so
 clients that read TANGENT and clients that compute MikkTSpace (Blender, the glTF specification's
 default) decode the same normals. TANGENT follows the UV set of the first normal map; a normal map
 on another UV set is converted to MikkTSpace of its own set, which only MikkTSpace-computing
@@ -14,7 +15,11 @@ Material channels: base colour (+ alpha) as ``baseColorFactor`` or an sRGB PNG; 
 (R = 1, G = roughness, B = metalness) and as KHR_materials_specular ``specularTexture`` (A =
 ``1 - gamma``); a constant ``gamma != 0`` becomes ``specularFactor = 1 - gamma``. Note that glTF's
 specular factor scales only the dielectric lobe, while the paper's ``gamma`` also scales metals.
-1x1 (constant) textures are written as factors. The node tree is flat (identity transforms:
+1x1 (constant) textures are written as factors. Emission is ``emissiveFactor``/``emissiveTexture``
+(sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
+then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
+image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
+its own. The node tree is flat (identity transforms:
 geometry is already in the asset's frame); skinned assets keep their joint nodes, skin and
 animations, with inverse bind matrices adjusted for the mesh transform baked in on load.
 """
@@ -28,7 +33,6 @@ from pathlib import Path
 import numpy as np
 
 from ..asset import Asset, Material, Texture
-from ..asset.normals import vertex_normals
 from ..errors import AssetError
 from .arrays import constant_texel, unique_rows
 from .images import encode_png, linear_to_srgb
@@ -128,6 +132,15 @@ def _texture_info(builder: _GlbBuilder, texture: Texture, pixels: np.ndarray, ch
     return info
 
 
+def _same_layout(a: Texture, b: Texture) -> bool:
+    """Whether ``a`` and ``b`` can share one image: same size, UV set, transform and wrap mode."""
+    if a.data.shape[:2] != b.data.shape[:2] or a.uv_set != b.uv_set or a.wrap != b.wrap:
+        return False
+    if a.transform is None or b.transform is None:
+        return a.transform is None and b.transform is None
+    return bool(np.array_equal(a.transform.detach().numpy(), b.transform.detach().numpy()))
+
+
 def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
     """glTF material JSON for ``material`` (textures written to ``builder``)."""
     def constant_or_mean(texture: Texture) -> np.ndarray | None:
@@ -147,6 +160,7 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
         pixels = rgb if np.all(data[..., 3] == 1.0) else np.concatenate([rgb, data[..., 3:]], axis=-1)
         pbr["baseColorTexture"] = _texture_info(builder, material.kd, pixels, "kd")
     ks = constant_or_mean(material.ks)
+    orm = material.occlusion is not None and _same_layout(material.occlusion, material.ks)
     if ks is not None:
         pbr["roughnessFactor"] = float(np.clip(ks[1], 0, 1))
         pbr["metallicFactor"] = float(np.clip(ks[2], 0, 1))
@@ -157,9 +171,12 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
         data = material.ks.data.detach().numpy()
         gamma = data[..., 0]
         varies = not np.all(gamma == gamma.flat[0])
-        pixels = np.stack([np.ones_like(gamma), data[..., 1], data[..., 2]] + ([1.0 - gamma] if varies else []), -1)
+        red = material.occlusion.data.detach().numpy()[..., 0] if orm else np.ones_like(gamma)
+        pixels = np.stack([red, data[..., 1], data[..., 2]] + ([1.0 - gamma] if varies else []), -1)
         info = _texture_info(builder, material.ks, pixels, "ks")
         pbr["metallicRoughnessTexture"] = info
+        if orm:
+            out["occlusionTexture"] = dict(info)
         if varies:
             out.setdefault("extensions", {})["KHR_materials_specular"] = {"specularTexture": dict(info)}
         elif gamma.flat[0] != 0:
@@ -179,9 +196,19 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
                 out.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
                 builder.extensions.add("KHR_materials_emissive_strength")
         else:
+            data = np.clip(material.emissive.data.detach().numpy(), 0, None)
+            strength = max(float(data.max()), 1.0)
             out["emissiveFactor"] = [1.0, 1.0, 1.0]
-            pixels = linear_to_srgb(material.emissive.data.detach().numpy())
-            out["emissiveTexture"] = _texture_info(builder, material.emissive, pixels, "emissive")
+            out["emissiveTexture"] = _texture_info(builder, material.emissive, linear_to_srgb(data / strength),
+                                                   "emissive")
+            if strength > 1.0:
+                out.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
+                builder.extensions.add("KHR_materials_emissive_strength")
+    if material.occlusion is not None and has_uv and "occlusionTexture" not in out:
+        value = constant_texel(material.occlusion)
+        if value is None or value[0] < 1.0:  # occlusion 1 everywhere is no occlusion
+            pixels = np.clip(material.occlusion.data.detach().numpy()[..., :1], 0, 1)
+            out["occlusionTexture"] = _texture_info(builder, material.occlusion, pixels, "occlusion")
     if material.alpha_mode != "OPAQUE":
         out["alphaMode"] = material.alpha_mode
     if material.alpha_mode == "MASK":
@@ -225,12 +252,11 @@ def write_glb(asset: Asset, path: Path) -> None:
     """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
     path = Path(path)
     mesh = asset.mesh.detach()
-    v_pos = mesh.v_pos.float()
-    v_nrm = vertex_normals(v_pos, mesh.t_pos_idx)
+    v_nrm, t_nrm_idx = mesh.normals()
     n_tris = mesh.num_triangles
-    corner_keys = [mesh.t_pos_idx.numpy().reshape(-1, 1)] + [t.numpy().reshape(-1, 1) for _, t in mesh.uv]
-    corner_pos = v_pos[mesh.t_pos_idx].numpy()
-    corner_nrm = v_nrm[mesh.t_pos_idx].numpy()
+    corner_keys = [t.numpy().reshape(-1, 1) for t in (mesh.t_pos_idx, t_nrm_idx, *(t for _, t in mesh.uv))]
+    corner_pos = mesh.v_pos.float()[mesh.t_pos_idx].numpy()
+    corner_nrm = v_nrm.float()[t_nrm_idx].numpy()
     has_uv = bool(mesh.uv)
     materials = list(asset.materials)
     tangents = None

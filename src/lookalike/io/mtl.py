@@ -227,8 +227,10 @@ def write_mtl(materials: list[Material], names: list[str], path: Path) -> None:
             if ke is not None:
                 lines.append(f"Ke {ke[0]:.6g} {ke[1]:.6g} {ke[2]:.6g}")
             else:
-                emission = linear_to_srgb(material.emissive.data.detach().cpu().numpy())
-                lines += ["Ke 1 1 1", f"map_Ke {image('emissive', emission)}"]
+                data = np.clip(material.emissive.data.detach().cpu().numpy(), 0, None)
+                scale = max(float(data.max()), 1.0)  # Ke multiplies the map: emission above 1 survives
+                lines += [f"Ke {scale:.6g} {scale:.6g} {scale:.6g}",
+                          f"map_Ke {image('emissive', linear_to_srgb(data / scale))}"]
     try:
         path.write_text("\n".join(lines) + "\n")
     except OSError as e:

@@ -1,10 +1,10 @@
 """Re-expressing tangent-space normal maps between tangent frames, texel by texel, for files.
 
 Inside lookalike a normal map lives in our frame (``lookalike.asset.frames``: ``vertex_tangents``
-on the smooth normals of ``vertex_normals``). Files use another frame: the TANGENT attribute
-where present, else MikkTSpace of the mesh as stored (what Blender always does and what the glTF
-specification prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the
-written mesh.
+on the mesh's shading normals, ``Mesh.normals``). Files use another frame on the same normals (a
+mesh read from a file keeps the file's normals): the TANGENT attribute where present, else
+MikkTSpace of the mesh as stored (what Blender always does and what the glTF specification
+prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the written mesh.
 
 Frames are given per triangle corner and interpolated, and values re-expressed, as
 ``lookalike.asset.frames`` describes. Texels no triangle covers take the mean of converted
@@ -22,7 +22,7 @@ import torch
 from numba import njit
 
 from ..asset import Material, Mesh
-from ..asset.frames import corner_uvs, frame_at, our_corner_frame, reexpress_texels, smooth_corner_normals, unit
+from ..asset.frames import corner_normals, corner_uvs, frame_at, our_corner_frame, reexpress_texels, unit
 from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
 from .mikktspace import mikktspace_tangents
 
@@ -133,21 +133,24 @@ def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> li
     return out
 
 
-def import_normal_maps(mesh: Mesh, materials: list[Material], file_normals: np.ndarray | None = None,
-                       file_tangents: np.ndarray | None = None) -> list[Material]:
+def _mikktspace_frame(mesh: Mesh, uv_set: int) -> tuple[np.ndarray, np.ndarray]:
+    """MikkTSpace corner frame of the mesh as stored or written (its shading normals, float32
+    positions and UVs): ``(normals [T, 3, 3], tangents [T, 3, 4])`` float64."""
+    normals = corner_normals(mesh)
+    positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
+    return normals, mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
+
+
+def import_normal_maps(mesh: Mesh, materials: list[Material], file_tangents: np.ndarray | None = None) -> list[Material]:
     """Materials with normal maps converted from the file's frame to ours.
 
     Args:
-        file_normals: ``[T, 3, 3]`` the file's corner normals, or ``None`` for our smooth normals
-            (also used where rows are NaN).
+        mesh: the mesh as read, with the file's normals.
         file_tangents: ``[T, 3, 4]`` the file's corner tangents (glTF TANGENT), or ``None``; rows
             that are NaN (or all of them, for ``None``) use MikkTSpace of the file's mesh.
     """
     def frames(uv_set: int):
-        ours_n = smooth_corner_normals(mesh)
-        normals = ours_n if file_normals is None else np.where(np.isnan(file_normals), ours_n, file_normals)
-        positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
-        mikk = mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
+        normals, mikk = _mikktspace_frame(mesh, uv_set)
         tangents = mikk if file_tangents is None else np.where(np.isnan(file_tangents), mikk, file_tangents)
         return normals, tangents
 
@@ -156,10 +159,5 @@ def import_normal_maps(mesh: Mesh, materials: list[Material], file_normals: np.n
 
 def export_normal_maps(mesh: Mesh, materials: list[Material]) -> list[Material]:
     """Materials with normal maps converted from our frame to MikkTSpace of the mesh as written
-    (our smooth normals, float32 positions and UVs)."""
-    def frames(uv_set: int):
-        normals = smooth_corner_normals(mesh)
-        positions = mesh.v_pos.detach().float()[mesh.t_pos_idx].numpy()
-        return normals, mikktspace_tangents(positions, normals, corner_uvs(mesh, uv_set)).astype(np.float64)
-
-    return _convert(mesh, materials, frames, to_ours=False)
+    (its shading normals, float32 positions and UVs)."""
+    return _convert(mesh, materials, lambda uv_set: _mikktspace_frame(mesh, uv_set), to_ours=False)

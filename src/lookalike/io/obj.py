@@ -2,9 +2,11 @@
 
 Reading is vectorised: one regular-expression pass collects the statements, NumPy parses the
 numbers. Polygons are fan-triangulated ``(0, i, i + 1)``; negative indices count back from the
-last vertex defined before the face; faces without ``vt``/``vn`` get zero UVs/normals when other
-faces have them. ``v`` lines with six or more numbers carry vertex colours. Texture v is flipped
-(``v_glTF = 1 - v_OBJ``) so UVs follow the glTF convention used inside lookalike.
+last vertex defined before the face; faces without ``vt`` get zero UVs when other faces have
+them. The mesh keeps the file's normals (``lookalike.asset.normals.file_normals``: normalised,
+welded into slots per (position, normal); corners without one, or with a zero ``vn``, take the
+smooth vertex normal). ``v`` lines with six or more numbers carry vertex colours. Texture v is
+flipped (``v_glTF = 1 - v_OBJ``) so UVs follow the glTF convention used inside lookalike.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 import torch
 
 from ..asset import Asset, Material, Mesh
-from ..asset.normals import vertex_normals
+from ..asset.normals import file_normals
 from ..errors import AssetError
 from .mtl import read_mtl, write_mtl
 from .normal_frames import export_normal_maps, import_normal_maps
@@ -147,21 +149,12 @@ def read_obj(path: Path) -> Asset:
         colors = torch.from_numpy(np.concatenate([v[:, 3:6], np.ones((len(v), 1))], axis=1).astype(np.float32))
 
     materials, t_mat_idx = _materials(path, statements, keywords, is_face, tri_face)
-    mesh = Mesh(
-        v_pos=torch.from_numpy(np.ascontiguousarray(positions)),
-        t_pos_idx=torch.from_numpy(pos_idx[tri_corners]),
-        uv=uv,
-        v_nrm=None if nrm is None else nrm[0],
-        t_nrm_idx=None if nrm is None else nrm[1],
-        v_color=colors,
-        t_mat_idx=torch.from_numpy(t_mat_idx),
-    )
-    file_normals = None
-    if nrm is not None:
-        file_normals = nrm[0][nrm[1]].numpy().astype(np.float64)
-        file_normals[np.linalg.norm(file_normals, axis=-1) == 0] = np.nan
-    materials = import_normal_maps(mesh, materials, file_normals)
-    return Asset(mesh=mesh, materials=materials, source=path)
+    v_pos = torch.from_numpy(np.ascontiguousarray(positions))
+    t_pos_idx = torch.from_numpy(pos_idx[tri_corners])
+    v_nrm, t_nrm_idx = (None, None) if nrm is None else file_normals(v_pos, t_pos_idx, *nrm)
+    mesh = Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, uv=uv, v_nrm=v_nrm, t_nrm_idx=t_nrm_idx, v_color=colors,
+                t_mat_idx=torch.from_numpy(t_mat_idx))
+    return Asset(mesh=mesh, materials=import_normal_maps(mesh, materials), source=path)
 
 
 def _materials(path: Path, statements, keywords: np.ndarray, is_face: np.ndarray, tri_face: np.ndarray):
@@ -207,19 +200,23 @@ def _unique_names(materials: list[Material]) -> list[str]:
 @writer(".obj")
 def write_obj(asset: Asset, path: Path) -> None:
     """Write ``asset`` as OBJ + MTL + PNG textures next to it (``<stem>.mtl``,
-    ``<stem>_<material>_<channel>.png``). Normals written are the smooth area-weighted normals
-    lookalike renders with; normal maps are converted to the MikkTSpace frame of the written mesh.
+    ``<stem>_<material>_<channel>.png``). Normals written are the shading normals lookalike renders
+    with (``Mesh.normals``: authored, or split smooth), one ``vn`` per slot; normal maps are
+    converted to the MikkTSpace frame of the written mesh.
     Only UV set 0 is written; skins, animations and vertex colours are not. ``gamma``
-    (KHR_materials_specular) has no MTL equivalent and is dropped with a warning where non-zero."""
+    (KHR_materials_specular) has no MTL equivalent and is dropped with a warning where non-zero, as
+    is an ambient occlusion map."""
     path = Path(path)
     mesh = asset.mesh.detach()
     names = _unique_names(asset.materials)
     materials = export_normal_maps(mesh, asset.materials)
     if any(float(m.ks.data[..., 0].abs().max()) > 0 for m in asset.materials):
         log.warning(f"{path}: gamma (specular scale) cannot be stored in MTL; dropped")
+    if any(m.occlusion is not None for m in asset.materials):
+        log.warning(f"{path}: MTL has no standard ambient occlusion map; occlusion dropped")
     mtl_path = path.with_suffix(".mtl")
     write_mtl(materials, names, mtl_path)
-    v_nrm = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
+    v_nrm, t_nrm_idx = mesh.normals()
     lines = [f"# written by lookalike: {mesh.num_vertices} vertices, {mesh.num_triangles} triangles",
              f"mtllib {mtl_path.name}"]
     chunks = ["\n".join(lines) + "\n", _rows("v %.7g %.7g %.7g", mesh.v_pos.numpy())]
@@ -230,19 +227,19 @@ def write_obj(asset: Asset, path: Path) -> None:
         chunks.append(_rows("vt %.7g %.7g", v_tex))
     chunks.append(_rows("vn %.7g %.7g %.7g", v_nrm.numpy()))
     pos = mesh.t_pos_idx.numpy() + 1
+    nrm = t_nrm_idx.numpy() + 1
     tex = mesh.uv[0][1].numpy() + 1 if has_uv else None
     order = np.argsort(mesh.t_mat_idx.numpy(), kind="stable")
     mat_sorted = mesh.t_mat_idx.numpy()[order]
     bounds = np.flatnonzero(np.diff(np.concatenate([[-1], mat_sorted, [len(names)]])))
     for start, stop in zip(bounds[:-1], bounds[1:]):
         tris = order[start:stop]
-        p = pos[tris]
+        p, n = pos[tris], nrm[tris]
         if has_uv:
-            t = tex[tris]
-            corners = np.stack([p, t, p], axis=-1).reshape(len(tris), 9)
+            corners = np.stack([p, tex[tris], n], axis=-1).reshape(len(tris), 9)
             fmt = "f " + " ".join(["%d/%d/%d"] * 3)
         else:
-            corners = np.stack([p, p], axis=-1).reshape(len(tris), 6)
+            corners = np.stack([p, n], axis=-1).reshape(len(tris), 6)
             fmt = "f " + " ".join(["%d//%d"] * 3)
         chunks.append(f"usemtl {names[int(mat_sorted[start])]}\n")
         chunks.append(_rows(fmt, corners))

@@ -1,6 +1,6 @@
 """PLY reader (binary and ASCII, via plyfile): positions, faces (fan-triangulated), vertex
 colours (``red``/``green``/``blue``[/``alpha``], 8-bit or float, sRGB decoded to linear), vertex
-normals (``nx``/``ny``/``nz``) and texture coordinates (``s``/``t`` or ``u``/``v``, flipped to
+normals (``nx``/``ny``/``nz``, ``lookalike.asset.normals.file_normals``) and texture coordinates (``s``/``t`` or ``u``/``v``, flipped to
 glTF's v-down convention). PLY has no materials: the asset gets the default material."""
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import plyfile
 import torch
 
 from ..asset import Asset, Material, Mesh
+from ..asset.normals import file_normals
 from ..errors import AssetError
 from .images import srgb_to_linear
 from .registry import reader
@@ -81,9 +82,10 @@ def read_ply(path: Path) -> Asset:
             v_tex = np.stack([vertex[u], 1.0 - vertex[v]], axis=-1).astype(np.float32)
             uv = [(torch.from_numpy(v_tex), t_pos_idx.clone())]
             break
-    v_nrm = None
+    v_pos = torch.from_numpy(positions)
+    v_nrm = t_nrm_idx = None
     if {"nx", "ny", "nz"} <= set(names):
-        v_nrm = torch.from_numpy(np.stack([vertex["nx"], vertex["ny"], vertex["nz"]], axis=-1).astype(np.float32))
-    mesh = Mesh(v_pos=torch.from_numpy(positions), t_pos_idx=t_pos_idx, uv=uv, v_nrm=v_nrm,
-                t_nrm_idx=None if v_nrm is None else t_pos_idx.clone(), v_color=colors)
+        values = torch.from_numpy(np.stack([vertex["nx"], vertex["ny"], vertex["nz"]], axis=-1).astype(np.float32))
+        v_nrm, t_nrm_idx = file_normals(v_pos, t_pos_idx, values, t_pos_idx)
+    mesh = Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, uv=uv, v_nrm=v_nrm, t_nrm_idx=t_nrm_idx, v_color=colors)
     return Asset(mesh=mesh, materials=[Material(name="default")], source=path)

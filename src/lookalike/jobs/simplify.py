@@ -17,7 +17,7 @@ import contextlib
 import dataclasses
 import logging
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 from typing import Iterator
@@ -33,7 +33,7 @@ from ..fit.config import Config, LatentConfig, loop_settings, objective
 from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
 from ..fit.loop import Fitter
 from ..fit.reference import MeshReference
-from ..fit.textured_mesh import TexturedMesh, render_asset
+from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, view_sampler
 from ..init import decimate
 from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_guess_from_mesh, target_triangle_count,
@@ -69,6 +69,9 @@ class SimplifyResult:
         metrics: the content of ``metrics.json``.
         interrupted: the run was stopped by Ctrl-C (the files hold the best result so far and
             ``checkpoint.pt`` lets ``resume=True`` continue).
+        baselines: the models ours was compared with, in memory and not written:
+            ``{"decimated" (or "init_mesh"): Asset, "baked": Asset}`` (no ``"baked"`` where the
+            start was no bake); e.g. for judging them in another renderer.
     """
 
     outdir: Path
@@ -76,6 +79,7 @@ class SimplifyResult:
     report: Path
     metrics: dict
     interrupted: bool = False
+    baselines: dict[str, Asset] = field(default_factory=dict)
 
     def summary(self) -> str:
         """A few lines for the terminal: where to look, and how much we gained."""
@@ -193,17 +197,20 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             checkpointer.save({})
         reference = MeshReference(asset)
         centre, radius = reference.bounding_sphere()
-        latent = TexturedMesh.from_asset(guess.start, centre, radius, cfg.clamp, cfg.render.latent_msaa,
-                                         train_alpha=uses_alpha(asset))
+        latent = TexturedMesh.from_asset(
+            guess.start, centre, radius, cfg.clamp, cfg.render.latent_msaa, train_alpha=uses_alpha(asset),
+            constant=constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
+            texture_scales=cfg.latent.texture_scales)
     with _stage(timings, "reference views"):
         sampler = view_sampler(centre, radius)
         size, spp = cfg.render.resolution, cfg.render.target_spp
         heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed, size, spp)
         validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed, size, spp)
                       if cfg.views.validation else None)
-        source = (ViewPool(reference, sampler, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
+        training = view_sampler(centre, radius, cfg.render.horizon_share)
+        source = (ViewPool(reference, training, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
                            cfg.views.refresh_every, size, spp)
-                  if cfg.views.pool_size else FreshViews(reference, sampler, size, spp))
+                  if cfg.views.pool_size else FreshViews(reference, training, size, spp))
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
     baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \
         else ("decimated", "Plain decimation")
@@ -245,8 +252,9 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             metrics = write_record(staging, record, started - seconds_before)
     if not fit.interrupted:
         checkpoint.unlink(missing_ok=True)
+    baselines = {baseline_key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
     return SimplifyResult(outdir=outdir, model=outdir / MODEL_NAME, report=outdir / REPORT_NAME, metrics=metrics,
-                          interrupted=fit.interrupted)
+                          interrupted=fit.interrupted, baselines=baselines)
 
 
 def resumed_config(saved: dict, checkpoint: Path, given: dict) -> Config:

@@ -15,6 +15,7 @@ from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
 from ..fit.training_views import ViewSampler
 from ..shading.camera import Camera
 from ..shading.light import PointLight
+from .map_noise import map_noise
 from .metrics import psnr, silhouette_band
 from .record import MethodResult, score_method
 
@@ -57,10 +58,12 @@ class HeldoutViews:
 
     def score(self, key: str, label: str, asset: Asset, render: AssetRenderer, texture_size: int | None) -> MethodResult:
         """Render ``asset`` on the held-out views and score it against the reference
-        (``lookalike.report.record.score_method``: PSNR, FLIP and FLIP maps per view, and the
-        share of the error near the outline)."""
+        (``lookalike.report.record.score_method``: PSNR, FLIP and FLIP maps per view, the
+        share of the error near the outline, and the noise of its maps where it has its own
+        textures, ``texture_size`` given)."""
+        noise = map_noise(asset) if texture_size is not None else None
         return score_method(key, label, self.reference, self.images(asset, render),
-                            asset.mesh.num_triangles, texture_size, self.silhouette)
+                            asset.mesh.num_triangles, texture_size, self.silhouette, noise)
 
     def psnr(self, asset: Asset, render: AssetRenderer) -> float:
         """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""

@@ -14,6 +14,7 @@ import numpy as np
 from PIL import Image
 
 from ..version import __version__
+from .map_noise import CHANNELS as MAP_NOISE_CHANNELS
 from .record import MethodResult, RunRecord
 from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
 from .images import DIFFERENCE_FULL_SCALE, image_grid, signed_difference, to_srgb_uint8
@@ -178,6 +179,14 @@ def _summary_cards(data: RunRecord) -> str:
 
 def _methods_table(data: RunRecord) -> str:
     outline = any(m.silhouette_error is not None for m in data.methods)
+    noise = any(m.map_noise is not None for m in data.methods)
+
+    def noise_cell(m: MethodResult) -> str:
+        if not noise:
+            return ""
+        if m.map_noise is None:
+            return "<td>—</td>"
+        return "<td>" + " / ".join(f"{m.map_noise[k]:.4f}" for k in MAP_NOISE_CHANNELS) + "</td>"
 
     def row(m: MethodResult) -> str:
         gain_text = "—" if m is data.baseline else _change(m.psnr - data.baseline.psnr, 2, " dB")
@@ -185,18 +194,23 @@ def _methods_table(data: RunRecord) -> str:
         share = "—" if m.silhouette_error is None else f"{100 * m.silhouette_error:.0f} %"
         return (f'<tr class="{"ours" if m is data.ours else ""}"><td>{_esc(m.label)}</td><td>{m.triangles:,}</td>'
                 f"<td>{texture}</td><td>{m.psnr:.2f}</td><td>{m.flip:.4f}</td><td>{gain_text}</td>"
-                f"{f'<td>{share}</td>' if outline else ''}</tr>")
+                f"{f'<td>{share}</td>' if outline else ''}{noise_cell(m)}</tr>")
 
     head = ("<tr><th>Method</th><th>Triangles</th><th>Textures</th><th>PSNR (dB) ↑</th><th>FLIP ↓</th>"
-            f"<th>Gain</th>{'<th>Error near outline</th>' if outline else ''}</tr>")
+            f"<th>Gain</th>{'<th>Error near outline</th>' if outline else ''}"
+            f"{'<th>Map noise ↓ (colour / specular / normal)</th>' if noise else ''}</tr>")
     reference = (f'<tr><td>Reference (input)</td><td>{data.input_triangles:,}</td><td>input\'s own</td>'
-                 f"<td>—</td><td>—</td><td>—</td>{'<td>—</td>' if outline else ''}</tr>")
+                 f"<td>—</td><td>—</td><td>—</td>{'<td>—</td>' if outline else ''}{'<td>—</td>' if noise else ''}</tr>")
     table = f'<div class="scroll"><table>{head}{reference}{"".join(row(m) for m in data.methods)}</table></div>'
     if outline:
         table += (f'<p class="notes">Error near outline: the share of a method\'s squared error (tone-mapped) that lies '
                   f"within {SILHOUETTE_WIDTH_PX} pixels of the reference's outline. Error there comes mostly from the "
                   "outline's shape, which more triangles improve; elsewhere mostly from shading, which textures "
                   "improve.</p>")
+    if noise:
+        table += ('<p class="notes">Map noise: the RMS of each map\'s discrete Laplacian over the texels inside its '
+                  "charts (linear base colour; roughness and metalness; the normal's x and y). Grain that the "
+                  "reference does not have raises it; 0 is a constant.</p>")
     return table
 
 

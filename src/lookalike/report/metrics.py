@@ -5,6 +5,8 @@ Renders are linear HDR radiance. Both metrics first apply the paper's tone map
 function (``lookalike.colour.tonemap``), then clamp to [0, 1]; they compare the *whole* image,
 background included (reference and candidate share the background, so uncovered pixels agree
 and add no error; every method is scored on the same pixels, which keeps the comparison fair).
+``masked_psnr_views`` scores only given pixels (e.g. ``coverage_union``: those either image
+covers), as the independent judge (``lookalike.report.judged``) does.
 """
 
 from __future__ import annotations
@@ -53,8 +55,40 @@ def psnr_views(reference, test) -> np.ndarray:
     Returns:
         ``[B]`` float64; identical views give ``PSNR_CAP_DB`` (100 dB) instead of infinity.
     """
-    mse = _squared_error(reference, test).mean(axis=(1, 2, 3))
+    return _psnr_of_mse(_squared_error(reference, test).mean(axis=(1, 2, 3)))
+
+
+def _psnr_of_mse(mse: np.ndarray) -> np.ndarray:
+    """``10 log10(1 / MSE)`` (peak 1), capped at ``PSNR_CAP_DB``."""
     return np.minimum(10 * np.log10(1.0 / np.maximum(mse, 1e-300)), PSNR_CAP_DB)
+
+
+def masked_psnr_views(reference, test, mask) -> np.ndarray:
+    """PSNR in dB of each view over the pixels of ``mask`` only (all three channels):
+    ``10 log10(1 / MSE)`` with ``MSE = sum_mask |ref' - test'|^2 / (3 |mask|)`` on the
+    tone-mapped, clamped images, as ``psnr_views``. Unlike the whole-image PSNR it does not grow
+    with the empty background around a small object; with ``mask = coverage_union(...)`` it is
+    the PSNR "over the pixels either image covers".
+
+    Args:
+        reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance.
+        mask: ``[B, H, W]`` (or ``[H, W]``) bool.
+    Returns:
+        ``[B]`` float64; a view with an empty mask (or no error in it) gives ``PSNR_CAP_DB``.
+    """
+    error = _squared_error(reference, test)
+    mask = np.asarray(mask, bool).reshape(error.shape[:3])
+    pixels = mask.sum(axis=(1, 2)) * error.shape[-1]
+    return _psnr_of_mse((error * mask[..., None]).sum(axis=(1, 2, 3)) / np.maximum(pixels, 1))
+
+
+def coverage_union(reference_alpha, test_alpha) -> np.ndarray:
+    """``[B, H, W]`` bool: the pixels that either image covers (``alpha > 0`` in either);
+    alphas ``[B, H, W]`` (or ``[H, W]``), torch or numpy."""
+    a = torch.as_tensor(reference_alpha).detach().to("cpu").numpy()
+    b = torch.as_tensor(test_alpha).detach().to("cpu").numpy()
+    union = (a > 0) | (b > 0)
+    return union[None] if union.ndim == 2 else union
 
 
 def psnr(reference, test) -> float:

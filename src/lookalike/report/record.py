@@ -30,6 +30,8 @@ class MethodResult:
         texture_size: side of its textures in texels, or ``None`` where it has no own textures.
         silhouette_error: the share of its squared error (all views) that lies near the
             reference's outline (``lookalike.report.metrics.error_share``), or ``None``.
+        map_noise: the high-frequency energy of each of its texture maps
+            (``lookalike.report.map_noise``), or ``None`` where it was not measured.
     """
 
     key: str
@@ -41,6 +43,7 @@ class MethodResult:
     triangles: int
     texture_size: int | None = None
     silhouette_error: float | None = None
+    map_noise: dict[str, float] | None = None
 
     @property
     def psnr(self) -> float:
@@ -54,15 +57,16 @@ class MethodResult:
 
 
 def score_method(key: str, label: str, reference, images, triangles: int,
-                 texture_size: int | None = None, silhouette=None) -> MethodResult:
+                 texture_size: int | None = None, silhouette=None,
+                 map_noise: dict[str, float] | None = None) -> MethodResult:
     """Score ``images [B, H, W, C]`` against ``reference [B, H, W, C]`` (both linear) with
     PSNR and FLIP (see ``lookalike.report.metrics``) and keep the FLIP maps for the page; with
     ``silhouette`` (``[B, H, W]`` bool, ``metrics.silhouette_band``) also the share of the error
-    that lies there."""
+    that lies there. ``map_noise`` is passed through."""
     flip_means, flip_maps = flip_views(reference, images, with_maps=True)
     share = None if silhouette is None else error_share(reference, images, silhouette)
     return MethodResult(key, label, images, psnr_views(reference, images), flip_means, flip_maps,
-                        int(triangles), texture_size, share)
+                        int(triangles), texture_size, share, map_noise)
 
 
 @dataclass
@@ -147,7 +151,7 @@ class RunRecord:
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
                 **{m.key: {"label": m.label, "psnr": m.psnr, "flip": m.flip, "silhouette_error": m.silhouette_error,
-                           "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
+                           "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},
             },
         }

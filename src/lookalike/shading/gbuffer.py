@@ -14,7 +14,7 @@ import torch
 import lookalike.render as dr
 
 from ..asset.mesh import Mesh
-from ..asset.normals import face_normals, safe_normalize, vertex_normals
+from ..asset.normals import face_normals, safe_normalize
 from ..asset.tangents import vertex_tangents
 from .camera import Camera
 
@@ -23,12 +23,14 @@ from .camera import Camera
 class MeshBuffers:
     """Per-render vertex data derived from a mesh (the differentiable mesh operations).
 
-    Attributes (V vertices, T triangles, B views):
+    Attributes (V vertices, VN normal slots, T triangles, B views):
         mesh: the source mesh.
         tri: ``[T, 3]`` int32 position triangles, as the rasterizer wants them.
         clip: ``[B, V, 4]`` clip-space positions.
-        v_nrm: ``[V, 3]`` smooth area-weighted vertex normals.
-        t_nrm: ``[T, 3]`` unit geometric (face) normals.
+        v_nrm: ``[VN, 3]`` shading normals (``Mesh.normals``: authored, or split smooth normals
+            of the current positions).
+        t_nrm_idx: ``[T, 3]`` int32 normal slot of each corner.
+        face_nrm: ``[T, 3]`` unit geometric (face) normals.
         uv: per UV set ``(v_tex [VT, 2], t_tex_idx [T, 3] int32)``.
         tangents: ``{uv set: (v_tng [N, 4], t_tng_idx [T, 3] int32)}`` for the UV sets that
             normal maps use.
@@ -38,26 +40,28 @@ class MeshBuffers:
     tri: torch.Tensor
     clip: torch.Tensor
     v_nrm: torch.Tensor
-    t_nrm: torch.Tensor
+    t_nrm_idx: torch.Tensor
+    face_nrm: torch.Tensor
     uv: list[tuple[torch.Tensor, torch.Tensor]]
     tangents: dict[int, tuple[torch.Tensor, torch.Tensor]]
 
     @staticmethod
     def build(mesh: Mesh, camera: Camera, tangent_uv_sets: set[int]) -> "MeshBuffers":
-        """Smooth normals, face normals, clip positions, and tangent frames
+        """Shading normals, face normals, clip positions, and tangent frames
         (``lookalike.asset.tangents.vertex_tangents``) for ``tangent_uv_sets``."""
-        v_nrm = vertex_normals(mesh.v_pos, mesh.t_pos_idx)
+        v_nrm, t_nrm_idx = mesh.normals()
         tangents = {}
         for k in sorted(tangent_uv_sets):
             v_tex, t_tex_idx = mesh.uv[k]
-            v_tng, t_tng_idx = vertex_tangents(mesh.v_pos, mesh.t_pos_idx, v_tex, t_tex_idx, v_nrm)
+            v_tng, t_tng_idx = vertex_tangents(mesh.v_pos, mesh.t_pos_idx, v_tex, t_tex_idx, v_nrm, t_nrm_idx)
             tangents[k] = (v_tng, t_tng_idx.to(torch.int32))
         return MeshBuffers(
             mesh=mesh,
             tri=mesh.t_pos_idx.to(torch.int32),
             clip=camera.clip(mesh.v_pos),
             v_nrm=v_nrm,
-            t_nrm=safe_normalize(face_normals(mesh.v_pos, mesh.t_pos_idx)),
+            t_nrm_idx=t_nrm_idx.to(torch.int32),
+            face_nrm=safe_normalize(face_normals(mesh.v_pos, mesh.t_pos_idx)),
             uv=[(v_tex, t_tex_idx.to(torch.int32)) for v_tex, t_tex_idx in mesh.uv],
             tangents=tangents,
         )
@@ -72,7 +76,7 @@ class GBuffer:
         view: ``[N]`` int64 view (batch) index.
         triangle: ``[N]`` int64 triangle index.
         position: ``[N, 3]`` world positions.
-        normal: ``[N, 3]`` interpolated smooth normals (not normalised).
+        normal: ``[N, 3]`` interpolated shading normals (not normalised).
         geometric_normal: ``[N, 3]`` unit face normals.
         uv: per UV set ``(uv [N, 2], uv_da [N, 4])``.
         tangent: ``{uv set: [N, 4]}`` interpolated tangents (``w`` = handedness).
@@ -104,8 +108,9 @@ class GBuffer:
             return image.reshape(-1, image.shape[-1])[pixel]
 
         mesh = buffers.mesh
-        vertex_attrs = [mesh.v_pos, buffers.v_nrm] + ([mesh.v_color] if mesh.v_color is not None else [])
+        vertex_attrs = [mesh.v_pos] + ([mesh.v_color] if mesh.v_color is not None else [])
         interpolated = covered(dr.interpolate(torch.cat(vertex_attrs, dim=-1), rast, buffers.tri)[0])
+        normal = covered(dr.interpolate(buffers.v_nrm, rast, buffers.t_nrm_idx)[0])
         uv = []
         for v_tex, t_tex_idx in buffers.uv:
             values, derivatives = dr.interpolate(v_tex, rast, t_tex_idx, rast_db=rast_db, diff_attrs="all")
@@ -118,9 +123,9 @@ class GBuffer:
             view=torch.div(pixel, height * width, rounding_mode="floor"),
             triangle=triangle,
             position=interpolated[:, 0:3],
-            normal=interpolated[:, 3:6],
-            geometric_normal=buffers.t_nrm[triangle],
+            normal=normal,
+            geometric_normal=buffers.face_nrm[triangle],
             uv=uv,
             tangent=tangent,
-            color=interpolated[:, 6:10] if mesh.v_color is not None else None,
+            color=interpolated[:, 3:7] if mesh.v_color is not None else None,
         )

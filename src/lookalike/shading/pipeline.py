@@ -1,6 +1,7 @@
 """The paper's deferred rendering pipeline (Sec. 5.2):
 
-mesh operations (smooth normals, tangent frames) -> rasterize at ``resolution * spp``
+mesh operations (shading normals: authored, or split smooth normals of the positions; tangent
+frames) -> rasterize at ``resolution * spp``
 (depth-peeled into ``layers``) -> G-buffer -> material lookup -> shade -> per layer, composite
 over what lies behind it and antialias -> box-downsample by ``spp``.
 
@@ -49,7 +50,7 @@ def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
 
 def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLight) -> torch.Tensor:
     """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of the G-buffer's pixels:
-    ``shade(kd, ks, n, v, l) * irradiance + emissive``, with ``n`` the normal-mapped smooth
+    ``shade(kd, ks, n, v, l) * irradiance + emissive``, with ``n`` the normal-mapped shading
     normal, flipped on back faces and bent towards the viewer (``normal_map``)."""
     view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
     normal = safe_normalize(gb.normal)
@@ -62,6 +63,9 @@ def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLigh
     facing = torch.where(front, 1.0, -1.0).to(normal)
     normal = bend_towards_viewer(normal * facing, gb.geometric_normal * facing, view_dir)
     light_dir, irradiance = light.illuminate(gb.position, gb.view)
+    below = light.below_horizon(gb.geometric_normal * facing, light_dir, gb.view)
+    if below is not None:
+        irradiance = torch.where(below, 0.0, irradiance)
     radiance = bsdf.shade(surface.kd[:, :3], surface.ks, normal, view_dir, light_dir) * irradiance
     if surface.emissive is not None:
         radiance = radiance + surface.emissive

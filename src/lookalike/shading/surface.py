@@ -102,3 +102,21 @@ def sample_surface(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuff
         double_sided[rows] = material.double_sided
     return Surface(kd=kd, ks=ks, normal_map=normal_map, normal_uv_set=normal_uv_set, emissive=emissive,
                    alpha=alpha, double_sided=double_sided)
+
+
+def sample_occlusion(materials: list[Material], t_mat_idx: torch.Tensor, gb: GBuffer, sampler: TextureSampler,
+                     source=None) -> torch.Tensor | None:
+    """``[N, 1]`` ambient occlusion of the pixels of ``gb`` (1 where a material has none), or
+    ``None`` when no material has an occlusion map. Not part of ``sample_surface``: the
+    renderer's point lights do not use it; bakes that carry it over do."""
+    if all(m.occlusion is None for m in materials):
+        return None
+    material_of_pixel = t_mat_idx.to(gb.position.device)[gb.triangle]
+    occlusion = gb.position.new_ones(gb.pixel.shape[0], 1)
+    for index, material in enumerate(materials):
+        rows = torch.nonzero(material_of_pixel == index).reshape(-1)
+        if material.occlusion is None or rows.numel() == 0:
+            continue
+        value = sampler.sample([material.occlusion], _uv_lookup(gb, rows, material, source), rows.shape[0])[0]
+        occlusion = occlusion.index_put((rows,), value[:, :1])
+    return occlusion

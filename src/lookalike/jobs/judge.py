@@ -1,0 +1,139 @@
+"""Judge a ``simplify`` run in Blender: ``lookalike simplify --judge blender`` and
+``lookalike bench quality --judge blender``.
+
+For a run folder (``simplify``'s OUTDIR: ``model.glb``, ``config.toml``, ``metrics.json``) this
+writes into ``RUN/judge/``:
+
+- ``reference.glb``: the input as the run saw it (the bench's scan material on scans);
+- ``decimated.glb`` and ``baked.glb``: the run's plain decimation and our classic bake (taken
+  from the simplify result where given, else read back from an earlier judging, else built
+  again from the run's settings and seed with the current code);
+- ``blender.glb``: Blender's own pipeline (``lookalike.judge.blender_bake``) with the run's
+  triangle target and texture size;
+- ``judge.json``: the scores (``lookalike.report.judged.judge_models``), the noise of each
+  textured model's maps as written (``lookalike.report.map_noise``) and timings;
+- ``views.png``: the first views of every model in every renderer;
+
+and adds the mean scores to the run's ``metrics.json`` as ``"judge"``.
+
+Every model is scored on the run's own held-out views (same sampler, seed and count), in our
+renderer and in Cycles with and without shadows, at ``JUDGE_RESOLUTION``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from .. import io
+from ..asset import Asset
+from ..fit.config import LatentConfig
+from ..fit.config_file import load_config
+from ..init.initial_guess import target_triangle_count
+from ..io.atomic import write_text_atomic
+from ..judge import require_judge
+from ..judge.blender_bake import blender_classic_bake
+from ..report.judged import JUDGE_RESOLUTION, RENDERERS, JudgedModel, heldout_views, judge_models
+from ..report.map_noise import map_noise
+from .outputs import METRICS_NAME
+from .simplify import build_initial_guess, prepare_input
+
+JUDGE_FOLDER = "judge"
+RESULT_NAME = "judge.json"
+LABELS = {"decimated": "Plain decimation", "baked": "Our classic bake", "blender": "Blender's decimate + bake",
+          "ours": "Ours"}
+"""The judged methods, in table order."""
+
+
+def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asset] | None = None,
+              resolution: int = JUDGE_RESOLUTION, views: int | None = None) -> dict:
+    """Judge the simplify run in ``run_dir`` in Blender (module docstring).
+
+    Args:
+        run_dir: the run's OUTDIR.
+        input_asset: the input as the run saw it (material override applied).
+        baselines: ``{"decimated": Asset, "baked": Asset}`` from the simplify result, if at hand.
+        resolution: side of the judged pictures; views: judge only the first ``views`` held-out
+            views (default: all of them).
+
+    Returns:
+        The content of ``judge.json``: ``lookalike.report.judged.judge_models``' result plus
+        ``"blender_bake"`` (triangles, seconds per step) and ``"seconds"`` per stage.
+    """
+    require_judge()
+    run_dir = Path(run_dir)
+    folder = run_dir / JUDGE_FOLDER
+    folder.mkdir(exist_ok=True)
+    cfg = load_config(run_dir / "config.toml")
+    seconds = {}
+    started = time.monotonic()
+    reference_glb = folder / "reference.glb"
+    io.save(input_asset, reference_glb)
+    assets = {"decimated": None, "baked": None, **(baselines or {})}
+    ratio = cfg.latent.ratio if cfg.latent.ratio is not None else LatentConfig.DEFAULT_RATIO
+    count = target_triangle_count(cfg.latent.triangles, ratio, input_asset.mesh.num_triangles)
+    missing = [k for k in ("decimated", "baked") if assets[k] is None and not (folder / f"{k}.glb").exists()]
+    if missing:
+        guess = build_initial_guess(input_asset, cfg, None if cfg.io.init_mesh else count)
+        assets.update({"decimated": guess.baseline, "baked": guess.baked})
+    for key in ("decimated", "baked"):
+        if assets[key] is not None:
+            io.save(assets[key], folder / f"{key}.glb")
+    seconds["baselines"] = time.monotonic() - started
+    bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, cfg.latent.texture_size)
+    seconds["blender_bake"] = bake.seconds["total"]
+    paths = {"decimated": folder / "decimated.glb", "baked": folder / "baked.glb", "blender": bake.path,
+             "ours": run_dir / "model.glb"}
+    models = [JudgedModel(key, LABELS[key], path, io.load(path)) for key, path in paths.items() if path.exists()]
+    camera, light = heldout_views(input_asset, cfg.views.heldout, cfg.views.heldout_seed)
+    if views is not None:
+        camera, light = camera[:views], light[:views]
+    started = time.monotonic()
+    result = judge_models(input_asset, reference_glb, models, camera, light, resolution, cfg.render.target_spp,
+                          cfg.render.latent_msaa, contact_sheet_path=folder / "views.png")
+    seconds["judging"] = time.monotonic() - started
+    result["blender_bake"] = {"input_triangles": bake.input_triangles, "triangles": bake.triangles,
+                              "texture_size": cfg.latent.texture_size, "seconds": bake.seconds}
+    result["triangles"] = {m.key: m.asset.mesh.num_triangles for m in models}
+    result["map_noise"] = {m.key: map_noise(m.asset) for m in models if m.key != "decimated"}
+    result["seconds"] = {**result["seconds"], **seconds}
+    write_text_atomic(folder / RESULT_NAME, json.dumps(result, indent=2))
+    add_to_metrics(run_dir / METRICS_NAME, result)
+    return result
+
+
+def mean_scores(result: dict) -> dict:
+    """``{renderer: {method: {"psnr", "flip"}}}``: the means of a ``judge_run`` result."""
+    return {renderer: {key: {"psnr": s["psnr"], "flip": s["flip"]} for key, s in scores.items()}
+            for renderer, scores in result["scores"].items()}
+
+
+def add_to_metrics(metrics_path: Path, result: dict) -> None:
+    """Add the judge's mean scores (``mean_scores``), views and resolution to the run's
+    ``metrics.json`` as ``"judge"`` (rewritten atomically); nothing where there is none."""
+    if not metrics_path.is_file():
+        return
+    metrics = json.loads(metrics_path.read_text())
+    metrics["judge"] = {"renderer": "Blender Cycles", "views": result["views"], "resolution": result["resolution"],
+                        "labels": result["labels"], "scores": mean_scores(result),
+                        "details": f"{JUDGE_FOLDER}/{RESULT_NAME}"}
+    write_text_atomic(metrics_path, json.dumps(metrics, indent=2))
+
+
+def judge_summary(result: dict) -> str:
+    """A few lines for the terminal: PSNR / FLIP of every method in every renderer."""
+    lines = [f"judged on {result['views']} held-out views at {result['resolution']} px "
+             "(PSNR over covered pixels / FLIP):"]
+    for renderer, scores in result["scores"].items():
+        figures = ", ".join(f"{result['labels'][key]} {s['psnr']:.2f} dB / {s['flip']:.4f}" for key, s in scores.items())
+        lines.append(f"  {RENDERERS[renderer]}: {figures}")
+    return "\n".join(lines)
+
+
+def reference_of_run(run_dir: str | Path, material_override=None, input_path: str | Path | None = None) -> Asset:
+    """The input of the run in ``run_dir`` as it saw it: ``input_path`` (default: the input its
+    ``config.toml`` names) with ``material_override`` applied."""
+    cfg = load_config(Path(run_dir) / "config.toml")
+    asset, _ = prepare_input(io.load(input_path or cfg.io.input), material_override)
+    return asset

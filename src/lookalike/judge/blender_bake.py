@@ -1,0 +1,74 @@
+"""Blender's classic LOD pipeline as a baseline: decimate, unwrap, bake selected-to-active
+(``blender_classic_bake``). What users compare us with ("Blender's decimate + bake"); the
+steps and their settings are in ``lookalike.judge.blender_bake_worker``.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..threads import thread_count
+from .process import run_worker
+
+CAGE_FRACTION = 0.02
+"""Rays start this fraction of the reference's bounding-box diagonal above the low-poly surface
+and end as far below it (the reach of our own bake, ``lookalike.init.bake``)."""
+
+MARGIN = 16
+"""Texels of dilation around every chart (Blender's bake margin)."""
+
+PADDING = 4
+"""Texels between the atlas's charts (as our own unwrap's default)."""
+
+SAMPLES = 4
+"""Cycles samples per texel while baking (antialiasing within the texel)."""
+
+BASE_COLOUR_PASS = "DIFFUSE"
+"""How the base colour is baked: ``"DIFFUSE"`` (the DIFFUSE bake's COLOR pass, what users do,
+with the sources' metalness and specular level at 0 meanwhile, else it comes out darker) or
+``"EMIT"`` (the base colour input wired into an Emission shader); both copy the base colour."""
+
+
+@dataclass
+class BlenderBake:
+    """What Blender's pipeline wrote.
+
+    Attributes:
+        path: the glb (one mesh, one material: base colour, metallic-roughness, normal map).
+        input_triangles, triangles: triangle counts of the reference and of the result.
+        seconds: wall seconds per step (``import``, ``decimate``, ``unwrap``, ``bake ...``,
+            ``export``) and ``total`` (the whole Blender process).
+    """
+
+    path: Path
+    input_triangles: int
+    triangles: int
+    seconds: dict[str, float]
+
+
+def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, triangles: int, texture_size: int,
+                         samples: int = SAMPLES, cage_fraction: float = CAGE_FRACTION, margin: int = MARGIN,
+                         padding: int = PADDING, base_colour_pass: str = BASE_COLOUR_PASS,
+                         threads: int | None = None) -> BlenderBake:
+    """Run Blender's decimate + xatlas + selected-to-active bake on ``reference_glb`` down to
+    about ``triangles`` triangles with ``texture_size``-texel square maps; write ``output_glb``.
+
+    Raises:
+        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed.
+    """
+    output_glb = Path(output_glb).resolve()
+    output_glb.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="lookalike-blender-bake-") as scratch:
+        stats = Path(scratch) / "stats.json"
+        job = {"reference": str(Path(reference_glb).resolve()), "output": str(output_glb), "stats": str(stats),
+               "scratch": scratch, "triangles": int(triangles), "texture_size": int(texture_size),
+               "padding": int(padding), "samples": int(samples), "threads": threads or thread_count(),
+               "cage_fraction": float(cage_fraction), "margin": int(margin),
+               "base_colour_pass": base_colour_pass}
+        total = run_worker("blender_bake_worker", job)
+        figures = json.loads(stats.read_text())
+    return BlenderBake(output_glb, figures["input_triangles"], figures["triangles"],
+                       {**figures["seconds"], "total": total})

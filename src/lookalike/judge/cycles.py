@@ -1,0 +1,93 @@
+"""Render a glb in Blender Cycles under our cameras and point lights (``render_in_cycles``).
+
+All views of one model are rendered by one Blender process (``lookalike.judge.cycles_worker``):
+the glb is imported once, then the camera and the light are moved from view to view. The
+conversion of our views is exact (``lookalike.judge.conversion``); the images come back in our
+renderer's conventions: ``[B, H, W, 4]`` float32 linear RGB over black (premultiplied by
+coverage, like ``lookalike.shading.pipeline.render`` without a background) and alpha =
+coverage, row 0 at the top.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from ..threads import thread_count
+from .conversion import blender_cameras, blender_point_lights
+from .process import run_worker
+
+SAMPLES = 32
+"""Cycles samples per pixel (the issue's setting): antialiasing, and the alpha of blended surfaces."""
+
+SEED = 0
+"""Cycles' sampling seed: the same views give the same pixels."""
+
+
+@dataclass
+class CyclesRender:
+    """What one Blender process rendered.
+
+    Attributes:
+        images: ``{shadows: [B, H, W, 4] float32}`` (see the module docstring).
+        seconds_per_view: Cycles' wall seconds per picture (import excluded).
+        seconds: the whole process's wall seconds (start, import, every picture).
+    """
+
+    images: dict[bool, torch.Tensor] = field(default_factory=dict)
+    seconds_per_view: float = 0.0
+    seconds: float = 0.0
+
+
+def _size(resolution) -> tuple[int, int]:
+    """``(height, width)`` of an ``H`` or ``(H, W)`` resolution."""
+    if isinstance(resolution, int):
+        return resolution, resolution
+    height, width = resolution
+    return int(height), int(width)
+
+
+def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight, resolution,
+                        shadows: tuple[bool, ...] = (True, False), samples: int = SAMPLES,
+                        threads: int | None = None) -> CyclesRender:
+    """Render the glb at ``glb_path`` in Cycles from B cameras, each lit by its point light, once
+    for each setting in ``shadows`` (True: the model casts shadows; False: no object does).
+
+    Args:
+        glb_path: a glTF binary in our world frame (y up; as ``lookalike.io.save`` writes it).
+        camera: B cameras (centred perspective projections, aspect = W / H).
+        light: B point lights (or 1, shared).
+        resolution: ``H`` or ``(H, W)``.
+        samples: Cycles samples per pixel; threads: CPU threads (default: ours).
+    Raises:
+        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed.
+    """
+    height, width = _size(resolution)
+    count = camera.batch_size
+    views = [{"camera": c, "light": l} for c, l in zip(blender_cameras(camera, width, height),
+                                                       blender_point_lights(light, count))]
+    with tempfile.TemporaryDirectory(prefix="lookalike-cycles-") as scratch:
+        output, stats = Path(scratch) / "images.npy", Path(scratch) / "stats.json"
+        job = {"glb": str(Path(glb_path).resolve()), "output": str(output), "stats": str(stats), "scratch": scratch,
+               "width": width, "height": height, "samples": int(samples), "seed": SEED,
+               "threads": threads or thread_count(), "views": views, "shadows": [bool(s) for s in shadows]}
+        seconds = run_worker("cycles_worker", job)
+        pixels = np.load(output)
+        figures = json.loads(stats.read_text())
+    images = {bool(s): torch.from_numpy(np.ascontiguousarray(pixels[i])) for i, s in enumerate(shadows)}
+    return CyclesRender(images, figures["seconds_per_view"], seconds)
+
+
+def render_in_cycles(glb_path: str | Path, camera: Camera, light: PointLight, resolution, shadows: bool = True,
+                     samples: int = SAMPLES) -> torch.Tensor:
+    """``[B, H, W, 4]`` float32 Cycles images of the glb under B views: linear RGB over black
+    (premultiplied by coverage) and alpha = coverage, row 0 at the top; with or without the
+    model's shadows (``render_cycles_views`` for both in one process)."""
+    return render_cycles_views(glb_path, camera, light, resolution, (bool(shadows),), samples).images[bool(shadows)]

@@ -1,0 +1,157 @@
+"""Scores from an independent judge: the input and every method rendered on the same held-out
+views by Blender Cycles (``lookalike.judge``), with shadows and without, and by our own
+pipeline, each method scored against its renderer's picture of the input.
+
+Scores (``score_renders``), for every renderer alike:
+
+- PSNR over the pixels that either image covers (``coverage_union``: alpha > 0 in the input's
+  or the method's picture), on tone-mapped values (``lookalike.report.metrics.masked_psnr_views``)
+  of both pictures composited over the report's background (``BACKGROUND``);
+- FLIP over the whole pictures composited over that background (``flip_views``).
+
+Renderers (the keys of ``judge_models``' result): ``"ours"`` (the report's settings: the input
+supersampled ``spp`` x ``spp``, the methods with ``msaa`` x ``msaa`` visibility samples),
+``"cycles"`` (shadows on) and ``"cycles_no_shadows"``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..asset import Asset
+from ..fit.reference import MeshReference, render_in_chunks
+from ..fit.textured_mesh import render_asset
+from ..fit.training_views import view_sampler
+from ..judge.cycles import render_cycles_views
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from .heldout import BACKGROUND
+from .images import image_grid, to_srgb_uint8
+from .metrics import coverage_union, flip_views, masked_psnr_views
+
+JUDGE_RESOLUTION = 384
+"""Side of the judged pictures in pixels (the issue's)."""
+
+RENDERERS = {"ours": "our renderer", "cycles": "Cycles, shadows", "cycles_no_shadows": "Cycles, no shadows"}
+"""Renderer keys of the judged scores, and what tables call them."""
+
+CONTACT_VIEWS = 3
+"""Views shown per model in the contact sheet (``contact_sheet``)."""
+
+
+@dataclass
+class JudgedModel:
+    """One method to judge: ``key`` (``"decimated"``, ``"baked"``, ``"blender"``, ``"ours"``),
+    ``label``, its glb (for Cycles) and the same model as an ``Asset`` (for our renderer)."""
+
+    key: str
+    label: str
+    glb: Path
+    asset: Asset
+
+
+def heldout_views(asset: Asset, count: int, seed: int) -> tuple[Camera, PointLight]:
+    """The held-out cameras and lights of a run on ``asset`` (as ``HeldoutViews`` draws them:
+    ``view_sampler`` around the asset's bounding sphere, from ``default_rng(seed)``), in the
+    asset's own frame, the frame of the glb files we write."""
+    centre, radius = MeshReference(asset).bounding_sphere()
+    return view_sampler(centre, radius)(np.random.default_rng(seed), count)
+
+
+def composite_over_background(rgba: torch.Tensor) -> torch.Tensor:
+    """``[B, H, W, 3]``: premultiplied ``rgba [B, H, W, 4]`` over ``BACKGROUND``."""
+    rgba = torch.as_tensor(rgba).float()
+    return rgba[..., :3] + (1.0 - rgba[..., 3:4]) * torch.tensor(BACKGROUND, dtype=torch.float32)
+
+
+def score_renders(reference_rgba: torch.Tensor, rgba: torch.Tensor) -> dict:
+    """PSNR over the covered pixels and FLIP (module docstring) of ``rgba`` against
+    ``reference_rgba`` (both ``[B, H, W, 4]``, premultiplied, linear).
+
+    Returns:
+        ``{"psnr", "flip", "psnr_views", "flip_views"}`` (means and per-view lists).
+    """
+    reference, test = composite_over_background(reference_rgba), composite_over_background(rgba)
+    mask = coverage_union(reference_rgba[..., 3], rgba[..., 3])
+    psnr = masked_psnr_views(reference, test, mask)
+    flip = flip_views(reference, test)[0]
+    return {"psnr": float(psnr.mean()), "flip": float(flip.mean()), "psnr_views": psnr.tolist(),
+            "flip_views": flip.tolist()}
+
+
+@torch.no_grad()
+def render_ours(reference: Asset, models: list[JudgedModel], camera: Camera, light: PointLight, resolution: int,
+                spp: int, msaa: int) -> dict[str, torch.Tensor]:
+    """``{"reference" | model key: [B, H, W, 4]}`` drawn by our pipeline as the report draws
+    them (the input supersampled ``spp`` x ``spp``; the methods with ``render_asset``)."""
+    images = {"reference": render_in_chunks(MeshReference(reference), camera, light, resolution, spp)}
+    for model in models:
+        images[model.key] = torch.cat([render_asset(model.asset, camera[i:i + 4], light[i:i + 4], resolution, msaa)
+                                       for i in range(0, camera.batch_size, 4)])
+    return images
+
+
+def judge_models(reference: Asset, reference_glb: Path, models: list[JudgedModel], camera: Camera,
+                 light: PointLight, resolution: int = JUDGE_RESOLUTION, spp: int = 2, msaa: int = 2,
+                 contact_sheet_path: Path | None = None) -> dict:
+    """Render the input and every model in our pipeline and in Cycles (shadows on, off) on the
+    views ``camera``/``light`` and score them (module docstring).
+
+    Args:
+        reference: the input as the run saw it; reference_glb: the same written as a glb.
+        models: the methods; camera, light: the held-out views (``heldout_views``).
+        resolution: side of the pictures; spp, msaa: our renderer's samples (the report's).
+        contact_sheet_path: also write a PNG of the first ``CONTACT_VIEWS`` views of every
+            model in every renderer there (``contact_sheet``).
+
+    Returns:
+        ``{"resolution", "views", "scores": {renderer: {key: score_renders(...)}},
+        "labels": {key: label}, "reference_coverage": {renderer: mean alpha of the input's
+        pictures}, "agreement": {"reference" | key: {"psnr", "flip"}}, "seconds": {"ours",
+        "cycles", "cycles_per_view"}}``. The coverages agree where the views were converted
+        right; ``agreement`` scores our renderer's pictures of each model against Cycles'
+        without shadows (how far the two renderers part on the same file).
+    """
+    seconds = {}
+    started = time.monotonic()
+    ours = render_ours(reference, models, camera, light, resolution, spp, msaa)
+    seconds["ours"] = time.monotonic() - started
+    started = time.monotonic()
+    cycles_images = {True: {}, False: {}}
+    per_view = []
+    for key, glb in [("reference", reference_glb)] + [(m.key, m.glb) for m in models]:
+        rendered = render_cycles_views(glb, camera, light, resolution, shadows=(True, False))
+        per_view.append(rendered.seconds_per_view)
+        for shadows, images in rendered.images.items():
+            cycles_images[shadows][key] = images
+    seconds["cycles"] = time.monotonic() - started
+    seconds["cycles_per_view"] = float(np.mean(per_view))
+    renders = {"ours": ours, "cycles": cycles_images[True], "cycles_no_shadows": cycles_images[False]}
+    scores = {renderer: {m.key: score_renders(images["reference"], images[m.key]) for m in models}
+              for renderer, images in renders.items()}
+    if contact_sheet_path is not None:
+        contact_sheet(renders, models, contact_sheet_path)
+    coverage = {renderer: float(images["reference"][..., 3].mean()) for renderer, images in renders.items()}
+    agreement = {key: score_renders(cycles_images[False][key], ours[key]) for key in ["reference"] + [m.key for m in models]}
+    return {"resolution": resolution, "views": camera.batch_size, "scores": scores,
+            "labels": {m.key: m.label for m in models}, "reference_coverage": coverage,
+            "agreement": {key: {"psnr": a["psnr"], "flip": a["flip"]} for key, a in agreement.items()},
+            "seconds": seconds}
+
+
+def contact_sheet(renders: dict[str, dict[str, torch.Tensor]], models: list[JudgedModel], path: Path) -> None:
+    """A PNG grid: one column per model (the input first), one row per (renderer, view) for
+    the first ``CONTACT_VIEWS`` views, over the report's background."""
+    keys = ["reference"] + [m.key for m in models]
+    cells, row_labels = [], []
+    for renderer, images in renders.items():
+        shown = {key: to_srgb_uint8(composite_over_background(images[key][:CONTACT_VIEWS])) for key in keys}
+        for view in range(len(shown["reference"])):
+            cells.append([shown[key][view] for key in keys])
+            row_labels.append(f"{RENDERERS[renderer]}, view {view + 1}")
+    image_grid(cells, ["input"] + [m.label for m in models], row_labels).save(path)
