@@ -287,6 +287,19 @@ def test_a_checkpoint_is_written_when_due_and_not_before(tmp_path):
     assert always.saves == 5 and read_checkpoint(tmp_path / "b.pt")["progress"]["iteration"] == 5
 
 
+def test_under_a_time_budget_the_bar_counts_the_budgets_seconds_and_its_eta_only_counts_down(capsys):
+    import re
+    fit = fitter(config())
+    fit.run(seconds_available=2.0, progress=True)
+    pattern = re.compile(r"(\d+)/(\d+) s \[\d\d:\d\d<(\d\d):(\d\d)")
+    lines = [line for line in capsys.readouterr().err.split("\r") if pattern.search(line)]
+    shown = [pattern.search(line).groups() for line in lines]
+    assert len(shown) >= 3 and {total for _, total, _, _ in shown} == {"2"}
+    remaining = [60 * int(m) + int(s) for _, _, m, s in shown]
+    assert remaining == sorted(remaining, reverse=True) and remaining[-1] == 0
+    assert f"step={fit.progress.iteration}/{fit.progress.total}" in lines[-1]
+
+
 def test_the_time_budget_fixes_the_iteration_count():
     fit = fitter(config())
     result = fit.run(seconds_available=0.5, progress=False)

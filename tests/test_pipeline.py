@@ -435,3 +435,31 @@ def test_the_horizon_test_darkens_normal_mapped_points_whose_surface_faces_away_
     two = PointLight.cat([PointLight(torch.tensor(position), torch.ones(1, 3)),
                           PointLight(torch.tensor(position), torch.ones(1, 3), horizon=torch.tensor([True]))])
     assert two.horizon.tolist() == [False, True] and two[1:].horizon.tolist() == [True]
+
+
+@pytest.mark.parametrize("footprint", [4.0, 8.0])
+def test_a_lookup_filters_its_footprint_with_the_variance_of_the_pixels_box(footprint, monkeypatch):
+    """A vertical line of texels is blurred across ``u`` by the lookup's filter. Averaged over
+    the line's place in the mip levels' blocks, the filter's second moment about the line with the footprint scaled
+    by ``FOOTPRINT_SCALE`` is near the box's ``f^2 / 12``; trilinear at the plain footprint is
+    three times wider (``f^2 / 4``)."""
+    import lookalike.shading.texturing as texturing
+    size = 128
+    u = torch.linspace(0.25, 0.75, 2001)
+    uv = torch.stack([u, torch.full_like(u, 0.5)], dim=1)
+    uv_da = torch.tensor([[footprint / size, 0.0, 0.0, footprint / size]]).expand(len(u), 4)
+    x = u.double() * size
+
+    def variance() -> float:
+        variances = []
+        for column in range(64, 72):
+            data = torch.zeros(size, size, 1)
+            data[:, column] = 1.0
+            response = sample_texture(Texture(data, wrap="clamp"), uv, uv_da)[:, 0].double()
+            variances.append(float((response * (x - column - 0.5) ** 2).sum() / response.sum()))
+        return float(np.mean(variances))
+
+    box = footprint ** 2 / 12
+    assert 0.8 * box < variance() < 1.3 * box
+    monkeypatch.setattr(texturing, "FOOTPRINT_SCALE", 1.0)
+    assert variance() > 2.5 * box

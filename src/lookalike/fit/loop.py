@@ -118,6 +118,18 @@ class _Progress:
     rollbacks_in_a_row: int = 0
 
 
+def _progress_bar(progress: _Progress, seconds_available: float | None, show: bool) -> tqdm:
+    """The loop's bar. With a fixed step count it counts steps; under a time budget it counts the
+    budget's seconds (the step count is re-planned as the pace changes, the seconds are not),
+    so its ETA only ever counts down. The postfix shows the steps either way (``_postfix``)."""
+    if seconds_available is None:
+        return tqdm(total=progress.total, initial=progress.iteration, disable=not show, unit="it",
+                    dynamic_ncols=True, desc="optimising")
+    return tqdm(total=round(seconds_available, 1), disable=not show, unit="s", dynamic_ncols=True,
+                desc="optimising", bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s "
+                "[{elapsed}<{remaining}{postfix}]")
+
+
 class Fitter:
     """Runs the optimisation of one latent model.
 
@@ -253,8 +265,7 @@ class Fitter:
         if p.total is None and seconds_available is None:
             raise ValueError("the loop needs settings.iterations or seconds_available")
         interrupted = False
-        bar = tqdm(total=p.total, initial=p.iteration, disable=not progress, unit="it", dynamic_ncols=True,
-                   desc="optimising")
+        bar = _progress_bar(p, seconds_available, progress)
         loop_start = time.monotonic()
         durations: list[float] = []
         if p.iteration == 0:
@@ -265,15 +276,14 @@ class Fitter:
                 value = self.step()
                 durations.append(time.monotonic() - started)
                 p.seconds += durations[-1]
-                bar.update(1)
-                bar.set_postfix(self._postfix(value), refresh=False)
                 if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
                         p.total is None or len(durations) % REPLAN_EVERY == 0):
                     pace = float(np.mean(durations[1:][-REPLAN_EVERY:])) + self._validation_pace()
                     left = seconds_available - (time.monotonic() - loop_start)
                     p.total = p.iteration + max(0, int(left / pace))
-                    bar.total = p.total
-                    bar.refresh()
+                bar.set_postfix(self._postfix(value), refresh=False)
+                bar.update(1 if seconds_available is None
+                           else min(time.monotonic() - loop_start, seconds_available) - bar.n)
                 if p.rollbacks_in_a_row >= self.settings.max_rollbacks:
                     bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
                     break
@@ -296,7 +306,7 @@ class Fitter:
         """What the progress bar shows after the count: the step's loss and, with a validator,
         the latest and the best validation scores (``val``, ``best``)."""
         p = self.progress
-        postfix = {"loss": f"{loss:.4f}"}
+        postfix = {"step": f"{p.iteration}/{p.total or '?'}", "loss": f"{loss:.4f}"}
         if p.validation:
             postfix["val"] = f"{p.validation[-1][1]:.2f}"
             postfix["best"] = f"{p.best_score:.2f}"

@@ -1,6 +1,16 @@
 """Sampling material ``Texture``s at a list of points with the differentiable texture
 primitive, applying each texture's UV transform (KHR_texture_transform), boundary mode and
-supplied mip levels."""
+supplied mip levels.
+
+Footprint: a trilinear lookup whose mip level follows a pixel's footprint ``f`` (in texels)
+filters the texture much wider than the pixel: level ``L = log2 f`` averages boxes of ``f``
+texels and interpolates between them with a tent of half-width ``f``, a filter of variance
+``f^2 / 12 + f^2 / 6 = f^2 / 4``. A renderer that supersamples the pixel instead (Cycles, or
+our supersampled reference) filters with the pixel's box, variance ``f^2 / 12``. A model
+fitted through the wide filter pre-sharpens its textures to make up for it, and the sharpened
+maps show as grain wherever the filter is narrower. Lookups therefore take the footprint times
+``FOOTPRINT_SCALE = 1 / sqrt(3)``, whose filter has the box's variance.
+"""
 
 from __future__ import annotations
 
@@ -25,6 +35,10 @@ def transform_uv(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None)
     if uv_da is not None:
         uv_da = (m[:2, :2] @ uv_da.reshape(-1, 2, 2)).reshape(-1, 4)
     return uv, uv_da
+
+
+FOOTPRINT_SCALE = 3.0 ** -0.5
+"""Factor on the screen-space UV derivatives that choose the mip level (module docstring)."""
 
 
 UVLookup = Callable[[int], tuple[torch.Tensor, torch.Tensor | None]]
@@ -81,8 +95,8 @@ class TextureSampler:
         """Values ``[N, C_i]`` of each texture at the ``count`` points described by ``uv_of``.
 
         Texture coordinates follow glTF (``(0, 0)`` = top-left corner of the image = texel row
-        0). With derivatives the lookup is trilinear (mip level from the footprint), without
-        bilinear. A 1x1 texture is its constant value and needs no coordinates.
+        0). With derivatives the lookup is trilinear (mip level from the footprint times
+        ``FOOTPRINT_SCALE``), without bilinear. A 1x1 texture is its constant value and needs no coordinates.
         Differentiable in texels (and own mips), coordinates and derivatives.
         """
         values: list[torch.Tensor | None] = [None] * len(textures)
@@ -96,6 +110,8 @@ class TextureSampler:
             first = textures[members[0]]
             uv, uv_da = transform_uv(first, *uv_of(first.uv_set))
             mipmapped = uv_da is not None
+            if mipmapped:
+                uv_da = uv_da * FOOTPRINT_SCALE
             data, mips = self._stack([textures[i] for i in members], mipmapped)
             out = dr.texture(
                 data,
