@@ -140,3 +140,27 @@ def test_metrics_are_the_records_figures():
     assert metrics["final_loss"] == 2.0 and metrics["heldout"]["views"] == 3
     assert metrics["validation"] == {"views": 4, "iterations": [0, 300], "psnr": [30.0, 33.0]}
     assert metrics["seconds"]["total"] == 432.0 and metrics["seconds"]["optimisation"] == 375.0
+
+
+def test_the_judges_scores_fill_the_reports_slot_and_replace_an_earlier_judging(tmp_path):
+    from lookalike.report.html import add_judge_section, judge_section
+    from lookalike.report.judged import RENDERERS
+    path = write_report(tmp_path, _data())
+    empty = path.read_text(encoding="utf-8")
+    assert "Scores in Blender Cycles" not in empty
+
+    def result(psnr: float) -> dict:
+        scores = {r: {k: {"psnr": psnr + i, "flip": 0.01 * (i + 1)} for i, k in enumerate(["baked", "ours"])}
+                  for r in RENDERERS}
+        return {"scores": scores, "labels": {"baked": "Our classic bake", "ours": "Ours <fit>"}, "views": 16,
+                "resolution": 384, "map_noise": {"ours": {"base_color": 0.0012, "specular": 0.0, "normal": 0.0034}}}
+
+    add_judge_section(path, judge_section(result(30.0), RENDERERS, "judge/views.png"))
+    page = path.read_text(encoding="utf-8")
+    assert "Scores in Blender Cycles" in page and "Cycles, no shadows" in page and "Ours &lt;fit&gt;" in page
+    assert "31.00" in page and "0.0200" in page and "0.0012 / 0.0000 / 0.0034" in page
+    assert page.index("Scores in Blender Cycles") < page.index("Held-out views") and 'href="judge/views.png"' in page
+    add_judge_section(path, judge_section(result(20.0), RENDERERS, None))
+    again = path.read_text(encoding="utf-8")
+    assert again.count("Scores in Blender Cycles") == 1 and "21.00" in again and "31.00" not in again
+    assert again.replace(judge_section(result(20.0), RENDERERS, None), "") == empty

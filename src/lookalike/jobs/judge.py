@@ -14,7 +14,8 @@ writes into ``RUN/judge/``:
   textured model's maps as written (``lookalike.report.map_noise``) and timings;
 - ``views.png``: the first views of every model in every renderer;
 
-and adds the mean scores to the run's ``metrics.json`` as ``"judge"``.
+and adds the mean scores to the run's ``metrics.json`` as ``"judge"`` and a table of them to its
+``report.html`` (``lookalike.report.html.judge_section``).
 
 Every model is scored on the run's own held-out views (same sampler, seed and count), in our
 renderer and in Cycles with and without shadows, at ``JUDGE_RESOLUTION``.
@@ -34,9 +35,10 @@ from ..init.initial_guess import target_triangle_count
 from ..io.atomic import write_text_atomic
 from ..judge import require_judge
 from ..judge.blender_bake import blender_classic_bake
+from ..report.html import add_judge_section, judge_section
 from ..report.judged import JUDGE_RESOLUTION, RENDERERS, JudgedModel, heldout_views, judge_models
 from ..report.map_noise import map_noise
-from .outputs import METRICS_NAME
+from .outputs import METRICS_NAME, REPORT_NAME
 from .simplify import build_initial_guess, prepare_input
 
 JUDGE_FOLDER = "judge"
@@ -100,6 +102,7 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     result["seconds"] = {**result["seconds"], **seconds}
     write_text_atomic(folder / RESULT_NAME, json.dumps(result, indent=2))
     add_to_metrics(run_dir / METRICS_NAME, result)
+    add_judge_section(run_dir / REPORT_NAME, judge_section(result, RENDERERS, f"{JUDGE_FOLDER}/views.png"))
     return result
 
 

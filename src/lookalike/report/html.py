@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from ..io.atomic import write_text_atomic
 from ..version import __version__
 from .map_noise import CHANNELS as MAP_NOISE_CHANNELS
 from .record import MethodResult, RunRecord
@@ -21,6 +22,8 @@ from .images import DIFFERENCE_FULL_SCALE, image_grid, signed_difference, to_srg
 from .plot import plot_loss
 
 FILES_DIR = "report_files"
+JUDGE_SLOT = ("<!-- judge -->", "<!-- /judge -->")
+"""Where ``add_judge_section`` puts the judge's scores in a written page (empty until judged)."""
 EXPANDED_VIEWS = 4                 # views shown open; the rest sit in a collapsed section
 _JPEG_QUALITY = 90
 _MIN_CELL_PX = 180                 # views sit side by side while their pictures stay this wide
@@ -227,6 +230,49 @@ def _key_value_table(pairs, mono: bool = False) -> str:
     return f'<table class="kv{" mono" if mono else ""}">{rows}</table>'
 
 
+def judge_section(result: dict, renderers: dict[str, str], views_picture: str | None) -> str:
+    """The HTML of the judge's scores: one row per judged method, PSNR over the covered pixels
+    and FLIP in each renderer, and the map noise of the files as written.
+
+    Args:
+        result: ``lookalike.jobs.judge.judge_run``'s result (``"scores"``: ``{renderer: {key:
+            {"psnr", "flip"}}}``, ``"labels"``, ``"views"``, ``"resolution"``, ``"map_noise"``).
+        renderers: ``{renderer key: column title}``, in column order.
+        views_picture: a link, relative to the page, to the judge's contact sheet, if any.
+    """
+    labels, noise = result["labels"], result.get("map_noise", {})
+    head = "".join(f'<th colspan="2">{_esc(title)}</th>' for title in renderers.values())
+    sub = "<th>PSNR (dB) ↑</th><th>FLIP ↓</th>" * len(renderers)
+
+    def row(key: str) -> str:
+        cells = "".join(f"<td>{result['scores'][r][key]['psnr']:.2f}</td><td>{result['scores'][r][key]['flip']:.4f}</td>"
+                        for r in renderers)
+        maps = " / ".join(f"{noise[key][c]:.4f}" for c in MAP_NOISE_CHANNELS) if key in noise else "—"
+        return f'<tr class="{"ours" if key == "ours" else ""}"><td>{_esc(labels[key])}</td>{cells}<td>{maps}</td></tr>'
+
+    table = (f'<div class="scroll"><table><tr><th rowspan="2">Method</th>{head}<th rowspan="2">Map noise ↓</th></tr>'
+             f'<tr>{sub}</tr>{"".join(row(key) for key in labels)}</table></div>')
+    link = f' <a href="{_esc(views_picture)}">The first views in each renderer.</a>' if views_picture else ""
+    return (f"<h2>Scores in Blender Cycles</h2>{table}<p class=\"notes\">The input and every method rendered in Blender "
+            f"Cycles (32 samples, direct light) and in our renderer from {result['views']} held-out views at "
+            f"{result['resolution']}², each scored against the same renderer's picture of the input: PSNR over the "
+            f"pixels either picture covers, FLIP over the whole picture.{link}</p>")
+
+
+def add_judge_section(report_path: str | Path, section: str) -> None:
+    """Put ``section`` (``judge_section``) into the written page at ``report_path``, in place
+    of what its judge slot (``JUDGE_SLOT``) held; the page is rewritten atomically. Nothing
+    where there is no page or it has no slot (written by an older version)."""
+    path = Path(report_path)
+    if not path.is_file():
+        return
+    page = path.read_text(encoding="utf-8")
+    start, end = page.find(JUDGE_SLOT[0]), page.find(JUDGE_SLOT[1])
+    if start < 0 or end < start:
+        return
+    write_text_atomic(path, page[:start + len(JUDGE_SLOT[0])] + section + page[end:])
+
+
 def write_report(outdir: str | Path, data: RunRecord) -> Path:
     """Write ``outdir/report.html`` and its pictures under ``outdir/report_files/``.
 
@@ -274,6 +320,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
 <h2>Scores on the held-out views</h2>
 {_methods_table(data)}
 {f'<ul class="notes">{notes}</ul>' if notes else ''}
+{"".join(JUDGE_SLOT)}
 <h2>Held-out views</h2>
 <div class="legend">
   <span>FLIP error<span class="bar" style="background:linear-gradient(90deg, {_magma_css()})"></span>0 → 1</span>
