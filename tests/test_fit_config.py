@@ -147,8 +147,8 @@ def test_the_objective_follows_the_configuration():
     assert objective(Config()).regularizer_weight is None  # the heuristic
 
 
-def test_a_users_mesh_moves_its_vertices_at_the_cold_rate_and_its_texels_at_the_warm_one():
-    """A damaged LOD's vertices may be far from the surface; its textures are a bake or its own."""
-    cfg = config_from_dict({"io": {"init_mesh": "lod.glb"}})
-    assert learning_rates(cfg) == (COLD_START.lr_positions, WARM_START.lr_textures)
+def test_a_users_mesh_starts_warm():
+    """A user's mesh is fitted onto the surface first, and its textures are a bake or its own."""
+    cfg = config_from_dict({"io": {"init_mesh": "lod.glb", "input": "x.glb"}, "latent": {"init": "random"}})
+    assert learning_rates(cfg) == (WARM_START.lr_positions, WARM_START.lr_textures)
     assert loop_settings(cfg, outline=True).views_per_step == 1 + WARM_START.outline_views

@@ -52,8 +52,9 @@ def damaged(mesh: Mesh, rng: np.random.Generator, shrink: float = SHRINK, part: 
             offset: float = OFFSET) -> Mesh:
     """``mesh`` [V, 3] / [T, 3] damaged three ways: every vertex moved by ``-shrink * r`` along
     its smooth normal (r the bounding radius); the ``part`` of the triangles whose centroids lie
-    nearest a random vertex given vertices of their own and moved by ``offset * r`` along their
-    mean normal (a detached, displaced piece); the UVs scrambled (``scrambled_uvs``)."""
+    nearest a random vertex cut off as one piece (its vertices copied, so it keeps its own
+    connectivity but shares none with the rest) and moved by ``offset * r`` along its mean
+    normal; the UVs scrambled (``scrambled_uvs``)."""
     _, radius = mesh.bounding_sphere()
     normals = vertex_normals(mesh.v_pos.double(), mesh.t_pos_idx).float()
     v_pos = mesh.v_pos - shrink * radius * normals
@@ -61,10 +62,10 @@ def damaged(mesh: Mesh, rng: np.random.Generator, shrink: float = SHRINK, part: 
     seed = v_pos[int(rng.integers(mesh.num_vertices))]
     count = max(1, int(part * mesh.num_triangles))
     piece = torch.argsort((centroids - seed).norm(dim=-1))[:count]
-    corners = mesh.t_pos_idx[piece].reshape(-1)
+    corners, local = torch.unique(mesh.t_pos_idx[piece], return_inverse=True)
     direction = torch.nn.functional.normalize(normals[corners].mean(dim=0), dim=0)
     t_pos_idx = mesh.t_pos_idx.clone()
-    t_pos_idx[piece] = (mesh.num_vertices + torch.arange(corners.numel())).reshape(-1, 3)
+    t_pos_idx[piece] = mesh.num_vertices + local
     v_pos = torch.cat([v_pos, v_pos[corners] + offset * radius * direction])
     broken = Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, uv=mesh.uv, t_mat_idx=mesh.t_mat_idx)
     return scrambled_uvs(broken, rng)

@@ -93,8 +93,10 @@ class RenderConfig:
         target_spp: supersampling of reference images, in samples *per axis*: the reference
             is rendered at ``resolution * target_spp`` pixels per side and box-filtered down,
             i.e. ``target_spp**2`` samples per pixel.
-        latent_msaa: visibility samples per axis for the latent model (MSAA, paper Sec. 6.2):
-            coverage is sampled ``latent_msaa**2`` times per pixel, shading once. 1 disables.
+        latent_msaa: samples per axis for the latent model (MSAA, paper Sec. 6.2): in
+            training, coverage is sampled ``latent_msaa**2`` times per pixel and shading once,
+            at a random covered sample (stochastic MSAA); in scoring, every sample is shaded,
+            as the reference is. 1 disables.
         horizon_share: the share of training views whose light also tests the geometric
             horizon (``lookalike.shading.light.PointLight``): no light where the geometric
             surface faces away from it, as Cycles and most offline renderers shade, while the
@@ -152,8 +154,8 @@ class OptimConfig:
         lr_positions: Adam's lr_0 for vertex positions, in units of the bounding-sphere
             radius; ``None`` picks ``COLD_START``'s (the paper's [0.001, 0.003] for a
             decimated start) where the textures start from scratch (``average``, ``random``),
-            ``WARM_START``'s where they start close (``bake``, ``source``; see
-            ``learning_rates``) and ``REPAIR_START``'s from a user's mesh (``io.init_mesh``).
+            ``WARM_START``'s where they start close (``bake``, ``source``, or a user's mesh
+            fitted onto the surface, ``io.init_mesh``; see ``start_defaults``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
             ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
         lr_emissive: Adam's lr_0 for the emission map (where the input emits), in units of the
@@ -296,18 +298,15 @@ COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0,
 """Where the textures start from scratch (``average``, ``random``)."""
 WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
-REPAIR_START = WARM_START._replace(lr_positions=COLD_START.lr_positions)
-"""Where the start is the user's own low-poly mesh (``io.init_mesh``): textures as close as a
-warm start's, but vertices that may be far from the surface (a shrunk or broken LOD), so they
-move at the cold rate (the paper's for a decimated start)."""
 
 
 def start_defaults(config: Config) -> StartDefaults:
-    """``REPAIR_START`` for a user's mesh, else ``WARM_START`` or ``COLD_START`` for
-    ``config.latent.init``."""
-    if config.io.init_mesh:
-        return REPAIR_START
-    return WARM_START if config.latent.init in WARM_INITS else COLD_START
+    """``WARM_START`` for a user's mesh (``io.init_mesh``: it is fitted onto the input's surface
+    and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``, else
+    ``COLD_START``."""
+    if config.io.init_mesh or config.latent.init in WARM_INITS:
+        return WARM_START
+    return COLD_START
 
 
 def learning_rates(config: Config) -> tuple[float, float]:

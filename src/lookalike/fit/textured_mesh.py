@@ -190,9 +190,10 @@ class TexturedMesh(torch.nn.Module):
         return self.as_asset()
 
     def render(self, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
-        """One shading sample per pixel with ``msaa`` x ``msaa`` visibility samples (the
-        paper's MSAA): ``[B, H, W, 4]``, differentiable."""
-        return render_asset(self.as_asset(), camera, light, resolution, self.msaa)
+        """One shading sample per pixel, at a random one of its ``msaa`` x ``msaa``
+        visibility samples (stochastic MSAA, ``lookalike.shading.pipeline``): ``[B, H, W, 4]``,
+        differentiable; in expectation, ``render_asset``'s image."""
+        return render(self.as_asset(), camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
 
     def coverage(self, camera: Camera, resolution: int) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where
@@ -253,9 +254,10 @@ def _emission_and_occlusion(material: Material, size) -> dict:
 
 
 def render_asset(asset: Asset, camera: Camera, light: PointLight, resolution: int, msaa: int) -> torch.Tensor:
-    """How latent models and the baselines they are compared with are drawn: one shading sample
-    per pixel with ``msaa`` x ``msaa`` visibility samples, ``[B, H, W, 4]``, differentiable."""
-    return render(asset, camera, light, (resolution, resolution), spp=msaa, msaa=msaa > 1)
+    """How fitted models and the baselines they are compared with are scored: every one of
+    ``msaa`` x ``msaa`` samples per pixel shaded, as the reference is, ``[B, H, W, 4]``,
+    differentiable (deterministic; what training's stochastic MSAA matches in expectation)."""
+    return render(asset, camera, light, (resolution, resolution), spp=msaa)
 
 
 def _facing_outwards(normal: torch.Tensor, limits: ClampConfig) -> torch.Tensor:

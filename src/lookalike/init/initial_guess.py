@@ -30,7 +30,7 @@ from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from .bake import BakeResult, bake
-from .closest_point import SurfaceQuery
+from .conform import conform_to_surface, reattach_detached_parts
 from .decimate import check_triangle_target
 from .unwrap import unwrap
 
@@ -270,25 +270,18 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
     return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), bake=baked, notes=[])
 
 
-def snapped(mesh: Mesh, surface: Mesh) -> Mesh:
-    """``mesh`` with every vertex moved to the closest point of ``surface``
-    (``lookalike.init.closest_point.SurfaceQuery``); everything else kept but authored normal
-    values (``Mesh.with_positions``)."""
-    query = SurfaceQuery(surface.v_pos.numpy(), surface.t_pos_idx.numpy())
-    points = query.closest(mesh.v_pos.double().numpy()).point
-    return mesh.with_positions(torch.from_numpy(points).to(mesh.v_pos.dtype))
-
-
 def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) -> InitialGuess:
-    """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``), its vertices first
-    snapped onto the input's surface (``snapped``: a shrunk, inflated or displaced LOD starts on
-    the surface, where the fit's small steps can refine it): its own UVs and textures where it
-    has one textured material and its UV set 0 is an atlas (``uv_overlap`` at most
-    ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its UVs
-    where they are an atlas, else onto a fresh one. The baseline is ``lod`` as given."""
-    mesh = snapped(lod.mesh, asset.mesh)
-    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, its vertices snapped "
-             "onto the input's surface"]
+    """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``), first put back on
+    the input's surface (``lookalike.init.conform``: parts cut off and moved are welded back,
+    then the mesh is fitted to the surface, so that a shrunk, inflated or broken LOD starts
+    where the fit's small steps can refine it): its own UVs and textures where it has one
+    textured material and its UV set 0 is an atlas (``uv_overlap`` at most
+    ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its
+    UVs where they are an atlas, else onto a fresh one. The baseline is ``lod`` as given."""
+    mesh, welded = reattach_detached_parts(lod.mesh)
+    mesh = conform_to_surface(mesh, asset.mesh)
+    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, fitted onto the input's surface"
+             + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else "")]
     overlap = uv_overlap(mesh) if mesh.uv else None
     atlas = overlap is not None and overlap <= UV_OVERLAP_LIMIT
     if overlap is not None and not atlas:

@@ -19,10 +19,15 @@ Conventions:
   ``layers=1`` a blended surface composites over the background only. Samples behind a fully
   opaque nearer layer are not shaded (they cannot show), and peeling stops early once nothing
   more can show.
-- ``msaa=True`` (the paper's MSAA for the latent model): visibility, antialiasing and
-  compositing run at ``spp x spp`` samples per pixel, but each pixel is shaded once, at one
-  representative sample (the centre sample if it is covered, else the first covered one);
-  the shaded colour is replicated to the pixel's samples.
+- ``msaa=True`` (stochastic MSAA, for the latent model in training): visibility,
+  antialiasing and compositing run at ``spp x spp`` samples per pixel, but each pixel is
+  shaded once, at one of its covered samples drawn uniformly at random (``torch``'s global
+  generator), with that sample's own texture footprint; the shaded colour is replicated to the
+  pixel's samples. In expectation over the draw, the image equals shading every sample, which
+  is how the reference, our held-out scoring, Cycles and engines with temporal antialiasing
+  see a surface. The paper's MSAA shades the pixel centre at the pixel's footprint instead: a
+  fit against supersampled targets then learns maps that compensate for shading once per
+  pixel, which show as grain in every renderer that shades per sample.
 - No ambient light: surfaces the point light does not reach are black.
 """
 
@@ -96,15 +101,15 @@ def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed:
     return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
 
 
-def representative_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int):
-    """One sample per ``factor x factor`` block for MSAA shading: the block's centre sample if
-    it is covered, else its first covered sample (else the centre).
+def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int):
+    """One sample per ``factor x factor`` block for stochastic MSAA shading: a covered sample
+    of the block drawn uniformly at random (any of its samples where none is covered).
 
     Args:
         rast, rast_db: ``[B, H*factor, W*factor, 4]``.
     Returns:
-        ``(rast [B, H, W, 4], rast_db [B, H, W, 4])``; derivatives are rescaled to the
-        coarse pixel size (times ``factor``).
+        ``(rast [B, H, W, 4], rast_db [B, H, W, 4])``; the derivatives stay the sample's own
+        (its texture footprint is the sample spacing, as when every sample is shaded).
     """
     batch, high, wide = rast.shape[:3]
     height, width = high // factor, wide // factor
@@ -114,19 +119,18 @@ def representative_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: in
                  .permute(0, 1, 3, 2, 4, 5).reshape(batch, height, width, factor * factor, 4))
 
     rast_blocks, db_blocks = blocks(rast), blocks(rast_db)
-    centre = (factor // 2) * factor + factor // 2
-    priority = 2 * (rast_blocks[..., 3] > 0).to(torch.int64)
-    priority[..., centre] += 1
+    covered = (rast_blocks[..., 3] > 0).to(rast.dtype)
+    priority = covered + torch.rand(covered.shape, device=rast.device, dtype=rast.dtype) * 0.5
     choice = priority.argmax(dim=-1)[..., None, None].expand(-1, -1, -1, 1, 4)
-    return (rast_blocks.gather(3, choice).squeeze(3),
-            factor * db_blocks.gather(3, choice).squeeze(3))
+    return rast_blocks.gather(3, choice).squeeze(3), db_blocks.gather(3, choice).squeeze(3)
 
 
 def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
                      factor: int) -> torch.Tensor:
-    """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel
-    (see the module docstring); coverage (alpha) stays per sample."""
-    low_rast, low_db = representative_samples(rast, rast_db, factor)
+    """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel at
+    a random covered sample (stochastic MSAA, see the module docstring); coverage (alpha) stays
+    per sample."""
+    low_rast, low_db = random_covered_samples(rast, rast_db, factor)
     batch, high, wide = needed.shape
     low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
     colour = shade_layer(frame, low_rast, low_db, low_needed)
@@ -194,7 +198,8 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
         layers: depth-peeled layers composited (1 = nearest surface only).
         background: ``None`` (black, alpha 0), an RGB colour ``[3]`` or an image
             ``[B, H, W, 3]`` (row 0 at the top); opaque.
-        msaa: shade once per pixel while sampling visibility ``spp x spp`` times.
+        msaa: shade once per pixel, at a random covered sample, while sampling visibility
+            ``spp x spp`` times (stochastic MSAA, see the module docstring).
     Returns:
         ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture. RGB is
         composited over the background; with none, over black (so RGB is premultiplied by
