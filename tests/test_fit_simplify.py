@@ -86,6 +86,24 @@ def test_the_model_keeps_the_inputs_frame(tmp_path):
     assert torch.allclose(lo, want_lo, atol=15.0) and torch.allclose(hi, want_hi, atol=15.0)
 
 
+def test_profile_records_where_the_time_goes(tmp_path, capsys):
+    source = tmp_path / "ball.glb"
+    io.save(bumpy_sphere(), source)
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text("[views]\npool_size = 2\nheldout = 1\nbatch_size = 1\nvalidation = 1\n"
+                   "[render]\nresolution = 64\n[latent]\ntexture_size = 64\n")
+    assert main(["simplify", str(source), "-o", str(tmp_path / "out"), "--triangles", "100", "--iterations", "3",
+                 "--config", str(cfg), "--quiet", "--profile"]) == 0
+    profile = json.loads((tmp_path / "out" / "metrics.json").read_text())["profile"]
+    for path in ("load and initial guess > load", "load and initial guess > decimation",
+                 "load and initial guess > bake", "reference views", "optimisation > forward",
+                 "optimisation > backward", "optimisation > update", "scoring ours"):
+        assert profile[path]["wall_s"] > 0 and profile[path]["cpu_s"] >= 0, path
+    assert profile["optimisation > forward"]["calls"] == 3
+    assert profile["optimisation"]["wall_s"] >= profile["optimisation > backward"]["wall_s"]
+    assert "where the time went" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("kwargs, words", [
     ({"triangles": 0}, "must be positive"),
     ({"triangles": -3}, "must be positive"),

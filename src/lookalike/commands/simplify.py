@@ -19,6 +19,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
     parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree (default: "
                         "the cores this process may use)")
+    parser.add_argument("--profile", action="store_true", help="record where the time goes: wall and CPU seconds of "
+                        "each phase (load, decimation, bake, views, forward, backward, ...) in metrics.json, "
+                        "\"profile\"")
     parser.add_argument("--judge", choices=("blender",), default=None,
                         help="afterwards, also render the input, plain decimation, our classic bake, Blender's own "
                              "decimate + bake and ours in Blender Cycles on the held-out views and score them "
@@ -40,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
 
         require_judge()
     result = simplify(args.input, args.output, init_mesh=args.init_mesh, resume=args.resume, force=args.force,
-                      progress=not args.quiet, **fit_options(args))
+                      progress=not args.quiet, profile=args.profile, **fit_options(args))
     print(result.summary())
     if args.judge is not None and not result.interrupted:
         from ..jobs.judge import judge_run, judge_summary, reference_of_run

@@ -121,6 +121,10 @@ class ViewsConfig:
             drawn; 0 renders fresh random views at every step instead.
         refresh_every: steps between renders of one new view into the pool (replacing its
             oldest); 0 keeps the pool fixed.
+        relight: keep each pool camera's G-buffer instead of its image and light it again
+            with a fresh random light whenever it is drawn (``lookalike.shading.relight``):
+            lights keep varying, and the reference's triangles are touched once per camera.
+            Off until measured in ``bench quality`` (issue 15).
         heldout: views of the report, drawn from ``heldout_seed`` and never trained on.
         heldout_seed: seed of the held-out views (fixed so that runs stay comparable).
         validation: views, drawn from ``validation_seed`` and never trained on, on which the
@@ -134,6 +138,7 @@ class ViewsConfig:
     batch_size: int = 1
     pool_size: int = 64
     refresh_every: int = 2
+    relight: bool = False
     heldout: int = 16
     heldout_seed: int = 20_210_809
     validation: int = 4

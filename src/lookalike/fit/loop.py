@@ -27,6 +27,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from ..phases import phase
 from .checkpoint import Checkpointer
 from .latent import Latent
 from .objective import Objective
@@ -181,18 +182,22 @@ class Fitter:
     def step(self) -> float:
         """One optimisation step; returns the total loss (NaN if the step was rolled back)."""
         p = self.progress
-        batch = self.source.sample(self.rng, self.settings.views_per_step)
+        with phase("views"):
+            batch = self.source.sample(self.rng, self.settings.views_per_step)
         self._set_learning_rates()
         self.optimizer.zero_grad(set_to_none=True)
-        terms = self.objective(self.latent, batch, self.rng, p.iteration, p.total)
-        terms.total.backward()
+        with phase("forward"):
+            terms = self.objective(self.latent, batch, self.rng, p.iteration, p.total)
+        with phase("backward"):
+            terms.total.backward()
         value = float(terms.total.detach())
         if not (math.isfinite(value) and self._gradients_finite()):
             self._roll_back()
             value = math.nan
         else:
-            self.optimizer.step()
-            self.latent.clamp_()
+            with phase("update"):
+                self.optimizer.step()
+                self.latent.clamp_()
             p.rollbacks_in_a_row = 0
             p.loss_ema = value if p.loss_ema is None else LOSS_EMA * p.loss_ema + (1 - LOSS_EMA) * value
         p.iteration += 1
@@ -223,7 +228,7 @@ class Fitter:
         if self.validate is None or (p.validation and p.validation[-1][0] == p.iteration):
             return
         started = time.monotonic()
-        with torch.no_grad():
+        with torch.no_grad(), phase("validation"):
             score = float(self.validate(self.latent))
         p.validation_seconds += time.monotonic() - started
         p.validation.append((p.iteration, score))

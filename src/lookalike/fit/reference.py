@@ -16,6 +16,7 @@ from ..asset import Asset
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render
+from ..shading.relight import CapturedView, capture_view
 
 RENDER_CHUNK = 4
 """Views rendered together over a large batch (bounds the memory of supersampled renders)."""
@@ -37,6 +38,14 @@ class Reference(Protocol):
         ...
 
 
+class RelightableReference(Reference, Protocol):
+    """A reference whose geometry never changes, so one camera's view can be lit again."""
+
+    def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
+        """The view from ``camera`` (batch 1), ready to be lit (``CapturedView.light``)."""
+        ...
+
+
 class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled (it does not move:
     ``time`` is ignored)."""
@@ -48,6 +57,9 @@ class MeshReference:
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
                time: torch.Tensor | None = None) -> torch.Tensor:
         return render(self.asset, camera, light, (resolution, resolution), spp=spp)
+
+    def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
+        return capture_view(self.asset, camera, resolution, spp)
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:
         return self.asset.mesh.bounding_sphere()

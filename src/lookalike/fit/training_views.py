@@ -7,12 +7,14 @@ renders new random views at every step.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Protocol
+from typing import Protocol
 
 import numpy as np
 import torch
 
+from ..phases import phase
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.view_sampling import random_lights, random_views
@@ -20,6 +22,8 @@ from .reference import Reference, render_in_chunks
 
 ViewSampler = Callable[[np.random.Generator, int], tuple[Camera, PointLight]]
 """Draws ``n`` random views: ``(camera, light)`` batches of ``n``."""
+LightSampler = Callable[[np.random.Generator, Camera], PointLight]
+"""Draws a random light for each of a batch of cameras."""
 
 
 @dataclass
@@ -31,7 +35,7 @@ class Batch:
     light: PointLight
     target: torch.Tensor
 
-    def split(self, n: int) -> tuple["Batch", "Batch | None"]:
+    def split(self, n: int) -> tuple[Batch, Batch | None]:
         """The first ``n`` views and the rest (``None`` if there are none)."""
         head = Batch(self.camera[:n], self.light[:n], self.target[:n])
         if self.target.shape[0] <= n:
@@ -59,12 +63,25 @@ def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0
     each view's light tests the geometric horizon (``PointLight.horizon``) with that
     probability."""
 
+    lights = light_sampler(centre, horizon_share)
+
     def sample(rng: np.random.Generator, n: int) -> tuple[Camera, PointLight]:
         camera = random_views(centre, radius, n, rng)
+        return camera, lights(rng, camera)
+
+    return sample
+
+
+def light_sampler(centre: torch.Tensor, horizon_share: float = 0.0) -> LightSampler:
+    """``sample(rng, camera) -> PointLight``: a cosine-distributed point light per camera
+    (``lookalike.shading.view_sampling.random_lights``), testing the geometric horizon with
+    probability ``horizon_share`` (``PointLight.horizon``)."""
+
+    def sample(rng: np.random.Generator, camera: Camera) -> PointLight:
         light = random_lights(camera, centre, rng)
         if horizon_share > 0:
-            light.horizon = torch.from_numpy(rng.uniform(size=n) < horizon_share)
-        return camera, light
+            light.horizon = torch.from_numpy(rng.uniform(size=camera.batch_size) < horizon_share)
+        return light
 
     return sample
 
@@ -81,19 +98,28 @@ class ViewPool:
     Views are drawn one at a time from the pool's own generator, so the pool after ``drawn``
     views is the same however it got there; ``state_dict``/``load_state_dict`` rebuild it.
 
+    With ``relight``, the pool keeps each camera's G-buffer instead of an image
+    (``reference.capture``, ``lookalike.shading.relight``) and lights it again under a fresh
+    light drawn by ``relight`` every time the view is drawn: the lights keep varying while the
+    reference's triangles are touched once per camera, so a step costs the same whatever the
+    reference's size.
+
     Args:
         reference: renders the images, at ``resolution`` with ``spp`` x ``spp`` samples.
         sampler: draws the views; size: views in the pool; seed: of the pool's generator;
-        refresh_every: steps between refreshes (0: a fixed pool).
+        refresh_every: steps between refreshes (0: a fixed pool); relight: draws the lights of
+            drawn views (from the step's generator), or ``None`` to keep each view's own.
 
     Attributes:
         camera, light: the pool's views (batch ``size``); slot ``j % size`` holds view ``j``.
-        images: ``[size, H, W, 4]`` float16 reference images.
+        images: ``[size, H, W, 4]`` float16 reference images (without ``relight``).
+        captures: ``size`` ``CapturedView``s (with ``relight``).
     """
 
     def __init__(self, reference: Reference, sampler: ViewSampler, size: int, seed, refresh_every: int = 0,
-                 resolution: int = 512, spp: int = 2):
+                 resolution: int = 512, spp: int = 2, relight: LightSampler | None = None):
         self.reference = reference
+        self.relight = relight
         self.resolution = resolution
         self.spp = spp
         self.sampler = sampler
@@ -110,8 +136,19 @@ class ViewPool:
         order = sorted(range(self.size), key=lambda k: (drawn - self.size + k) % self.size)
         self.camera = Camera.cat([views[k][0] for k in order])
         self.light = PointLight.cat([views[k][1] for k in order])
-        self.images = render_in_chunks(self.reference, self.camera, self.light, self.resolution, self.spp, torch.float16)
+        if self.relight is None:
+            self.images = render_in_chunks(self.reference, self.camera, self.light, self.resolution, self.spp,
+                                           torch.float16)
+        else:
+            self.captures = [self.reference.capture(self.camera[k], self.resolution, self.spp) for k in range(self.size)]
         self.drawn = drawn
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of memory the pool's reference data takes (images or captured G-buffers)."""
+        if self.relight is None:
+            return self.images.numel() * self.images.element_size()
+        return sum(capture.nbytes for capture in self.captures)
 
     def _refresh(self) -> None:
         """Render one new view into the slot of the oldest."""
@@ -121,15 +158,25 @@ class ViewPool:
         self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
         if self.light.horizon is not None:
             self.light.horizon[slot] = light.horizon[0]
-        self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp)[0].to(torch.float16)
+        if self.relight is None:
+            self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp)[0].to(torch.float16)
+        else:
+            self.captures[slot] = self.reference.capture(camera, self.resolution, self.spp)
         self.drawn += 1
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
         if self.refresh_every and self.samples and self.samples % self.refresh_every == 0:
-            self._refresh()
+            with phase("reference refresh"):
+                self._refresh()
         self.samples += 1
         index = torch.from_numpy(rng.choice(self.size, size=batch_size, replace=False))
-        return Batch(self.camera[index], self.light[index], self.images[index].float())
+        if self.relight is None:
+            return Batch(self.camera[index], self.light[index], self.images[index].float())
+        camera = self.camera[index]
+        light = self.relight(rng, camera)
+        with phase("relight"):
+            target = torch.cat([self.captures[int(slot)].light(light[k]) for k, slot in enumerate(index)])
+        return Batch(camera, light, target)
 
     def state_dict(self) -> dict:
         return {"drawn": self.drawn, "samples": self.samples}

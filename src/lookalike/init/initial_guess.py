@@ -29,6 +29,7 @@ from ..asset import Asset, Material, Mesh, Texture
 from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
+from ..phases import phase
 from .bake import BakeResult, bake
 from .conform import conform_to_surface, reattach_detached_parts
 from .decimate import check_triangle_target
@@ -252,9 +253,11 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
                              occlusion=None if source.occlusion is None else resample(source.occlusion.data, size))
         start = Asset(mesh=mesh, materials=[material], source=asset.source)
     elif init == "bake":
-        atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
+        with phase("unwrap"):
+            atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
         mesh = start_mesh(atlas)
-        baked = bake(asset, mesh, texture_size=size, cage=cage)
+        with phase("bake"):
+            baked = bake(asset, mesh, texture_size=size, cage=cage)
         made = baked.material
         material = _material(made.kd.data, made.ks.data, made.normal.data, asset,
                              emissive=None if made.emissive is None else made.emissive.data,
@@ -277,9 +280,12 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) 
     where the fit's small steps can refine it): its own UVs and textures where it has one
     textured material and its UV set 0 is an atlas (``uv_overlap`` at most
     ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its
-    UVs where they are an atlas, else onto a fresh one. The baseline is ``lod`` as given."""
-    mesh, welded = reattach_detached_parts(lod.mesh)
-    mesh = conform_to_surface(mesh, asset.mesh)
+    UVs where they are an atlas, else onto a fresh one. Its shading normals are split at the
+    creases of the fitted shape, as our decimation's are (``start_mesh``): the normals it came
+    with belong to its old shape. The baseline is ``lod`` as given."""
+    with phase("fit onto the surface"):
+        mesh, welded = reattach_detached_parts(lod.mesh)
+        mesh = dataclasses.replace(conform_to_surface(mesh, asset.mesh), t_nrm_idx=None)
     notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, fitted onto the input's surface"
              + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else "")]
     overlap = uv_overlap(mesh) if mesh.uv else None

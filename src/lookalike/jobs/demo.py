@@ -96,11 +96,14 @@ def paint(height: int = TEXTURE_HEIGHT, width: int = TEXTURE_WIDTH) -> tuple[np.
     return kd.astype(np.float32), ks.astype(np.float32)
 
 
-def demo_asset() -> Asset:
-    """The default asset of ``lookalike demo``: about 100k triangles, one textured material."""
+def demo_asset(triangles: int = 2 * SEGMENTS * SIDES) -> Asset:
+    """The default asset of ``lookalike demo`` (100k triangles), one textured material; other
+    ``triangles`` tessellate the same shape finer or coarser (``SEGMENTS x SIDES`` scaled by
+    ``sqrt(triangles / 100k)``, so cells keep their shape)."""
+    scale = (triangles / (2 * SEGMENTS * SIDES)) ** 0.5
     kd, ks = paint()
     material = Material(name="painted", kd=Texture(torch.from_numpy(kd)), ks=Texture(torch.from_numpy(ks)))
-    return Asset(mesh=knot_mesh(), materials=[material])
+    return Asset(mesh=knot_mesh(max(3, round(SEGMENTS * scale)), max(3, round(SIDES * scale))), materials=[material])
 
 
 def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_BUDGET_S, force: bool = False,

@@ -34,11 +34,12 @@ from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_ov
 from ..fit.loop import Fitter
 from ..fit.reference import MeshReference
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
-from ..fit.training_views import FreshViews, ViewPool, view_sampler
+from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
 from ..init import decimate
 from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_guess_from_mesh, target_triangle_count,
                                   uses_alpha)
 from ..io.atomic import write_text_atomic
+from ..phases import SEPARATOR, Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
@@ -98,6 +99,10 @@ class SimplifyResult:
             baked = heldout["baked"]
             lines.append(f"classic bake: PSNR {baked['psnr']:.2f} dB (ours {ours['psnr'] - baked['psnr']:+.2f} dB), "
                          f"FLIP {baked['flip']:.4f}")
+        if "profile" in m:
+            lines.append("where the time went (wall s, CPU/wall; nested phases indented):")
+            lines += [f"  {'  ' * path.count(SEPARATOR)}{path.split(SEPARATOR)[-1]:<{40 - 2 * path.count(SEPARATOR)}} "
+                      f"{t['wall_s']:8.1f}  {t['cpu_per_wall']:4.2f}" for path, t in m["profile"].items()]
         lines += [f"model:  {self.model}", f"report: {self.report}"]
         if self.interrupted:
             lines.append(f"continue with: lookalike simplify {m['input']} -o {self.outdir} --resume")
@@ -109,7 +114,7 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
              time_budget: float | None = None, iterations: int | None = None, init: str | None = None,
              init_mesh: str | Path | None = None, seed: int | None = None, config: Config | str | Path | None = None,
              resume: bool = False, force: bool = False, material_override: Material | None = None,
-             export_obj: bool | None = None, progress: bool = True) -> SimplifyResult:
+             export_obj: bool | None = None, progress: bool = True, profile: bool = False) -> SimplifyResult:
     """Simplify the asset in ``input`` into ``outdir``.
 
     Args:
@@ -140,6 +145,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
             colour for untextured scans).
         export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures.
         progress: show a progress bar.
+        profile: record where the time goes (``lookalike.phases``: wall and CPU seconds of
+            each phase, nested) into ``metrics.json`` as ``"profile"``.
 
     Outputs appear only when complete (written into a temporary folder inside ``outdir`` and
     moved into place, ``metrics.json`` last). A run that fails leaves ``outdir`` as it found it
@@ -155,14 +162,15 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     check_outdir(outdir, force=force, resume=resume)
     options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
                "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj}
-    with left_as_found(outdir):
+    recorder = Profile() if profile else None
+    with left_as_found(outdir), (recording(recorder) if recorder else contextlib.nullcontext()):
         return _simplify(input, given, outdir, options, time_budget, init_mesh, config, resume, force,
-                         material_override, progress, started)
+                         material_override, progress, started, recorder)
 
 
 def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budget: float | None,
               init_mesh, config, resume: bool, force: bool, material_override: Material | None, progress: bool,
-              started: float) -> SimplifyResult:
+              started: float, recorder: Profile | None) -> SimplifyResult:
     """``simplify`` once its output folder is checked (see there)."""
     checkpoint = outdir / CHECKPOINT_NAME
     saved = read_checkpoint(checkpoint) if resume else None
@@ -180,7 +188,8 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
 
     timings: dict[str, float] = {}
     with _stage(timings, "load and initial guess"):
-        loaded = given if given is not None else io.load(input)
+        with phase("load"):
+            loaded = given if given is not None else io.load(input)
         asset, notes = prepare_input(loaded, material_override)
         fingerprint = asset.fingerprint()
         if saved is not None:
@@ -208,8 +217,9 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed, size, spp)
                       if cfg.views.validation else None)
         training = view_sampler(centre, radius, cfg.render.horizon_share)
+        relight = light_sampler(centre, cfg.render.horizon_share) if cfg.views.relight else None
         source = (ViewPool(reference, training, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                           cfg.views.refresh_every, size, spp)
+                           cfg.views.refresh_every, size, spp, relight)
                   if cfg.views.pool_size else FreshViews(reference, training, size, spp))
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
     baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \
@@ -248,6 +258,8 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         with _stage(timings, "export"):
             write_model(export, staging, cfg.io.export_obj)
         write_text_atomic(staging / "config.toml", to_toml(cfg))
+        if recorder is not None:
+            record.profile = recorder.as_dict()
         with _stage(timings, "report"):
             metrics = write_record(staging, record, started - seconds_before)
     if not fit.interrupted:
@@ -307,15 +319,19 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
         return initial_guess_from_mesh(asset, lod, Path(cfg.io.init_mesh).name, size)
     clamp = cfg.clamp
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
-    return initial_guess(asset, decimate(asset.mesh, count), cfg.latent.init, size, ranges,
+    with phase("decimation"):
+        decimated = decimate(asset.mesh, count)
+    return initial_guess(asset, decimated, cfg.latent.init, size, ranges,
                          np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
 
 
 @contextlib.contextmanager
 def _stage(timings: dict[str, float], name: str) -> Iterator[None]:
-    """Record the wall seconds of the ``with`` block as ``timings[name]``."""
+    """Record the wall seconds of the ``with`` block as ``timings[name]`` (and as a phase of
+    the recording profile, ``lookalike.phases``)."""
     clock = time.monotonic()
-    yield
+    with phase(name):
+        yield
     timings[name] = time.monotonic() - clock
 
 

@@ -14,7 +14,8 @@ Conventions (all nvdiffrast's):
 
 The per-pixel work is compiled Numba kernels.  Two answer discrete questions, through which
 no gradient flows: visibility (:mod:`.visibility`) and the antialiasing outline search
-(:mod:`.antialias_kernels`; antialias's blend is torch).  The others have hand-written
+(:mod:`.antialias_kernels`; antialias's blend is torch, and ``outline_blend`` keeps it to
+apply to other colours of the same geometry).  The others have hand-written
 backward passes inside ``torch.autograd.Function``: barycentrics (:mod:`.barycentrics_kernels`),
 interpolation (:mod:`.interpolate_kernels`), texturing (:mod:`.texture_kernels`) and mipmap
 construction (:mod:`.mip_kernels`).  Each has a plain-torch twin that the tests compare values
@@ -23,7 +24,7 @@ and gradients with, named ``*_python`` beside the fast op (e.g.
 mipmap kernels' twin is :func:`.mipmap.texture_construct_mip`.
 """
 
-from .antialias import antialias, antialias_construct_topology_hash
+from .antialias import OutlineBlend, antialias, antialias_construct_topology_hash, outline_blend
 from .context import RasterizeContext, RasterizeCudaContext, RasterizeGLContext
 from .interpolate import interpolate
 from .mipmap import texture_construct_mip
@@ -41,5 +42,7 @@ __all__ = [
     "texture_construct_mip",
     "antialias",
     "antialias_construct_topology_hash",
+    "outline_blend",
+    "OutlineBlend",
     "DepthPeeler",
 ]

@@ -8,14 +8,16 @@ autograd differentiates it."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 
-from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .antialias_kernels import MAX_WALK, outline_crossings
-from .topology import EdgeTopology, antialias_construct_topology_hash
+from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .inputs import check_rast_ids, check_triangles
+from .topology import EdgeTopology, antialias_construct_topology_hash
 
-__all__ = ["antialias", "antialias_construct_topology_hash"]
+__all__ = ["OutlineBlend", "antialias", "antialias_construct_topology_hash", "outline_blend"]
 
 
 class _ScaleGradient(torch.autograd.Function):
@@ -130,6 +132,37 @@ def outline_walk_python(
     return edge_tri, edge
 
 
+@dataclass
+class OutlineBlend:
+    """What ``antialias`` does to an image, once the geometry is known: a linear map of the
+    colours (weights differentiable in the positions). ``K`` blends into ``U`` pixels:
+
+        C'_p = (1 - sum_s w_s) C_p + sum_s w_s C_s   for the blended pixels p,
+
+    every other pixel unchanged.
+
+    Attributes:
+        blended: ``[U]`` int64 flat pixel indices into ``[B, H, W]``.
+        slot: ``[K]`` int64 index into ``blended`` of each blend's target.
+        source: ``[K]`` int64 flat pixel index of each blend's source.
+        weight: ``[K, 1]`` ``w_s`` (normalised so a pixel's weights sum to at most 1).
+        own_share: ``[U, 1]`` ``1 - sum_s w_s`` of each blended pixel.
+    """
+
+    blended: torch.Tensor
+    slot: torch.Tensor
+    source: torch.Tensor
+    weight: torch.Tensor
+    own_share: torch.Tensor
+
+    def apply(self, color: torch.Tensor) -> torch.Tensor:
+        """``color [B, H, W, C]`` (the shape it was found for) blended: ``[B, H, W, C]``."""
+        flat_color = color.reshape(-1, color.shape[-1])
+        own = flat_color.index_select(0, self.blended) * self.own_share
+        mixed = own.index_add(0, self.slot, self.weight * flat_color.index_select(0, self.source))  # [U, C]
+        return flat_color.index_copy(0, self.blended, mixed).reshape(color.shape)
+
+
 def antialias(
     color: torch.Tensor,
     rast: torch.Tensor,
@@ -139,7 +172,33 @@ def antialias(
     pos_gradient_boost: float = 1.0,
 ) -> torch.Tensor:
     """Blend pixel colours across silhouette edges by analytic coverage (nvdiffrast's
-    ``dr.antialias``, extended to outlines made of sub-pixel triangles).
+    ``dr.antialias``, extended to outlines made of sub-pixel triangles):
+    ``outline_blend(rast, pos, tri, ...).apply(color)``.
+
+    Args:
+        color: ``[B, H, W, C]`` shaded image.
+        rast: ``[B, H, W, 4]`` from :func:`rasterize` with the same ``pos`` and ``tri``.
+        pos: ``[B, V, 4]`` (or ``[V, 4]`` in range mode) clip-space positions.
+        tri: ``[T, 3]`` int32/int64.
+        topology_hash: from :func:`antialias_construct_topology_hash` (built if None).
+        pos_gradient_boost: factor on the gradient to ``pos``.
+
+    Returns:
+        ``[B, H, W, C]`` antialiased colour.
+    """
+    if color.dim() != 4 or rast.shape[:3] != color.shape[:3]:
+        raise ValueError(f"color must be [B, H, W, C] matching rast {tuple(rast.shape)}, got {tuple(color.shape)}")
+    return outline_blend(rast, pos, tri, topology_hash, pos_gradient_boost).apply(color)
+
+
+def outline_blend(
+    rast: torch.Tensor,
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    topology_hash: EdgeTopology | None = None,
+    pos_gradient_boost: float = 1.0,
+) -> OutlineBlend:
+    """The blend ``antialias`` applies to images rasterized as ``rast`` (see ``OutlineBlend``).
 
     For every horizontally or vertically adjacent pixel pair whose triangle ids differ, the
     segment from the nearer (*front*) pixel centre ``P_f`` to the other, ``P_o``, is
@@ -160,26 +219,13 @@ def antialias(
     vertical and vertical pairs otherwise, so no coverage is counted twice.
 
     ``alpha`` depends on the edge's two vertices only, so gradients reach their ``x, y, w``
-    (scaled by ``pos_gradient_boost``) and the colours; interior edges, whose neighbour
-    continues the surface, give no position gradient.
-
-    Args:
-        color: ``[B, H, W, C]`` shaded image.
-        rast: ``[B, H, W, 4]`` from :func:`rasterize` with the same ``pos`` and ``tri``.
-        pos: ``[B, V, 4]`` (or ``[V, 4]`` in range mode) clip-space positions.
-        tri: ``[T, 3]`` int32/int64.
-        topology_hash: from :func:`antialias_construct_topology_hash` (built if None).
-        pos_gradient_boost: factor on the gradient to ``pos``.
-
-    Returns:
-        ``[B, H, W, C]`` antialiased colour.
+    (scaled by ``pos_gradient_boost``); interior edges, whose neighbour continues the surface,
+    give no position gradient.
     """
-    if color.dim() != 4 or rast.shape[:3] != color.shape[:3]:
-        raise ValueError(f"color must be [B, H, W, C] matching rast {tuple(rast.shape)}, got {tuple(color.shape)}")
-    n_views, height, width, n_channels = color.shape
+    n_views, height, width = rast.shape[:3]
     views = pos if pos.dim() == 3 else pos.expand(n_views, -1, -1)
     if views.shape[0] != n_views:
-        raise ValueError(f"pos has {views.shape[0]} views, color has {n_views}")
+        raise ValueError(f"pos has {views.shape[0]} views, rast has {n_views}")
     tri = check_triangles(tri, views.shape[1])
     check_rast_ids(rast, tri.shape[0])
     topology = antialias_construct_topology_hash(tri) if topology_hash is None else topology_hash
@@ -214,7 +260,5 @@ def antialias(
     blended, slot = torch.unique(target, return_inverse=True)  # [U] pixels, [K] -> index into them
     total = weight.new_zeros(blended.shape[0], 1).index_add(0, slot, weight)  # [U, 1]
     weight = weight / total.clamp_min(1.0).index_select(0, slot)
-    flat_color = color.reshape(-1, n_channels)
-    own = flat_color.index_select(0, blended) * (1.0 - total).clamp_min(0.0)  # a pixel's own share
-    mixed = own.index_add(0, slot, weight * flat_color.index_select(0, source))  # [U, C]
-    return flat_color.index_copy(0, blended, mixed).reshape(color.shape)
+    return OutlineBlend(blended=blended, slot=slot, source=source, weight=weight,
+                        own_share=(1.0 - total).clamp_min(0.0))

@@ -10,7 +10,8 @@ Scores (``score_renders``), for every renderer alike:
 - FLIP over the whole pictures composited over that background (``flip_views``).
 
 Renderers (the keys of ``judge_models``' result): ``"ours"`` (the report's settings: the input
-supersampled ``spp`` x ``spp``, the methods with ``msaa`` x ``msaa`` visibility samples),
+supersampled ``spp`` x ``spp``, the methods with ``render_asset``: ``msaa`` x ``msaa`` samples,
+each shaded),
 ``"cycles"`` (shadows on) and ``"cycles_no_shadows"``.
 """
 

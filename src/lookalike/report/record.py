@@ -94,6 +94,8 @@ class RunRecord:
         timings: seconds per stage, e.g. ``{"reference views": 12.0, ...}``.
         config: the configuration used (nested dicts of plain values).
         notes: remarks shown under the summary (e.g. "input had no UVs").
+        profile: where the time went, by phase (``lookalike.phases.Profile.as_dict``), when
+            the run was profiled; ``None`` otherwise.
     """
 
     asset_name: str
@@ -116,6 +118,7 @@ class RunRecord:
     timings: dict[str, float] = field(default_factory=dict)
     config: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    profile: dict | None = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -154,4 +157,5 @@ class RunRecord:
                            "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},
             },
+            **({"profile": self.profile} if self.profile is not None else {}),
         }

@@ -53,10 +53,36 @@ def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return (a * b).sum(dim=-1, keepdim=True)
 
 
-def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLight) -> torch.Tensor:
-    """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of the G-buffer's pixels:
-    ``shade(kd, ks, n, v, l) * irradiance + emissive``, with ``n`` the normal-mapped shading
-    normal, flipped on back faces and bent towards the viewer (``normal_map``)."""
+@dataclass
+class SurfacePoints:
+    """What shading needs of N G-buffer points that does not depend on the light (so a
+    G-buffer can be lit again under other lights).
+
+    Attributes:
+        view: ``[N]`` int64 view (batch) index.
+        position: ``[N, 3]`` world positions.
+        normal: ``[N, 3]`` unit shading normal: normal-mapped, flipped on back faces, bent
+            towards the viewer (``normal_map``).
+        geometric_normal: ``[N, 3]`` unit face normal, flipped on back faces (the horizon test's).
+        view_dir: ``[N, 3]`` unit direction to the camera.
+        kd: ``[N, 3]`` linear base colour; ks: ``[N, 3]`` (gamma, roughness, metalness).
+        emissive: ``[N, 3]`` linear emission, or ``None``.
+        alpha: ``[N, 1]`` coverage (0 on culled back faces).
+    """
+
+    view: torch.Tensor
+    position: torch.Tensor
+    normal: torch.Tensor
+    geometric_normal: torch.Tensor
+    view_dir: torch.Tensor
+    kd: torch.Tensor
+    ks: torch.Tensor
+    emissive: torch.Tensor | None
+    alpha: torch.Tensor
+
+
+def surface_points(gb: GBuffer, surface: Surface, camera: Camera) -> SurfacePoints:
+    """The light-independent shading inputs of the G-buffer's pixels (see ``SurfacePoints``)."""
     view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
     normal = safe_normalize(gb.normal)
     if surface.normal_map is not None:
@@ -67,15 +93,24 @@ def shade_pixels(gb: GBuffer, surface: Surface, camera: Camera, light: PointLigh
     front = _dot(gb.geometric_normal, view_dir) >= 0
     facing = torch.where(front, 1.0, -1.0).to(normal)
     normal = bend_towards_viewer(normal * facing, gb.geometric_normal * facing, view_dir)
-    light_dir, irradiance = light.illuminate(gb.position, gb.view)
-    below = light.below_horizon(gb.geometric_normal * facing, light_dir, gb.view)
+    visible = front | surface.double_sided[:, None]
+    return SurfacePoints(view=gb.view, position=gb.position, normal=normal, geometric_normal=gb.geometric_normal * facing,
+                         view_dir=view_dir, kd=surface.kd[:, :3], ks=surface.ks, emissive=surface.emissive,
+                         alpha=surface.alpha * visible.to(normal))
+
+
+def light_points(points: SurfacePoints, light: PointLight) -> torch.Tensor:
+    """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of ``points`` under
+    ``light``: ``shade(kd, ks, n, v, l) * irradiance + emissive``, no light where the view's
+    horizon test finds the light below the geometric surface."""
+    light_dir, irradiance = light.illuminate(points.position, points.view)
+    below = light.below_horizon(points.geometric_normal, light_dir, points.view)
     if below is not None:
         irradiance = torch.where(below, 0.0, irradiance)
-    radiance = bsdf.shade(surface.kd[:, :3], surface.ks, normal, view_dir, light_dir) * irradiance
-    if surface.emissive is not None:
-        radiance = radiance + surface.emissive
-    visible = front | surface.double_sided[:, None]
-    return torch.cat([radiance, surface.alpha * visible.to(radiance)], dim=-1)
+    radiance = bsdf.shade(points.kd, points.ks, points.normal, points.view_dir, light_dir) * irradiance
+    if points.emissive is not None:
+        radiance = radiance + points.emissive
+    return torch.cat([radiance, points.alpha], dim=-1)
 
 
 @dataclass
@@ -96,7 +131,7 @@ def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed:
     asset = frame.asset
     gb = GBuffer.build(frame.buffers, rast, rast_db, needed)
     surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
-    colour = shade_pixels(gb, surface, frame.camera, frame.light)
+    colour = light_points(surface_points(gb, surface, frame.camera), frame.light)
     image = colour.new_zeros(rast.shape[0] * rast.shape[1] * rast.shape[2], 4)
     return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
 
@@ -161,7 +196,7 @@ def render_coverage(mesh, camera: Camera, resolution, spp: int = 1) -> torch.Ten
     1 inside, 0 outside, fractional where an outline edge crosses a pixel, differentiable in
     the positions through ``antialias``; ``spp x spp`` visibility samples per pixel, averaged.
     Row 0 = top, as ``render``."""
-    height, width = _resolution(resolution)
+    height, width = image_size(resolution)
     tri = mesh.t_pos_idx.to(torch.int32)
     clip = camera.clip(mesh.v_pos)
     rast, _ = dr.rasterize(dr.RasterizeContext(), clip, tri, (height * spp, width * spp))
@@ -178,7 +213,8 @@ def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
     return image.reshape(batch, high // factor, factor, wide // factor, factor, channels).mean(dim=(2, 4))
 
 
-def _resolution(resolution) -> tuple[int, int]:
+def image_size(resolution) -> tuple[int, int]:
+    """``(H, W)`` of a ``resolution`` given as ``H`` (square) or ``(H, W)``."""
     if isinstance(resolution, int):
         return resolution, resolution
     height, width = resolution
@@ -205,11 +241,9 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
         composited over the background; with none, over black (so RGB is premultiplied by
         alpha).
     """
-    height, width = _resolution(resolution)
+    height, width = image_size(resolution)
     full = (height * spp, width * spp)
-    mesh = asset.mesh
-    tangent_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
-    buffers = MeshBuffers.build(mesh, camera, tangent_sets)
+    buffers = mesh_buffers(asset, camera)
     topology = dr.antialias_construct_topology_hash(buffers.tri)
     frame = Frame(asset, buffers, camera, light)
     shaded = []  # (rast, colour) per layer, nearest first
@@ -228,7 +262,21 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
             shaded.append((rast, colour))
     accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
     for rast, colour in reversed(shaded):
-        opaque = torch.cat([colour[..., :3], torch.ones_like(colour[..., 3:])], dim=-1)
-        accum = torch.lerp(accum, opaque, colour[..., 3:])
-        accum = dr.antialias(accum.contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)
+        accum = dr.antialias(composite_over(accum, colour).contiguous(), rast, buffers.clip, buffers.tri,
+                             topology_hash=topology)
     return box_downsample(accum, spp).flip(1)
+
+
+def mesh_buffers(asset, camera: Camera) -> MeshBuffers:
+    """``MeshBuffers`` of ``asset.mesh`` for ``camera``, with tangent frames for the UV sets its
+    materials' normal maps use."""
+    mesh = asset.mesh
+    tangent_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
+    return MeshBuffers.build(mesh, camera, tangent_sets)
+
+
+def composite_over(accum: torch.Tensor, colour: torch.Tensor) -> torch.Tensor:
+    """Straight-alpha ``colour [..., 4]`` over the opaque-or-empty ``accum [..., 4]`` ("over"):
+    ``lerp(accum, (rgb, 1), alpha)``."""
+    opaque = torch.cat([colour[..., :3], torch.ones_like(colour[..., 3:])], dim=-1)
+    return torch.lerp(accum, opaque, colour[..., 3:])
