@@ -16,7 +16,10 @@ keeping the user's topology and vertex count:
              + (mu / V) |L P - L P_0|^2
 
   is quadratic in the positions ``P [V, 3]``: the first term pulls points sampled on the mesh
-  (``B_s P``, barycentric rows) to their closest input points ``c_s``; the second pulls the
+  (``B_s P``, barycentric rows) to their input points ``c_s``: the closest one, unless the
+  input faces the other way there (a side of a thin part that the damage pushed through the
+  other side); then the first input point along the sample's normal, either way, that faces
+  the same way as the sample (``oriented_targets``); the second pulls the
   mesh's closest points to points ``x_s`` sampled on the input (``C_s P``), so that every part of
   the input is covered; the third (``L`` the uniform Laplacian, ``P_0`` the start) keeps the
   mesh's own shape where the data says little. Each round solves the normal equations (a sparse
@@ -39,15 +42,19 @@ import torch
 
 from ..asset import Mesh
 from ..asset.laplacian import UniformLaplacian
-from .closest_point import SurfaceQuery
+from .closest_point import ClosestPoints, SurfaceQuery
+from .raycast import RayCaster
 
-CONFORM_ROUNDS = 10
+CONFORM_ROUNDS = 20
 """Correspondence rounds of ``conform_to_surface``."""
 CONFORM_SAMPLES = 40_000
 """Points sampled on each surface per term."""
-CONFORM_SMOOTHNESS = 0.1
+CONFORM_SMOOTHNESS = 0.03
 """``mu``: weight of the Laplacian term against the two distance terms (chosen on a shrunk,
-folded decimation of nefertiti: 0.1 fitted closer than 1 or 10)."""
+folded decimation of nefertiti, ``docs/benchmarks.md``)."""
+CONFORM_REACH = 0.1
+"""How far, as a share of the surface's bounding radius, ``oriented_targets`` looks along a
+sample's normal."""
 LOOP_MATCH_TOLERANCE = 0.1
 """Largest RMS difference of two boundary loops' shapes, after the best translation, as a share
 of the loop's mean edge length, for ``reattach_detached_parts`` to weld them."""
@@ -79,11 +86,15 @@ def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, 
     rng = np.random.default_rng(seed)
     surface_pos, surface_tri = surface.v_pos.double().numpy(), surface.t_pos_idx.numpy()
     on_surface = SurfaceQuery(surface_pos, surface_tri)
+    rays = RayCaster(surface_pos, surface_tri)
+    surface_normal = unit_face_normals(surface_pos, surface_tri)
+    reach = CONFORM_REACH * surface.bounding_sphere()[1]
     triangle, barycentric = area_samples(surface_pos, surface_tri, samples, rng)
     surface_points = np.einsum("nk,nkd->nd", barycentric, surface_pos[surface_tri[triangle]])
     tri, count = mesh.t_pos_idx.numpy(), mesh.num_vertices
     start = mesh.v_pos.double().numpy()
-    mesh_samples = barycentric_rows(tri, *area_samples(start, tri, samples, rng), count)
+    sample_triangle, sample_barycentric = area_samples(start, tri, samples, rng)
+    mesh_samples = barycentric_rows(tri, sample_triangle, sample_barycentric, count)
     laplacian = UniformLaplacian(mesh.t_pos_idx, count).matrix
     indices = laplacian.indices().numpy()
     laplacian = scipy.sparse.csr_matrix((laplacian.values().numpy(), (indices[0], indices[1])), shape=(count, count))
@@ -92,7 +103,9 @@ def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, 
     anchor = 1e-6 / count        # holds vertices no term reaches (on no triangle)
     positions = start.copy()
     for _ in range(rounds):
-        targets = on_surface.closest(mesh_samples @ positions).point
+        points = mesh_samples @ positions
+        targets = oriented_targets(points, unit_face_normals(positions, tri)[sample_triangle], on_surface.closest(points),
+                                   surface_normal, rays, reach)
         nearest = SurfaceQuery(positions, tri).closest(surface_points)
         covering = barycentric_rows(tri, nearest.triangle, nearest.barycentric, count)
         lhs = (mesh_samples.T @ mesh_samples + covering.T @ covering) / samples + shape_term
@@ -100,6 +113,46 @@ def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, 
         lhs = (lhs + anchor * scipy.sparse.identity(count)).tocsc()
         positions = scipy.sparse.linalg.spsolve(lhs, rhs + anchor * positions)
     return mesh.with_positions(torch.from_numpy(positions).to(mesh.v_pos.dtype))
+
+
+def unit_face_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
+    """``[T, 3]`` unit normals of counter-clockwise triangles (zero for degenerate ones)."""
+    corners = v_pos[t_pos_idx]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+
+
+def oriented_targets(points: np.ndarray, normals: np.ndarray, closest: ClosestPoints, surface_normal: np.ndarray,
+                     rays: RayCaster, reach: float, attempts: int = 4) -> np.ndarray:
+    """Where ``points [N, 3]`` with unit ``normals [N, 3]`` belong on a surface: ``closest``'s
+    point where the surface there faces the same way (``surface_normal [T, 3]`` of its
+    triangle, positive dot product), else the nearest point, along ``+-normal`` within
+    ``reach``, where a ray first meets a triangle facing the same way (passing at most
+    ``attempts`` triangles facing the other way); ``closest``'s point where there is none."""
+    targets = closest.point.copy()
+    wrong = np.nonzero((surface_normal[closest.triangle] * normals).sum(axis=1) < 0)[0]
+    if not len(wrong):
+        return targets
+    origin, normal = points[wrong], normals[wrong]
+    best = np.full(len(wrong), np.inf)
+    for sign in (1.0, -1.0):
+        direction = sign * normal
+        travelled = np.zeros(len(wrong))
+        searching = np.ones(len(wrong), dtype=bool)
+        for _ in range(attempts):
+            hits = rays.intersect(origin + travelled[:, None] * direction, direction,
+                                  np.maximum(reach - travelled, 1e-12))
+            searching &= hits.hit
+            distance = travelled + np.where(hits.hit, hits.t, 0.0)
+            agrees = searching & ((surface_normal[np.maximum(hits.triangle, 0)] * normal).sum(axis=1) > 0)
+            better = agrees & (distance < best)
+            best[better] = distance[better]
+            targets[wrong[better]] = origin[better] + (sign * distance[better])[:, None] * normal[better]
+            searching &= ~agrees
+            if not searching.any():
+                break
+            travelled = distance + 1e-9 * reach
+    return targets
 
 
 def boundary_loops(t_pos_idx: np.ndarray) -> list[np.ndarray]:
