@@ -42,6 +42,8 @@ import torch
 
 from ..asset import Mesh
 from ..asset.laplacian import UniformLaplacian
+from ..asset.normals import face_normals, safe_normalize
+from .bake import project_along_normals
 from .closest_point import ClosestPoints, SurfaceQuery
 from .raycast import RayCaster
 
@@ -116,42 +118,26 @@ def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, 
 
 
 def unit_face_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
-    """``[T, 3]`` unit normals of counter-clockwise triangles (zero for degenerate ones)."""
-    corners = v_pos[t_pos_idx]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    """``[T, 3]`` float64 unit normals of counter-clockwise triangles (zero for degenerate ones)."""
+    return safe_normalize(face_normals(torch.from_numpy(v_pos).double(), torch.from_numpy(t_pos_idx))).numpy()
 
 
 def oriented_targets(points: np.ndarray, normals: np.ndarray, closest: ClosestPoints, surface_normal: np.ndarray,
-                     rays: RayCaster, reach: float, attempts: int = 4) -> np.ndarray:
+                     rays: RayCaster, reach: float) -> np.ndarray:
     """Where ``points [N, 3]`` with unit ``normals [N, 3]`` belong on a surface: ``closest``'s
     point where the surface there faces the same way (``surface_normal [T, 3]`` of its
-    triangle, positive dot product), else the nearest point, along ``+-normal`` within
-    ``reach``, where a ray first meets a triangle facing the same way (passing at most
-    ``attempts`` triangles facing the other way); ``closest``'s point where there is none."""
+    triangle, positive dot product), else the nearest point along ``+-normal`` within ``reach``
+    where the surface, seen from the side ``normal`` points to, shows its front
+    (``lookalike.init.bake.project_along_normals``, every triangle one-sided); ``closest``'s
+    point where there is none."""
     targets = closest.point.copy()
     wrong = np.nonzero((surface_normal[closest.triangle] * normals).sum(axis=1) < 0)[0]
     if not len(wrong):
         return targets
-    origin, normal = points[wrong], normals[wrong]
-    best = np.full(len(wrong), np.inf)
-    for sign in (1.0, -1.0):
-        direction = sign * normal
-        travelled = np.zeros(len(wrong))
-        searching = np.ones(len(wrong), dtype=bool)
-        for _ in range(attempts):
-            hits = rays.intersect(origin + travelled[:, None] * direction, direction,
-                                  np.maximum(reach - travelled, 1e-12))
-            searching &= hits.hit
-            distance = travelled + np.where(hits.hit, hits.t, 0.0)
-            agrees = searching & ((surface_normal[np.maximum(hits.triangle, 0)] * normal).sum(axis=1) > 0)
-            better = agrees & (distance < best)
-            best[better] = distance[better]
-            targets[wrong[better]] = origin[better] + (sign * distance[better])[:, None] * normal[better]
-            searching &= ~agrees
-            if not searching.any():
-                break
-            travelled = distance + 1e-9 * reach
+    _, offset = project_along_normals(rays, points[wrong], normals[wrong], reach, surface_normal,
+                                      np.ones(len(surface_normal), dtype=bool))
+    found = np.isfinite(offset)
+    targets[wrong[found]] = points[wrong[found]] + offset[found, None] * normals[wrong[found]]
     return targets
 
 
