@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from mesh_factory import icosphere
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -13,7 +14,6 @@ from lookalike.errors import ConfigError
 from lookalike.init import decimate
 from lookalike.init.decimate import clean_triangles
 from lookalike.init.weld import weld_vertices
-from mesh_factory import icosphere
 
 
 def _edge_uses(t_pos_idx: np.ndarray) -> np.ndarray:
@@ -66,6 +66,26 @@ def test_hits_the_count_and_stays_watertight():
         radius = out.v_pos.norm(dim=1)
         assert torch.all((radius > 0.9) & (radius < 1.1))
     assert decimate(sphere, 1000).num_triangles == 1000
+
+
+def test_a_large_input_is_first_decimated_once_and_still_hits_the_count(monkeypatch):
+    import sys
+
+    decimation = sys.modules["lookalike.init.decimate"]          # the package's ``decimate`` is the function
+    passes = []
+    coarse_pass = decimation._coarse_pass
+    monkeypatch.setattr(decimation, "COARSE_ABOVE", 4000)
+    monkeypatch.setattr(decimation, "COARSE_TRIANGLES", 2000)
+    monkeypatch.setattr(decimation, "_coarse_pass", lambda *args: passes.append(args[2]) or coarse_pass(*args))
+    sphere = icosphere(4)                                             # 5120 triangles, closed
+    out = decimate(sphere, 80)
+    assert passes == [2000] and out.num_triangles == 80
+    assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
+    radius = out.v_pos.norm(dim=1)
+    assert torch.all((radius > 0.9) & (radius < 1.1))
+    passes.clear()
+    decimate(sphere, 1000)                                            # 20 x 1000 is not below the input
+    assert passes == []
 
 
 def test_seam_duplicates_are_welded_so_no_crack_opens():

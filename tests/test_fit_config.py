@@ -6,9 +6,23 @@ from __future__ import annotations
 import pytest
 
 from lookalike.errors import ConfigError
-from lookalike.fit.config import (COLD_START, WARM_START, Config, learning_rates, loop_settings, objective,
-                                  outline_views)
-from lookalike.fit.config_file import config_from_dict, load_config, parse_duration, to_toml, with_overrides
+from lookalike.fit.config import (
+    COLD_START,
+    WARM_START,
+    Config,
+    learning_rates,
+    loop_settings,
+    objective,
+    outline_views,
+    refresh_interval,
+)
+from lookalike.fit.config_file import (
+    config_from_dict,
+    load_config,
+    parse_duration,
+    to_toml,
+    with_overrides,
+)
 
 
 def test_toml_round_trip_keeps_every_setting(tmp_path):
@@ -152,3 +166,11 @@ def test_a_users_mesh_starts_warm():
     cfg = config_from_dict({"io": {"init_mesh": "lod.glb", "input": "x.glb"}, "latent": {"init": "random"}})
     assert learning_rates(cfg) == (WARM_START.lr_positions, WARM_START.lr_textures)
     assert loop_settings(cfg, outline=True).views_per_step == 1 + WARM_START.outline_views
+
+
+def test_large_inputs_refresh_the_view_pool_proportionally_less_often():
+    cfg = config_from_dict({"views": {"refresh_every": 2, "refresh_triangles": 250_000}})
+    assert [refresh_interval(cfg, t) for t in (5_000, 250_000, 260_000, 1_000_000, 4_000_000)] == [2, 2, 3, 8, 32]
+    assert refresh_interval(config_from_dict({"views": {"refresh_every": 0}}), 4_000_000) == 0
+    with pytest.raises(ConfigError, match="refresh_triangles"):
+        config_from_dict({"views": {"refresh_triangles": 0}})

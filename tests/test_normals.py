@@ -4,14 +4,23 @@ and a sphere, and authored normals kept until the positions change."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
-
 from io_factory import box
-from lookalike.asset import Mesh
-from lookalike.asset.normals import (crease_normal_index, crease_normal_index_python, face_normals, safe_normalize,
-                                     split_normals, split_normals_python, weld_normals)
 from mesh_factory import icosphere
+
+from lookalike.asset import Mesh
+from lookalike.asset.normals import (
+    crease_normal_index,
+    crease_normal_index_python,
+    face_normals,
+    safe_normalize,
+    split_normals,
+    split_normals_python,
+    weld_normals,
+    weld_normals_python,
+)
 
 
 def perturbed(mesh: Mesh, amount: float = 0.05, seed: int = 1) -> torch.Tensor:
@@ -100,3 +109,15 @@ def test_weld_normals_shares_slots_per_position_and_normal():
     v_nrm, t_nrm_idx = weld_normals(t_pos_idx, corner)
     assert t_nrm_idx.tolist() == [[0, 1, 2], [0, 3, 4]]  # -0.0 == 0.0; position 2 gets two slots
     assert torch.equal(v_nrm[t_nrm_idx], corner + 0.0)
+
+
+def test_weld_normals_matches_its_loop_twin():
+    rng = np.random.default_rng(3)
+    t_pos_idx = torch.from_numpy(rng.integers(0, 40, (300, 3)))
+    palette = torch.from_numpy(rng.normal(size=(6, 3)).astype(np.float32))
+    palette[5] = torch.tensor([-0.0, 0.0, 1.0])
+    palette[4] = torch.tensor([0.0, -0.0, 1.0])           # bitwise different, equal as numbers
+    corner = palette[torch.from_numpy(rng.integers(0, 6, (300, 3)))]
+    fast, slow = weld_normals(t_pos_idx, corner), weld_normals_python(t_pos_idx, corner)
+    assert torch.equal(fast[1], slow[1]) and torch.equal(fast[0], slow[0])
+    assert fast[0].shape[0] < 900

@@ -32,3 +32,17 @@ def test_set_threads_reaches_torch_numba_and_embree(monkeypatch):
         torch.set_num_threads(before[0])
         numba.set_num_threads(before[1])
         threads._count = before[2]
+
+
+def test_importing_lookalike_makes_idle_openmp_threads_sleep_unless_the_user_chose(monkeypatch):
+    import os
+    import subprocess
+    import sys
+
+    probe = "import os, lookalike, torch; print(os.environ['OMP_WAIT_POLICY'])"
+    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
+    assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          check=True).stdout.strip() == "PASSIVE"
+    chosen = {**os.environ, "OMP_WAIT_POLICY": "ACTIVE"}
+    assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                          env=chosen).stdout.strip() == "ACTIVE"

@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run only this benchmark asset (repeatable; quality and warmstart): "
                              + ", ".join(case.name for case in ASSETS))
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
-                        help="folder holding the benchmark assets (quality and warmstart; default: "
+                        help="folder holding the benchmark assets (quality, warmstart, repair and contention; default: "
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
                         help="quality: also render every method in Blender Cycles (shadows on and off) and run "

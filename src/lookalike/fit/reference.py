@@ -15,7 +15,7 @@ import torch
 from ..asset import Asset
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from ..shading.pipeline import render
+from ..shading.pipeline import FixedAsset, render
 from ..shading.relight import CapturedView, capture_view
 
 RENDER_CHUNK = 4
@@ -48,10 +48,10 @@ class RelightableReference(Reference, Protocol):
 
 class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled (it does not move:
-    ``time`` is ignored)."""
+    ``time`` is ignored); what its views share is computed once (``FixedAsset``)."""
 
     def __init__(self, asset: Asset):
-        self.asset = asset
+        self.asset = FixedAsset.of(asset)
 
     @torch.no_grad()
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,

@@ -29,7 +29,7 @@ from .. import io
 from ..asset import Asset, Material
 from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
-from ..fit.config import Config, LatentConfig, loop_settings, objective
+from ..fit.config import Config, LatentConfig, loop_settings, objective, refresh_interval
 from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
 from ..fit.loop import Fitter
 from ..fit.reference import MeshReference
@@ -219,7 +219,7 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         training = view_sampler(centre, radius, cfg.render.horizon_share)
         relight = light_sampler(centre, cfg.render.horizon_share) if cfg.views.relight else None
         source = (ViewPool(reference, training, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                           cfg.views.refresh_every, size, spp, relight)
+                           refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
                   if cfg.views.pool_size else FreshViews(reference, training, size, spp))
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
     baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \

@@ -31,6 +31,7 @@ from .mipmap import texture_construct_mip
 from .peel import DepthPeeler
 from .rasterize import rasterize
 from .texture import texture
+from .topology import EdgeTopology
 
 __all__ = [
     "RasterizeContext",
@@ -42,6 +43,7 @@ __all__ = [
     "texture_construct_mip",
     "antialias",
     "antialias_construct_topology_hash",
+    "EdgeTopology",
     "outline_blend",
     "OutlineBlend",
     "DepthPeeler",

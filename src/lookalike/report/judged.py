@@ -60,7 +60,7 @@ def heldout_views(asset: Asset, count: int, seed: int) -> tuple[Camera, PointLig
     """The held-out cameras and lights of a run on ``asset`` (as ``HeldoutViews`` draws them:
     ``view_sampler`` around the asset's bounding sphere, from ``default_rng(seed)``), in the
     asset's own frame, the frame of the glb files we write."""
-    centre, radius = MeshReference(asset).bounding_sphere()
+    centre, radius = asset.mesh.bounding_sphere()
     return view_sampler(centre, radius)(np.random.default_rng(seed), count)
 
 

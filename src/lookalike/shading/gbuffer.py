@@ -7,6 +7,7 @@ with coverage, not with the image size.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import torch
@@ -26,7 +27,7 @@ class MeshBuffers:
     Attributes (V vertices, VN normal slots, T triangles, B views):
         mesh: the source mesh.
         tri: ``[T, 3]`` int32 position triangles, as the rasterizer wants them.
-        clip: ``[B, V, 4]`` clip-space positions.
+        clip: ``[B, V, 4]`` clip-space positions (``None`` in ``without_camera``'s buffers).
         v_nrm: ``[VN, 3]`` shading normals (``Mesh.normals``: authored, or split smooth normals
             of the current positions).
         t_nrm_idx: ``[T, 3]`` int32 normal slot of each corner.
@@ -38,7 +39,7 @@ class MeshBuffers:
 
     mesh: Mesh
     tri: torch.Tensor
-    clip: torch.Tensor
+    clip: torch.Tensor | None
     v_nrm: torch.Tensor
     t_nrm_idx: torch.Tensor
     face_nrm: torch.Tensor
@@ -46,9 +47,15 @@ class MeshBuffers:
     tangents: dict[int, tuple[torch.Tensor, torch.Tensor]]
 
     @staticmethod
-    def build(mesh: Mesh, camera: Camera, tangent_uv_sets: set[int]) -> "MeshBuffers":
+    def build(mesh: Mesh, camera: Camera, tangent_uv_sets: set[int]) -> MeshBuffers:
         """Shading normals, face normals, clip positions, and tangent frames
         (``lookalike.asset.tangents.vertex_tangents``) for ``tangent_uv_sets``."""
+        return MeshBuffers.without_camera(mesh, tangent_uv_sets).with_camera(camera)
+
+    @staticmethod
+    def without_camera(mesh: Mesh, tangent_uv_sets: set[int]) -> MeshBuffers:
+        """``build`` less the clip positions (``clip`` is ``None``): what a mesh that never moves
+        needs computing only once (``with_camera`` adds the rest)."""
         v_nrm, t_nrm_idx = mesh.normals()
         tangents = {}
         for k in sorted(tangent_uv_sets):
@@ -58,13 +65,17 @@ class MeshBuffers:
         return MeshBuffers(
             mesh=mesh,
             tri=mesh.t_pos_idx.to(torch.int32),
-            clip=camera.clip(mesh.v_pos),
+            clip=None,
             v_nrm=v_nrm,
             t_nrm_idx=t_nrm_idx.to(torch.int32),
             face_nrm=safe_normalize(face_normals(mesh.v_pos, mesh.t_pos_idx)),
             uv=[(v_tex, t_tex_idx.to(torch.int32)) for v_tex, t_tex_idx in mesh.uv],
             tangents=tangents,
         )
+
+    def with_camera(self, camera: Camera) -> MeshBuffers:
+        """These buffers with the clip positions ``[B, V, 4]`` of ``camera``."""
+        return dataclasses.replace(self, clip=camera.clip(self.mesh.v_pos))
 
 
 @dataclass
@@ -95,7 +106,7 @@ class GBuffer:
 
     @staticmethod
     def build(buffers: MeshBuffers, rast: torch.Tensor, rast_db: torch.Tensor,
-              needed: torch.Tensor | None = None) -> "GBuffer":
+              needed: torch.Tensor | None = None) -> GBuffer:
         """Interpolate every attribute of ``buffers`` over ``rast [B, H, W, 4]`` (with
         ``rast_db [B, H, W, 4]`` for UV derivatives) and keep the covered pixels (those of
         them where ``needed [B, H, W]`` bool is set, when given)."""

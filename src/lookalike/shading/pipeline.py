@@ -244,7 +244,7 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     height, width = image_size(resolution)
     full = (height * spp, width * spp)
     buffers = mesh_buffers(asset, camera)
-    topology = dr.antialias_construct_topology_hash(buffers.tri)
+    topology = edge_topology(asset, buffers)
     frame = Frame(asset, buffers, camera, light)
     shaded = []  # (rast, colour) per layer, nearest first
     transmittance = buffers.clip.new_ones(camera.batch_size, *full)
@@ -269,10 +269,57 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
 
 def mesh_buffers(asset, camera: Camera) -> MeshBuffers:
     """``MeshBuffers`` of ``asset.mesh`` for ``camera``, with tangent frames for the UV sets its
-    materials' normal maps use."""
-    mesh = asset.mesh
-    tangent_sets = {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(mesh.uv)}
-    return MeshBuffers.build(mesh, camera, tangent_sets)
+    materials' normal maps use (those of a ``FixedAsset`` computed once)."""
+    if isinstance(asset, FixedAsset):
+        return asset.buffers.with_camera(camera)
+    return MeshBuffers.build(asset.mesh, camera, tangent_uv_sets(asset))
+
+
+def tangent_uv_sets(asset) -> set[int]:
+    """The UV sets of ``asset.mesh`` that its materials' normal maps use."""
+    return {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(asset.mesh.uv)}
+
+
+def edge_topology(asset, buffers: MeshBuffers) -> dr.EdgeTopology:
+    """The antialiasing topology of ``buffers.tri`` (a ``FixedAsset``'s computed once)."""
+    if isinstance(asset, FixedAsset):
+        return asset.topology
+    return dr.antialias_construct_topology_hash(buffers.tri)
+
+
+@dataclass
+class FixedAsset:
+    """An asset whose geometry never changes (a reference), rendered as the asset is (it has
+    its ``mesh``, ``materials`` and ``source``), with what every view of it shares computed
+    once: ``MeshBuffers.without_camera`` and the antialiasing topology. On a 1-million-triangle
+    input these were 40 % of each view's capture.
+
+    Attributes:
+        asset: the asset; buffers: its ``MeshBuffers`` without a camera; topology: its
+            ``EdgeTopology``.
+    """
+
+    asset: object
+    buffers: MeshBuffers
+    topology: dr.EdgeTopology
+
+    @staticmethod
+    @torch.no_grad()
+    def of(asset) -> FixedAsset:
+        buffers = MeshBuffers.without_camera(asset.mesh, tangent_uv_sets(asset))
+        return FixedAsset(asset, buffers, dr.antialias_construct_topology_hash(buffers.tri))
+
+    @property
+    def mesh(self):
+        return self.asset.mesh
+
+    @property
+    def materials(self):
+        return self.asset.materials
+
+    @property
+    def source(self):
+        return getattr(self.asset, "source", None)
 
 
 def composite_over(accum: torch.Tensor, colour: torch.Tensor) -> torch.Tensor:

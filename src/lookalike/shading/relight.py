@@ -31,6 +31,7 @@ from .pipeline import (
     SurfacePoints,
     box_downsample,
     composite_over,
+    edge_topology,
     image_size,
     light_points,
     mesh_buffers,
@@ -104,6 +105,6 @@ def capture_view(asset, camera: Camera, resolution, spp: int = 1, dtype: torch.d
               for name, value in stored.items() if name not in ("view", "view_dir")}
     stored["view"] = torch.zeros(1, dtype=torch.int64).expand(gb.pixel.shape[0])  # one view: no storage per sample
     stored["view_dir"] = None
-    blend = dr.outline_blend(rast, buffers.clip, buffers.tri, dr.antialias_construct_topology_hash(buffers.tri))
+    blend = dr.outline_blend(rast, buffers.clip, buffers.tri, edge_topology(asset, buffers))
     return CapturedView(points=SurfacePoints(**stored), eye=camera.position[0].detach().clone(), pixel=gb.pixel.to(torch.int32), blend=blend,
                         height=height, width=width, spp=spp)
