@@ -8,8 +8,10 @@ import pytest
 import torch
 
 import lookalike.render as dr
-from lookalike.render.antialias import neighbour_pairs_python, outline_walk_python, silhouette_edges
-from lookalike.render.barycentrics import barycentrics_python, pixel_ndc
+from lookalike.render.antialias import (neighbour_pairs_python, outline_walk_python, silhouette_edges,
+                                       silhouette_edges_python)
+from lookalike.render.barycentrics import (barycentrics_python, constant_triangle_coefficients, pixel_ndc,
+                                          triangle_coefficients)
 from lookalike.render.interpolate import interpolate_python
 from lookalike.render.mipmap import build_pyramid
 from lookalike.render.antialias_kernels import outline_crossings
@@ -43,6 +45,37 @@ def test_pixel_barycentrics_match_torch_twin():
     fast = gradients([rast.reshape(-1, 4)[flat, :2], rast_db.reshape(-1, 4)[flat]], pos)
     slow = gradients([uv, db], pos)
     torch.testing.assert_close(fast, slow)
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_constant_triangle_coefficients_match_the_differentiable_ones(dtype):
+    pos, tri = random_mesh(n_views=3)
+    pos = pos.to(dtype)
+    slow = triangle_coefficients(pos, tri)
+    fast = constant_triangle_coefficients(pos, tri)
+    assert fast.shape == (3, 60, 9) and fast.dtype == dtype
+    torch.testing.assert_close(fast, slow)
+    with torch.no_grad():                   # a reference's render takes the compiled coefficients
+        rast_fast, db_fast = dr.rasterize(None, pos, tri, (18, 22))
+    rast_slow, db_slow = dr.rasterize(None, pos.clone().requires_grad_(True), tri, (18, 22))
+    torch.testing.assert_close(rast_fast, rast_slow.detach())
+    torch.testing.assert_close(db_fast, db_slow.detach())
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_silhouette_kernel_matches_torch_twin(dtype):
+    pos, tri = bumpy_sphere_clip()
+    pos = pos.to(dtype)
+    topology = dr.antialias_construct_topology_hash(tri)
+    slow = silhouette_edges_python(pos, tri, topology.opposite)
+    fast = silhouette_edges(pos, tri, topology.opposite)
+    assert torch.equal(fast, slow)
+    assert 0 < slow.sum() < slow.numel() // 2                # some edges are outlines, most are not
+    open_tri = tri[:-5]                                      # open borders: every border edge is one
+    open_topology = dr.antialias_construct_topology_hash(open_tri)
+    assert (open_topology.opposite < 0).any()
+    assert torch.equal(silhouette_edges(pos, open_tri, open_topology.opposite),
+                       silhouette_edges_python(pos, open_tri, open_topology.opposite))
 
 
 @pytest.mark.parametrize(("shared_attr", "diff_attrs"), [(True, None), (True, "all"), (False, [2, 0])])

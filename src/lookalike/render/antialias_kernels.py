@@ -157,3 +157,34 @@ def outline_crossings(
     _walk(xyw, tri, neighbour, silhouette, front, other, start_tri, height, width, hit_tri, hit_edge)
     hit = hit_edge >= 0
     return front[hit], other[hit], horizontal[hit], hit_tri[hit], hit_edge[hit]
+
+
+@njit(cache=True, parallel=True)
+def silhouette_edges(xyw, tri, opposite, silhouette):
+    """Fill ``silhouette [B, T, 3]`` bool: edge ``k`` of triangle ``t`` (opposite vertex ``k``) is
+    a silhouette edge in view ``b`` when it has no neighbour (``opposite [T, 3]`` int64 is -1)
+    or the neighbour's far vertex ``d`` lies on the same side of it as vertex ``k``:
+    ``(c_k . d > 0) == (c_k . v_k > 0)`` with ``c_k = v_i x v_j`` over the edge's vertices
+    (``xyw [B, V, 3]`` clip-space ``(x, y, w)``). Twin of :func:`.antialias.silhouette_edges_python`,
+    without its ``[B, T, 3, 3]`` temporaries, in parallel over views and triangles."""
+    n_views, n_tris = xyw.shape[0], tri.shape[0]
+    for job in prange(n_views * n_tris):
+        b, t = job // n_tris, job % n_tris
+        own = _edge_side(xyw[b, tri[t, 1]], xyw[b, tri[t, 2]], xyw[b, tri[t, 0]])     # det M
+        for k in range(3):
+            d = opposite[t, k]
+            if d < 0:
+                silhouette[b, t, k] = True
+            else:
+                other = _edge_side(xyw[b, tri[t, (k + 1) % 3]], xyw[b, tri[t, (k + 2) % 3]], xyw[b, d])
+                silhouette[b, t, k] = (other > 0) == (own > 0)
+
+
+@njit(cache=True, inline="always")
+def _edge_side(vi, vj, v):
+    """``(vi x vj) . v`` for ``(x, y, w)`` vectors: the homogeneous side of the line through
+    ``vi`` and ``vj`` that ``v`` lies on (``c_k . v`` of ``silhouette_edges``)."""
+    cx = vi[1] * vj[2] - vi[2] * vj[1]
+    cy = vi[2] * vj[0] - vi[0] * vj[2]
+    cw = vi[0] * vj[1] - vi[1] * vj[0]
+    return cx * v[0] + cy * v[1] + cw * v[2]

@@ -14,7 +14,8 @@ Their screen-space derivatives in pixel units (``X``, ``Y`` = pixel index along 
 with the ``y`` components and ``2 / H``.
 
 :func:`pixel_barycentrics` computes them on whole images with compiled loops
-(:mod:`.barycentrics_kernels`) from per-triangle coefficients, with a hand-written backward;
+(:mod:`.barycentrics_kernels`) from per-triangle coefficients (by torch where positions take
+gradients, by a compiled loop where they do not), with a hand-written backward;
 :func:`barycentrics_python` is its plain-torch twin at given points, which the tests compare
 it with.
 """
@@ -103,6 +104,16 @@ def triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
     return torch.cat([c[:, :, 0], c[:, :, 1], c.sum(2)], -1)
 
 
+def constant_triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
+    """:func:`triangle_coefficients` of positions that take no gradient (a reference's), by a
+    compiled loop (``barycentrics_kernels.triangle_coefficients_forward``): the torch version's
+    ``[B, T, 3, 3]`` gathers were a fifth of a 4-million-triangle render."""
+    xyw = pos.detach()[..., [0, 1, 3]].contiguous()
+    coef = xyw.new_empty(xyw.shape[0], tri.shape[0], 9)
+    barycentrics_kernels.triangle_coefficients_forward(xyw.numpy(), tri.contiguous().numpy(), coef.numpy())
+    return coef
+
+
 class _PixelBarycentrics(torch.autograd.Function):
     """``(coef [B,T,9], tri_id [B,H,W] int32 numpy, depth [B,H,W] float32 numpy, use_db)``
     -> ``(rast, rast_db)``; gradients reach ``coef`` only."""
@@ -147,5 +158,6 @@ def pixel_barycentrics(
         depth: ``[B, H, W]`` float32 numpy, copied into ``rast[..., 2]`` (no gradient).
         with_db_gradient: let gradients of ``rast_db`` flow back.
     """
-    coef = triangle_coefficients(pos, tri)
+    differentiable = torch.is_grad_enabled() and pos.requires_grad
+    coef = triangle_coefficients(pos, tri) if differentiable else constant_triangle_coefficients(pos, tri)
     return _PixelBarycentrics.apply(coef, tri_id, depth, with_db_gradient)

@@ -102,3 +102,28 @@ def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
                 grad_coef[b, t, 6] += g_s * px
                 grad_coef[b, t, 7] += g_s * py
                 grad_coef[b, t, 8] += g_s
+
+
+@njit(cache=True, parallel=True)
+def triangle_coefficients_forward(xyw, tri, coef):
+    """Fill ``coef [B, T, 9]`` with ``(c_0, c_1, c_0 + c_1 + c_2)``, ``c_i = v_j x v_k``
+    (``(i, j, k)`` cyclic) of the vertices ``v = xyw[b, tri[t]]`` (``(x, y, w)``, ``xyw [B, V, 3]``,
+    ``tri [T, 3]`` int64): :func:`.barycentrics.triangle_coefficients` without its
+    ``[B, T, 3, 3]`` temporaries, in parallel over views and triangles."""
+    n_views, n_tris = xyw.shape[0], tri.shape[0]
+    for job in prange(n_views * n_tris):
+        b, t = job // n_tris, job % n_tris
+        for k in range(9):
+            coef[b, t, k] = 0.0
+        for i in range(3):
+            vj, vk = xyw[b, tri[t, (i + 1) % 3]], xyw[b, tri[t, (i + 2) % 3]]
+            cx = vj[1] * vk[2] - vj[2] * vk[1]
+            cy = vj[2] * vk[0] - vj[0] * vk[2]
+            cw = vj[0] * vk[1] - vj[1] * vk[0]
+            if i < 2:
+                coef[b, t, 3 * i] = cx
+                coef[b, t, 3 * i + 1] = cy
+                coef[b, t, 3 * i + 2] = cw
+            coef[b, t, 6] += cx
+            coef[b, t, 7] += cy
+            coef[b, t, 8] += cw
