@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 import torch
 
+from lookalike import threads
+
 SHARED_ASSETS = Path(__file__).resolve().parents[1].parent / "shared" / "assets"
 
 
@@ -23,4 +25,13 @@ def shared_assets() -> Path:
 def _seeded():
     """Every test starts from the same random state."""
     torch.manual_seed(0)
+    yield
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _pinned_threads():
+    """Every test runs with the thread count pinned to the available cores, so that runs that
+    must repeat bit for bit (resume) do not adapt to whatever else the machine runs
+    (``lookalike.threads.CoreShare`` has tests of its own)."""
+    threads.set_threads(threads.available_cores())
     yield

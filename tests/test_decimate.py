@@ -12,7 +12,7 @@ from scipy.sparse.csgraph import connected_components
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.init import decimate
-from lookalike.init.decimate import clean_triangles
+from lookalike.init.decimate import clean_triangles, row_ids
 from lookalike.init.weld import weld_vertices
 
 
@@ -197,6 +197,13 @@ def test_clean_triangles_removes_degenerates_and_fins():
     out_v, out_f = clean_triangles(v, f)
     assert len(out_f) == 2 and len(out_v) == 4
     np.testing.assert_array_equal(out_v[out_f], v[f[:2]])
+
+
+def test_row_ids_match_numpy_unique_rows():
+    rows = np.random.default_rng(3).integers(0, 4, size=(500, 3))
+    expected = np.unique(rows, axis=0, return_inverse=True)[1].reshape(-1)
+    np.testing.assert_array_equal(row_ids(rows), expected)
+    assert len(row_ids(np.zeros((0, 3), np.int64))) == 0
 
 
 def test_real_textured_asset(shared_assets):

@@ -34,15 +34,69 @@ def test_set_threads_reaches_torch_numba_and_embree(monkeypatch):
         threads._count = before[2]
 
 
-def test_importing_lookalike_makes_idle_openmp_threads_sleep_unless_the_user_chose(monkeypatch):
-    import os
-    import subprocess
-    import sys
+class _FakeMachine:
+    """A clock, the machine's busy CPU seconds and this process's, moved by ``advance``."""
 
-    probe = "import os, lookalike, torch; print(os.environ['OMP_WAIT_POLICY'])"
-    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
-    assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                          check=True).stdout.strip() == "PASSIVE"
-    chosen = {**os.environ, "OMP_WAIT_POLICY": "ACTIVE"}
-    assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
-                          env=chosen).stdout.strip() == "ACTIVE"
+    def __init__(self):
+        self.now = self.busy = self.own = 0.0
+
+    def advance(self, seconds: float, own_cores: float, other_cores: float) -> None:
+        self.now += seconds
+        self.own += own_cores * seconds
+        self.busy += (own_cores + other_cores) * seconds
+
+
+def test_core_share_gives_cores_to_other_programs_and_takes_them_back(monkeypatch):
+    monkeypatch.setattr(threads, "_count", None)
+    monkeypatch.setattr(threads.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    used = []
+    monkeypatch.setattr(threads, "_use", used.append)
+    monkeypatch.setattr(threads, "available_cores", lambda: 2)
+    machine = _FakeMachine()
+    share = threads.CoreShare(clock=lambda: machine.now, busy=lambda cpus: machine.busy, own=lambda: machine.own)
+    machine.advance(1.0, own_cores=1.9, other_cores=1.0)
+    share.update()
+    assert used == []                                      # not yet SHARE_SAMPLE_SECONDS
+    machine.advance(threads.SHARE_SAMPLE_SECONDS, own_cores=1.9, other_cores=1.0)
+    share.update()
+    assert used == [1] and share.threads == 1              # a second busy program: one core each
+    machine.advance(threads.SHARE_SAMPLE_SECONDS, own_cores=1.0, other_cores=0.9)
+    share.update()
+    assert used == [1]
+    machine.advance(threads.SHARE_SAMPLE_SECONDS, own_cores=1.0, other_cores=0.05)
+    share.update()
+    assert used == [1, 2]                                  # it ended: both cores again
+    machine.advance(threads.SHARE_SAMPLE_SECONDS, own_cores=1.9, other_cores=1.0)
+    share.update()
+    share.restore()
+    assert used == [1, 2, 1, 2]
+
+
+def test_core_share_keeps_a_pinned_count(monkeypatch):
+    monkeypatch.setattr(threads, "_count", 2)
+    used = []
+    monkeypatch.setattr(threads, "_use", used.append)
+    machine = _FakeMachine()
+    share = threads.CoreShare(clock=lambda: machine.now, busy=lambda cpus: machine.busy, own=lambda: machine.own)
+    machine.advance(10.0, own_cores=1.0, other_cores=2.0)
+    share.update()
+    share.restore()
+    assert used == [] and not share.active
+
+
+def test_threads_left_rounds_the_free_cores_within_bounds():
+    assert threads.threads_left(2, 0.05, 2) == 2
+    assert threads.threads_left(2, 1.0, 2) == 1
+    assert threads.threads_left(2, 3.0, 2) == 1
+    assert threads.threads_left(8, 2.4, 4) == 4
+    assert threads.threads_left(8, 2.6, 8) == 5
+
+
+def test_busy_seconds_reads_the_machine_where_it_can():
+    import os
+
+    seconds = threads.busy_seconds(sorted(os.sched_getaffinity(0)))
+    if not os.path.exists("/proc/stat"):
+        assert seconds is None
+    else:
+        assert seconds > 0

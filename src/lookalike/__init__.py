@@ -21,10 +21,9 @@ never import each other, ``jobs`` composes them):
 - ``lookalike.colour``  sRGB encoding and the paper's tone map
 """
 
-from . import kernel_cache, threads
+from . import kernel_cache
 from .version import __version__  # noqa: F401  (re-exported)
 
-threads.sleep_while_waiting()
 kernel_cache.choose()
 
 

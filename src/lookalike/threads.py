@@ -2,14 +2,34 @@
 and the Embree ray-tracing blocks all use ``thread_count()`` threads. By default that is the
 cores this process may use (``os.sched_getaffinity``: a container's or a scheduler's share, not
 the machine's); ``set_threads(n)`` sets it, e.g. so that N batch tasks on one machine share its
-cores instead of each claiming all of them. Threads with nothing to do sleep rather than spin
-(``sleep_while_waiting``), so that another busy program gets the cores they would hold."""
+cores instead of each claiming all of them.
+
+Where the count is not set, the optimisation loop gives cores to other busy programs while they
+run (``CoreShare``): every few seconds it measures how many of this process's cores others kept
+busy and uses the rest. Beside a second ``simplify`` on two cores, each then steps on one core
+instead of both fighting over two: a step took 2.09 s against 0.51 s alone before (4.1 x). Idle
+OpenMP threads keep spinning briefly (the runtime's default): making them sleep at once
+(``OMP_WAIT_POLICY=PASSIVE``) gave the same fairness but cost 28 % per step alone.
+
+A set count is never changed, so a run with ``set_threads`` (``--threads``) repeats bit for
+bit; the thread count changes how sums are split, so runs at different counts differ in the
+last bits."""
 
 from __future__ import annotations
 
+import math
 import os
+import time
+from typing import Callable
 
 _count: int | None = None
+
+SHARE_SAMPLE_SECONDS = 2.0
+"""How often ``CoreShare`` measures the other programs' load (wall seconds)."""
+
+_BUSY_FIELDS = (0, 1, 2, 5, 6, 7)
+"""Columns of a ``/proc/stat`` cpu line that count as busy: user, nice, system, irq, softirq,
+steal (not idle, not iowait)."""
 
 
 def available_cores() -> int:
@@ -33,11 +53,77 @@ def set_threads(count: int) -> None:
     numba.set_num_threads(min(_count, numba.config.NUMBA_NUM_THREADS))
 
 
-def sleep_while_waiting() -> None:
-    """Make idle OpenMP threads (torch's pool, and Numba's with its ``omp`` layer) sleep at once
-    instead of spinning, unless the user chose otherwise (``OMP_WAIT_POLICY``). Spinning threads
-    hold the cores another busy program needs: beside a second ``simplify``, a step on spot took
-    2.09 s with them against 0.51 s alone (4.1 x), 0.87 s without them against 0.55 s alone
-    (1.6 x); alone, waking sleeping threads costs about 7 % (``lookalike bench contention``).
-    Takes effect only before torch is first imported (``lookalike`` calls it on import)."""
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+def busy_seconds(cpus: list[int]) -> float | None:
+    """CPU seconds the machine has spent busy on ``cpus`` since boot, by every program
+    (``/proc/stat``); ``None`` where that file is missing (not Linux)."""
+    try:
+        with open("/proc/stat", encoding="ascii") as stat:
+            lines = stat.readlines()
+    except OSError:
+        return None
+    wanted = {f"cpu{cpu}" for cpu in cpus}
+    ticks = sum(int(fields[1 + k]) for fields in (line.split() for line in lines)
+                if fields and fields[0] in wanted for k in _BUSY_FIELDS)
+    return ticks / os.sysconf("SC_CLK_TCK")
+
+
+def threads_left(cores: int, others: float, ceiling: int) -> int:
+    """Threads to use on ``cores`` cores of which other programs keep ``others`` busy on
+    average: the cores they leave, rounded, within ``[1, ceiling]``."""
+    return max(1, min(ceiling, math.floor(cores - others + 0.5)))
+
+
+def _use(count: int) -> None:
+    """``count`` threads in torch and Numba (this thread's Numba setting), ``thread_count()``
+    left as it is."""
+    import numba
+    import torch
+
+    torch.set_num_threads(count)
+    numba.set_num_threads(min(count, numba.config.NUMBA_NUM_THREADS))
+
+
+class CoreShare:
+    """Gives this process's cores to other busy programs while they run (see the module
+    docstring). Call ``update()`` once per step: every ``SHARE_SAMPLE_SECONDS`` it measures
+    ``others = (busy - own) / wall`` over the last interval, in cores (``busy`` the machine's
+    busy CPU seconds on this process's cores, ``own`` this process's CPU seconds), and uses
+    ``threads_left(cores, others, thread_count())`` threads. ``restore()`` goes back to
+    ``thread_count()``. Does nothing where the count is set (``set_threads``) or the load cannot
+    be read.
+
+    Args:
+        clock, busy, own: the wall clock, ``busy_seconds`` and the process's CPU clock (tests
+            give fakes).
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic,
+                 busy: Callable[[list[int]], float | None] = busy_seconds,
+                 own: Callable[[], float] = time.process_time):
+        self.clock, self.busy, self.own = clock, busy, own
+        self.cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
+        self.active = _count is None and busy(self.cpus) is not None
+        self.threads = thread_count()
+        self.last = self._sample() if self.active else None
+
+    def _sample(self) -> tuple[float, float, float]:
+        return self.clock(), self.busy(self.cpus), self.own()
+
+    def update(self) -> None:
+        """Measure and adapt, if ``SHARE_SAMPLE_SECONDS`` have passed since the last time."""
+        if not self.active or self.clock() - self.last[0] < SHARE_SAMPLE_SECONDS:
+            return
+        sample = self._sample()
+        wall = sample[0] - self.last[0]
+        others = max(0.0, (sample[1] - self.last[1]) - (sample[2] - self.last[2])) / wall
+        self.last = sample
+        wanted = threads_left(len(self.cpus), others, thread_count())
+        if wanted != self.threads:
+            _use(wanted)
+            self.threads = wanted
+
+    def restore(self) -> None:
+        """Back to ``thread_count()`` threads."""
+        if self.active and self.threads != thread_count():
+            _use(thread_count())
+            self.threads = thread_count()

@@ -17,8 +17,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "looks wrong) instead of our decimation; its UVs and textures are kept where they form an atlas")
     parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
-    parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree (default: "
-                        "the cores this process may use)")
+    parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree, pinned "
+                        "(default: the cores this process may use, less those other busy programs keep using while it "
+                        "optimises)")
     parser.add_argument("--profile", action="store_true", help="record where the time goes: wall and CPU seconds of "
                         "each phase (load, decimation, bake, views, forward, backward, ...) in metrics.json, "
                         "\"profile\"")

@@ -11,6 +11,8 @@ latent clamp itself. Around that:
   ``validate_every`` steps, at the start and at the end), or, without a validator, the one
   with the lowest moving average of the training loss;
 - under a time budget the step count follows the clock;
+- with a ``CoreShare``, the loop gives cores to other busy programs while they run
+  (``lookalike.threads``);
 - ``KeyboardInterrupt`` stops the loop cleanly; a ``Checkpointer`` writes the state
   periodically and then, and ``load_state_dict`` continues from it exactly where it stopped.
 """
@@ -28,6 +30,7 @@ import torch
 from tqdm import tqdm
 
 from ..phases import phase
+from ..threads import CoreShare
 from .checkpoint import Checkpointer
 from .latent import Latent
 from .objective import Objective
@@ -142,16 +145,19 @@ class Fitter:
         validate: scores a model on held-back views; the best-scoring state is kept
             (``None``: the state with the lowest moving average of the training loss).
         checkpointer: writes checkpoints (``None``: never).
+        cores: adapts the thread count to the machine's load between steps (``None``: keeps it).
     """
 
     def __init__(self, latent: Latent, source: BatchSource, objective: Objective, settings: LoopSettings,
-                 validate: Validator | None = None, checkpointer: Checkpointer | None = None):
+                 validate: Validator | None = None, checkpointer: Checkpointer | None = None,
+                 cores: CoreShare | None = None):
         self.latent = latent
         self.source = source
         self.objective = objective
         self.settings = settings
         self.validate = validate
         self.checkpointer = checkpointer
+        self.cores = cores
         torch.manual_seed(settings.seed)
         self.rng = np.random.default_rng(settings.seed)
         self.optimizer = torch.optim.Adam([
@@ -294,12 +300,16 @@ class Fitter:
                     break
                 if self.checkpointer is not None and self.checkpointer.due():
                     self.checkpointer.save(self.state_dict())
+                if self.cores is not None:
+                    self.cores.update()
         except KeyboardInterrupt:
             interrupted = True
             if self.checkpointer is not None:
                 self.checkpointer.save(self.state_dict())
         finally:
             bar.close()
+            if self.cores is not None:
+                self.cores.restore()
         self._snapshot()
         if p.rollbacks_in_a_row == 0:
             self._score()

@@ -62,6 +62,22 @@ def check_triangle_target(triangles, available: int) -> int:
     return int(triangles)
 
 
+def row_ids(rows: np.ndarray) -> np.ndarray:
+    """Equal rows get equal ids: ``rows [N, K]`` int64 -> ``[N]`` int64, the rank of each row's
+    value among the distinct rows in lexicographic order (``np.unique(rows, axis=0,
+    return_inverse=True)[1]``, by one ``np.lexsort`` of the columns instead of a sort of
+    ``N`` byte strings: 4 million triangles in about a second instead of ten)."""
+    if len(rows) == 0:
+        return np.zeros(0, dtype=np.int64)
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows[order]
+    starts = np.ones(len(rows), dtype=bool)
+    starts[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    ids = np.empty(len(rows), dtype=np.int64)
+    ids[order] = np.cumsum(starts) - 1
+    return ids
+
+
 def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop degenerate triangles and fins, then unreferenced vertices.
 
@@ -85,9 +101,10 @@ def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarra
     # An even permutation of a triple keeps its orientation: rotate so the smallest index leads.
     lead = t_pos_idx.argmin(axis=1)
     rotated = t_pos_idx[np.arange(len(t_pos_idx))[:, None], (lead[:, None] + np.arange(3)) % 3]
-    oriented = np.unique(rotated, axis=0, return_inverse=True)[1].reshape(-1)
-    triple = np.unique(np.sort(t_pos_idx, axis=1), axis=0, return_inverse=True)[1].reshape(-1)
-    triple_of_orientation = np.unique(np.stack([triple, oriented], axis=1), axis=0)[:, 0]
+    oriented = row_ids(rotated)
+    triple = row_ids(np.sort(t_pos_idx, axis=1))
+    stride = max(len(t_pos_idx), 1)
+    triple_of_orientation = np.unique(triple * stride + oriented) // stride   # one entry per (triple, orientation)
     fin = np.bincount(triple_of_orientation, minlength=len(t_pos_idx))[triple] > 1
     first_copy = np.zeros(len(t_pos_idx), dtype=bool)
     first_copy[np.unique(oriented, return_index=True)[1]] = True
@@ -164,12 +181,12 @@ def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_AN
     """
     triangles = check_triangle_target(triangles, mesh.num_triangles)
     src_pos = mesh.v_pos.detach().cpu().numpy().astype(np.float64)
-    w_pos, w_idx, _ = weld_vertices(src_pos, mesh.t_pos_idx.cpu().numpy(), weld_tolerance(src_pos))
-    w_pos, w_idx = clean_triangles(w_pos, w_idx)
+    w_pos, welded_idx, _ = weld_vertices(src_pos, mesh.t_pos_idx.cpu().numpy(), weld_tolerance(src_pos))
+    w_pos, w_idx = clean_triangles(w_pos, welded_idx)
     coarse = max(COARSE_TRIANGLES, 20 * triangles)
     if len(w_idx) > max(COARSE_ABOVE, 2 * coarse):
         w_pos, w_idx = _coarse_pass(w_pos, w_idx, coarse)
     if len(w_idx) > triangles:
         w_pos, w_idx = _simplify_to_count(w_pos, w_idx, triangles)
-    low = transfer_attributes(mesh, w_pos, w_idx)
+    low = transfer_attributes(mesh, w_pos, w_idx, welded_idx)
     return replace(low, t_nrm_idx=crease_normal_index(low.v_pos, low.t_pos_idx, crease_angle))

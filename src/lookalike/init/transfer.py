@@ -66,7 +66,8 @@ def _vote(labels: np.ndarray) -> np.ndarray:
     return labels[np.arange(len(labels)), agree.argmax(axis=1)]
 
 
-def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) -> Mesh:
+def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray,
+                        welded_idx: np.ndarray | None = None) -> Mesh:
     """A mesh with the given geometry and the attributes of ``source`` at its closest points.
 
     Args:
@@ -75,6 +76,8 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) 
             slots split at creases, whose normals follow its positions).
         v_pos: ``[V, 3]`` float positions of the new mesh, near the surface of ``source``.
         t_pos_idx: ``[T, 3]`` int64 triangles of the new mesh.
+        welded_idx: ``[Ts, 3]`` the triangles of ``source`` over its welded positions
+            (``weld_vertices`` at ``weld_tolerance``), where the caller has them; else welded here.
 
     Returns:
         A ``Mesh`` on ``source``'s device: ``v_pos`` float32, ``t_pos_idx``, one UV set per UV
@@ -90,8 +93,9 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray) 
     t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
 
     src_uv = [(v.detach().cpu().numpy().astype(np.float64), i.cpu().numpy()) for v, i in source.uv]
-    _, w_idx, _ = weld_vertices(src_pos, src_idx, weld_tolerance(src_pos))
-    patch = surface_patches(w_idx, src_mat, src_uv[0][0][src_uv[0][1]] if src_uv else None)
+    if welded_idx is None:
+        welded_idx = weld_vertices(src_pos, src_idx, weld_tolerance(src_pos))[1]
+    patch = surface_patches(welded_idx, src_mat, src_uv[0][0][src_uv[0][1]] if src_uv else None)
     query = SurfaceQuery(src_pos, src_idx, patch)
 
     corners = v_pos[t_pos_idx]                                                  # [T, 3, 3]

@@ -42,6 +42,7 @@ from ..io.atomic import write_text_atomic
 from ..phases import SEPARATOR, Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
+from ..threads import CoreShare
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 
@@ -133,7 +134,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
             instead of our decimation: the paper's automatic clean-up of an existing LOD. Its
             UVs and textures are kept where it has a usable atlas and one textured material;
             otherwise the input is baked onto it (onto a fresh atlas where its UVs overlap).
-        seed: random seed (default 0); same seed, same result.
+        seed: random seed (default 0); same seed and thread count, same result (the thread
+            count adapts to other busy programs unless pinned, ``lookalike.threads``).
         config: a ``Config`` or a TOML file with further settings; the arguments above override it.
         resume: continue the run whose ``checkpoint.pt`` is in ``outdir`` bit-exactly, with the
             settings and the initial guess stored in it (other options given are ignored, and
@@ -233,7 +235,7 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
 
     fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(asset)),
                     validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
-                    checkpointer=checkpointer)
+                    checkpointer=checkpointer, cores=CoreShare())
     if saved is not None and "latent" in saved:
         fitter.load_state_dict(saved)
     output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
