@@ -7,7 +7,8 @@ cores instead of each claiming all of them.
 Where the count is not set, the optimisation loop gives cores to other busy programs while they
 run (``CoreShare``): every few seconds it measures how many of this process's cores others kept
 busy and uses the rest. Beside a second ``simplify`` on two cores, each then steps on one core
-instead of both fighting over two: a step took 2.09 s against 0.51 s alone before (4.1 x). Idle
+instead of both fighting over two: 0.94 s per step against 0.54 alone (1.7 x; with both on
+every core, 2.09 against 0.51, 4.1 x; ``lookalike bench contention``). Idle
 OpenMP threads keep spinning briefly (the runtime's default): making them sleep at once
 (``OMP_WAIT_POLICY=PASSIVE``) gave the same fairness but cost 28 % per step alone.
 
@@ -20,7 +21,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from typing import Callable
+from collections.abc import Callable
 
 _count: int | None = None
 
