@@ -33,9 +33,14 @@ _BUSY_FIELDS = (0, 1, 2, 5, 6, 7)
 steal (not idle, not iowait)."""
 
 
+def available_cpus() -> list[int]:
+    """The numbers of the cores this process may run on."""
+    return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
+
+
 def available_cores() -> int:
     """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return len(available_cpus())
 
 
 def thread_count() -> int:
@@ -45,13 +50,9 @@ def thread_count() -> int:
 
 def set_threads(count: int) -> None:
     """Use ``count`` threads in torch, Numba (at most its pool's size) and the Embree blocks."""
-    import numba
-    import torch
-
     global _count
     _count = max(1, int(count))
-    torch.set_num_threads(_count)
-    numba.set_num_threads(min(_count, numba.config.NUMBA_NUM_THREADS))
+    _use(_count)
 
 
 def busy_seconds(cpus: list[int]) -> float | None:
@@ -102,7 +103,7 @@ class CoreShare:
                  busy: Callable[[list[int]], float | None] = busy_seconds,
                  own: Callable[[], float] = time.process_time):
         self.clock, self.busy, self.own = clock, busy, own
-        self.cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
+        self.cpus = available_cpus()
         self.active = _count is None and busy(self.cpus) is not None
         self.threads = thread_count()
         self.last = self._sample() if self.active else None

@@ -65,14 +65,17 @@ def check_triangle_target(triangles, available: int) -> int:
 def row_ids(rows: np.ndarray) -> np.ndarray:
     """Equal rows get equal ids: ``rows [N, K]`` int64 -> ``[N]`` int64, the rank of each row's
     value among the distinct rows in lexicographic order (``np.unique(rows, axis=0,
-    return_inverse=True)[1]``, by one ``np.lexsort`` of the columns instead of a sort of
-    ``N`` byte strings: 4 million triangles in about a second instead of ten)."""
+    return_inverse=True)[1]``), by one ``np.lexsort`` of the columns rather than numpy's sort
+    of ``N`` byte strings (4 million rows of 3: 2.7-3.0 s against 7.7-8.7 s)."""
     if len(rows) == 0:
         return np.zeros(0, dtype=np.int64)
-    order = np.lexsort(rows.T[::-1])
-    ordered = rows[order]
-    starts = np.ones(len(rows), dtype=bool)
-    starts[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    columns = rows.T
+    order = np.lexsort(columns[::-1])
+    starts = np.zeros(len(rows), dtype=bool)
+    starts[0] = True
+    for column in columns:
+        ordered = column[order]
+        starts[1:] |= ordered[1:] != ordered[:-1]
     ids = np.empty(len(rows), dtype=np.int64)
     ids[order] = np.cumsum(starts) - 1
     return ids
