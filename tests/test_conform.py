@@ -13,6 +13,7 @@ from lookalike.bench.repair import damaged
 from lookalike.init import decimate
 from lookalike.init.closest_point import SurfaceQuery
 from lookalike.init.conform import (
+    SurfaceFit,
     area_samples,
     barycentric_rows,
     boundary_loops,
@@ -66,6 +67,25 @@ def test_a_shrunk_decimation_is_fitted_back_and_a_good_one_stays():
     assert max(surface_distances(kept, surface)) < 1.2 * max(own)
     edge = (good.v_pos[good.t_pos_idx[:, 0]] - good.v_pos[good.t_pos_idx[:, 1]]).norm(dim=-1).mean()
     assert (kept.v_pos - good.v_pos).norm(dim=-1).max() < 0.5 * edge
+
+
+def test_unfolding_passes_undo_the_folds_a_shrink_pushes_through_a_thin_shape():
+    """A sphere squashed to 6 % of its width, decimated and shrunk by 5 % along its normals:
+    the rim's two sides cross. Fitted with the start's differentials alone, 21 triangles stay
+    folded onto the surface, facing the wrong way; the unfolding passes leave at most 3."""
+    surface = bumpy_sphere().mesh
+    surface = surface.with_positions(surface.v_pos * torch.tensor([1.0, 1.0, 0.06]))
+    shrunk = damaged(decimate(surface, 300), np.random.default_rng(0), shrink=0.05, part=0.0, offset=0.0)
+    check = SurfaceFit(shrunk, surface, 10, 0.03, np.random.default_rng(0))
+
+    def folded(mesh: Mesh) -> int:
+        return int(check.facing_against(mesh.v_pos.double().numpy()).sum())
+
+    kept = conform_to_surface(shrunk, surface, unfold_passes=0, samples=5000)
+    unfolded = conform_to_surface(shrunk, surface, samples=5000)
+    assert folded(shrunk) > 100 and folded(kept) >= 15
+    assert folded(unfolded) <= 3
+    assert max(surface_distances(unfolded, surface)) <= max(surface_distances(kept, surface))
 
 
 def test_a_piece_cut_off_and_moved_is_welded_back():

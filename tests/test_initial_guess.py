@@ -10,12 +10,14 @@ import pytest
 import torch
 from test_conform import surface_distances
 
+import lookalike.init.initial_guess as initial_guess_module
 from lookalike.asset import Asset, Material, Texture
 from lookalike.errors import ConfigError
 from lookalike.fit.config import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
 from lookalike.init.initial_guess import (
+    UV_CHECK_SIZE,
     UV_OVERLAP_LIMIT,
     Ranges,
     decimation_baseline,
@@ -140,6 +142,25 @@ def test_an_atlas_barely_overlaps_and_scrambled_uvs_do():
     atlas = unwrap(decimate(painted_knot().mesh, 300), texture_size=256)
     assert uv_overlap(atlas) <= UV_OVERLAP_LIMIT
     assert uv_overlap(scrambled(atlas)) > 5 * UV_OVERLAP_LIMIT
+
+
+def test_scrambled_uvs_are_measured_on_a_coarser_grid_with_the_same_share(monkeypatch):
+    """Scrambled UVs cover the square many times over: the share is measured on a grid of at
+    most ``UV_CHECK_TEXELS`` covered texels, and comes out as on the full grid."""
+    mesh = scrambled(unwrap(decimate(painted_knot().mesh, 300), texture_size=256))
+    texels = []
+    original = initial_guess_module.rasterize_uv
+
+    def counting(uv, height, width):
+        texels.append(height * width)
+        return original(uv, height, width)
+
+    monkeypatch.setattr(initial_guess_module, "rasterize_uv", counting)
+    coarse = uv_overlap(mesh)
+    monkeypatch.setattr(initial_guess_module, "UV_CHECK_TEXELS", 1 << 40)
+    full = uv_overlap(mesh)
+    assert texels[0] < texels[1] == UV_CHECK_SIZE ** 2
+    assert abs(coarse - full) < 0.01
 
 
 def test_a_users_textured_atlas_is_kept_and_nothing_is_baked():

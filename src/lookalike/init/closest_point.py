@@ -16,6 +16,8 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
+from ..threads import thread_count
+
 _SHORTLIST = 16                    # first shortlist size (samples per query point)
 _MAX_GATHER = 1 << 20              # query points x shortlist size evaluated in one batch
 _MAX_SUBDIVISION = 64              # at most 64^2 cover samples per triangle
@@ -279,7 +281,8 @@ class SurfaceQuery:
         size = 4 * last
         found = np.isfinite(best)
         if found.any():
-            inside = self.tree.query_ball_point(points[found], best[found] + self.cover_radius, return_length=True)
+            inside = self.tree.query_ball_point(points[found], best[found] + self.cover_radius,
+                                                  return_length=True, workers=thread_count())
             needed = 2 ** np.ceil(np.log2(np.asarray(inside, dtype=np.float64) + 1)).astype(np.int64)
             size[found] = np.maximum(needed, 2 * last[found])
         return size
@@ -287,7 +290,7 @@ class SurfaceQuery:
     def _shortlist(self, points: np.ndarray, labels: np.ndarray | None, k: int):
         """Best exact candidate among the k nearest samples of each point ``[P, 3]``;
         returns ``(triangle [P], bary [P, 3], distance [P], bound [P])``."""
-        sample_dist, sample = self.tree.query(points, k=k)
+        sample_dist, sample = self.tree.query(points, k=k, workers=thread_count())
         sample_dist, sample = sample_dist.reshape(len(points), k), sample.reshape(len(points), k)
         candidates = self.sample_triangle[sample]                                  # [P, k]
         no_labels = np.zeros(0, dtype=np.int64)

@@ -13,7 +13,7 @@ keeping the user's topology and vertex count:
   correspondences fixed, the energy
 
       E(P) = (1/N) sum_s |B_s P - c_s|^2  +  (1/N) sum_s |C_s P - x_s|^2
-             + (mu / V) |L P - L P_0|^2
+             + (mu / V) |L P - D|^2
 
   is quadratic in the positions ``P [V, 3]``: the first term pulls points sampled on the mesh
   (``B_s P``, barycentric rows) to their input points ``c_s``: the closest one, unless the
@@ -21,9 +21,17 @@ keeping the user's topology and vertex count:
   other side); then the first input point along the sample's normal, either way, that faces
   the same way as the sample (``oriented_targets``); the second pulls the
   mesh's closest points to points ``x_s`` sampled on the input (``C_s P``), so that every part of
-  the input is covered; the third (``L`` the uniform Laplacian, ``P_0`` the start) keeps the
-  mesh's own shape where the data says little. Each round solves the normal equations (a sparse
-  ``[V, V]`` system) and recomputes the correspondences.
+  the input is covered; the third (``L`` the uniform Laplacian) keeps the mesh's shape, its
+  differentials ``D [V, 3]``, where the data says little. Each round solves the normal
+  equations (a sparse ``[V, V]`` system) and recomputes the correspondences.
+
+  ``D`` is first the start's own ``L P_0``. That keeps the mesh's shape, and also its folds:
+  where the damage pushed vertices across their neighbours (thin parts, sharp rims), the
+  fitted triangles lie on the surface but face the wrong way. So after the first rounds come
+  unfolding passes: triangles that face against the input's surface at their closest point
+  are found, ``D`` is set to the fitted mesh's differentials, zero at those triangles' corners
+  (the term there flattens instead of keeping the fold), and a few more rounds run
+  (``facing_against``; measured in ``docs/benchmarks.md``).
 
 Snapping each vertex to its closest point, as before, is worse: decimation places vertices off
 the surface on purpose (a flat triangle spans a curved patch), and snapping both undoes that
@@ -48,7 +56,12 @@ from .closest_point import ClosestPoints, SurfaceQuery
 from .raycast import RayCaster
 
 CONFORM_ROUNDS = 20
-"""Correspondence rounds of ``conform_to_surface``."""
+"""Correspondence rounds of ``conform_to_surface`` before it unfolds."""
+UNFOLD_PASSES = 3
+"""Unfolding passes of ``conform_to_surface``: each finds the triangles facing against the
+input and frees their corners' differentials."""
+UNFOLD_ROUNDS = 5
+"""Correspondence rounds of each unfolding pass."""
 CONFORM_SAMPLES = 40_000
 """Points sampled on each surface per term."""
 CONFORM_SMOOTHNESS = 0.03
@@ -80,41 +93,79 @@ def barycentric_rows(t_pos_idx: np.ndarray, triangle: np.ndarray, barycentric: n
                                    shape=(len(triangle), num_vertices))
 
 
-def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, samples: int = CONFORM_SAMPLES,
+def conform_to_surface(mesh: Mesh, surface: Mesh, rounds: int = CONFORM_ROUNDS, unfold_passes: int = UNFOLD_PASSES,
+                       unfold_rounds: int = UNFOLD_ROUNDS, samples: int = CONFORM_SAMPLES,
                        smoothness: float = CONFORM_SMOOTHNESS, seed: int = 0) -> Mesh:
     """``mesh`` with its vertices moved so that it lies on ``surface`` (see the module
-    docstring for the energy); topology, UVs and normal slots kept, authored normal values
-    dropped (``Mesh.with_positions``)."""
-    rng = np.random.default_rng(seed)
-    surface_pos, surface_tri = surface.v_pos.double().numpy(), surface.t_pos_idx.numpy()
-    on_surface = SurfaceQuery(surface_pos, surface_tri)
-    rays = RayCaster(surface_pos, surface_tri)
-    surface_normal = unit_face_normals(surface_pos, surface_tri)
-    reach = CONFORM_REACH * surface.bounding_sphere()[1]
-    triangle, barycentric = area_samples(surface_pos, surface_tri, samples, rng)
-    surface_points = np.einsum("nk,nkd->nd", barycentric, surface_pos[surface_tri[triangle]])
-    tri, count = mesh.t_pos_idx.numpy(), mesh.num_vertices
+    docstring for the energy): ``rounds`` rounds holding the start's differentials, then
+    ``unfold_passes`` passes of ``unfold_rounds`` rounds, each holding the differentials of
+    the mesh fitted so far except at the corners of triangles ``facing_against`` the surface.
+    Topology, UVs and normal slots kept, authored normal values dropped (``Mesh.with_positions``)."""
+    fit = SurfaceFit(mesh, surface, samples, smoothness, np.random.default_rng(seed))
     start = mesh.v_pos.double().numpy()
-    sample_triangle, sample_barycentric = area_samples(start, tri, samples, rng)
-    mesh_samples = barycentric_rows(tri, sample_triangle, sample_barycentric, count)
-    laplacian = UniformLaplacian(mesh.t_pos_idx, count).matrix
-    indices = laplacian.indices().numpy()
-    laplacian = scipy.sparse.csr_matrix((laplacian.values().numpy(), (indices[0], indices[1])), shape=(count, count))
-    shape_term = laplacian.T @ laplacian * (smoothness / count)
-    shape_rhs = laplacian.T @ (laplacian @ start) * (smoothness / count)
-    anchor = 1e-6 / count        # holds vertices no term reaches (on no triangle)
-    positions = start.copy()
-    for _ in range(rounds):
-        points = mesh_samples @ positions
-        targets = oriented_targets(points, unit_face_normals(positions, tri)[sample_triangle], on_surface.closest(points),
-                                   surface_normal, rays, reach)
-        nearest = SurfaceQuery(positions, tri).closest(surface_points)
-        covering = barycentric_rows(tri, nearest.triangle, nearest.barycentric, count)
-        lhs = (mesh_samples.T @ mesh_samples + covering.T @ covering) / samples + shape_term
-        rhs = (mesh_samples.T @ targets + covering.T @ surface_points) / samples + shape_rhs
-        lhs = (lhs + anchor * scipy.sparse.identity(count)).tocsc()
-        positions = scipy.sparse.linalg.spsolve(lhs, rhs + anchor * positions)
+    positions = fit.rounds(start, fit.laplacian @ start, rounds)
+    for _ in range(unfold_passes):
+        differentials = fit.laplacian @ positions
+        differentials[fit.triangles[fit.facing_against(positions)].reshape(-1)] = 0.0
+        positions = fit.rounds(positions, differentials, unfold_rounds)
     return mesh.with_positions(torch.from_numpy(positions).to(mesh.v_pos.dtype))
+
+
+class SurfaceFit:
+    """The fit of one mesh's vertices onto a surface (``conform_to_surface``): the samples on
+    both surfaces, fixed for every round, and the queries on the surface.
+
+    Args:
+        mesh: the mesh to fit, ``[V, 3]`` positions and ``[T, 3]`` triangles (its samples are
+            drawn on its starting shape and keep their barycentrics).
+        surface: the input's surface.
+        samples: points drawn on each surface, uniform over the area.
+        smoothness: ``mu``, the Laplacian term's weight.
+    """
+
+    def __init__(self, mesh: Mesh, surface: Mesh, samples: int, smoothness: float, rng: np.random.Generator):
+        surface_pos, surface_tri = surface.v_pos.double().numpy(), surface.t_pos_idx.numpy()
+        self.on_surface = SurfaceQuery(surface_pos, surface_tri)
+        self.rays = RayCaster(surface_pos, surface_tri)
+        self.surface_normal = unit_face_normals(surface_pos, surface_tri)
+        self.reach = CONFORM_REACH * surface.bounding_sphere()[1]
+        triangle, barycentric = area_samples(surface_pos, surface_tri, samples, rng)
+        self.surface_points = np.einsum("nk,nkd->nd", barycentric, surface_pos[surface_tri[triangle]])
+        self.triangles, self.count, self.samples = mesh.t_pos_idx.numpy(), mesh.num_vertices, samples
+        self.sample_triangle, sample_barycentric = area_samples(mesh.v_pos.double().numpy(), self.triangles,
+                                                                samples, rng)
+        self.mesh_samples = barycentric_rows(self.triangles, self.sample_triangle, sample_barycentric, self.count)
+        laplacian = UniformLaplacian(mesh.t_pos_idx, self.count).matrix
+        indices = laplacian.indices().numpy()
+        self.laplacian = scipy.sparse.csr_matrix((laplacian.values().numpy(), (indices[0], indices[1])),
+                                                 shape=(self.count, self.count))
+        self.shape_weight = smoothness / self.count
+
+    def rounds(self, positions: np.ndarray, differentials: np.ndarray, count: int) -> np.ndarray:
+        """``positions [V, 3]`` float64 after ``count`` rounds, each recomputing the
+        correspondences and solving for the minimum of the energy with ``D = differentials [V, 3]``."""
+        lap, count_v = self.laplacian, self.count
+        shape_term, shape_rhs = lap.T @ lap * self.shape_weight, lap.T @ differentials * self.shape_weight
+        anchor = 1e-6 / count_v        # holds vertices no term reaches (on no triangle)
+        for _ in range(count):
+            points = self.mesh_samples @ positions
+            normals = unit_face_normals(positions, self.triangles)[self.sample_triangle]
+            targets = oriented_targets(points, normals, self.on_surface.closest(points), self.surface_normal,
+                                       self.rays, self.reach)
+            nearest = SurfaceQuery(positions, self.triangles).closest(self.surface_points)
+            covering = barycentric_rows(self.triangles, nearest.triangle, nearest.barycentric, count_v)
+            lhs = (self.mesh_samples.T @ self.mesh_samples + covering.T @ covering) / self.samples + shape_term
+            rhs = (self.mesh_samples.T @ targets + covering.T @ self.surface_points) / self.samples + shape_rhs
+            lhs = (lhs + anchor * scipy.sparse.identity(count_v)).tocsc()
+            positions = scipy.sparse.linalg.spsolve(lhs, rhs + anchor * positions)
+        return positions
+
+    def facing_against(self, positions: np.ndarray) -> np.ndarray:
+        """``[T]`` bool: triangles whose normal points away from the surface's normal at the
+        surface point closest to their centroid (negative dot product)."""
+        normals = unit_face_normals(positions, self.triangles)
+        nearest = self.on_surface.closest(positions[self.triangles].mean(axis=1))
+        return (normals * self.surface_normal[nearest.triangle]).sum(axis=1) < 0
 
 
 def unit_face_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
