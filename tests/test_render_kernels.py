@@ -4,19 +4,27 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import pytest
 import torch
+from mesh_factory import icosphere
 
 import lookalike.render as dr
-from lookalike.render.antialias import (neighbour_pairs_python, outline_walk_python, silhouette_edges,
-                                       silhouette_edges_python)
-from lookalike.render.barycentrics import (barycentrics_python, constant_triangle_coefficients, pixel_ndc,
-                                          triangle_coefficients)
+from lookalike.render.antialias import (
+    neighbour_pairs_python,
+    outline_walk_python,
+    silhouette_edges_python,
+)
+from lookalike.render.antialias_kernels import outline_crossings
+from lookalike.render.barycentrics import (
+    barycentrics_python,
+    constant_triangle_coefficients,
+    pixel_ndc,
+    triangle_coefficients,
+)
 from lookalike.render.interpolate import interpolate_python
 from lookalike.render.mipmap import build_pyramid
-from lookalike.render.antialias_kernels import outline_crossings
 from lookalike.render.texture import texture_python
-from mesh_factory import icosphere
 
 
 def random_mesh(n_views: int = 2, n_verts: int = 40, n_tris: int = 60):
@@ -57,25 +65,17 @@ def test_constant_triangle_coefficients_match_the_differentiable_ones(dtype):
     torch.testing.assert_close(fast, slow)
     with torch.no_grad():                   # a reference's render takes the compiled coefficients
         rast_fast, db_fast = dr.rasterize(None, pos, tri, (18, 22))
+    tri_id = rast_fast[..., 3].numpy().astype(np.int32)
+    shown = np.zeros((3, 60), dtype=bool)
+    for b in range(3):
+        shown[b, tri_id[b][tri_id[b] > 0] - 1] = True
+    assert 0 < shown.sum() < shown.size
+    some = constant_triangle_coefficients(pos, tri, tri_id)      # only the rows pixels look up
+    torch.testing.assert_close(some[torch.from_numpy(shown)], slow[torch.from_numpy(shown)])
+    assert not some[torch.from_numpy(~shown)].any()
     rast_slow, db_slow = dr.rasterize(None, pos.clone().requires_grad_(True), tri, (18, 22))
     torch.testing.assert_close(rast_fast, rast_slow.detach())
     torch.testing.assert_close(db_fast, db_slow.detach())
-
-
-@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
-def test_silhouette_kernel_matches_torch_twin(dtype):
-    pos, tri = bumpy_sphere_clip()
-    pos = pos.to(dtype)
-    topology = dr.antialias_construct_topology_hash(tri)
-    slow = silhouette_edges_python(pos, tri, topology.opposite)
-    fast = silhouette_edges(pos, tri, topology.opposite)
-    assert torch.equal(fast, slow)
-    assert 0 < slow.sum() < slow.numel() // 2                # some edges are outlines, most are not
-    open_tri = tri[:-5]                                      # open borders: every border edge is one
-    open_topology = dr.antialias_construct_topology_hash(open_tri)
-    assert (open_topology.opposite < 0).any()
-    assert torch.equal(silhouette_edges(pos, open_tri, open_topology.opposite),
-                       silhouette_edges_python(pos, open_tri, open_topology.opposite))
 
 
 @pytest.mark.parametrize(("shared_attr", "diff_attrs"), [(True, None), (True, "all"), (False, [2, 0])])
@@ -134,14 +134,24 @@ def bumpy_sphere_clip(n_views: int = 2, level: int = 2, seed: int = 0):
     return torch.stack(pos), sphere.t_pos_idx.long()
 
 
-def test_outline_kernel_matches_torch_twin():
+@pytest.mark.parametrize(("dtype", "open_border"), [(torch.float64, False), (torch.float32, False),
+                                                     (torch.float64, True)])
+def test_outline_kernel_matches_torch_twin(dtype, open_border):
+    """The compiled walk, which tests the edges it crosses for silhouettes as it goes, finds the
+    same outlines as the twin's walk over ``silhouette_edges_python`` of every edge (in
+    float64, as the kernel): on the closed bumpy sphere, and with five triangles cut out, where
+    every border edge is a silhouette."""
     pos, tri = bumpy_sphere_clip()
+    pos = pos.to(dtype)
+    tri = tri[:-5] if open_border else tri
     height, width = 40, 52
     rast, _ = dr.rasterize(None, pos, tri, (height, width))
     topology = dr.antialias_construct_topology_hash(tri)
-    silhouette = silhouette_edges(pos, tri, topology.opposite)
-    fast = outline_crossings(rast.numpy(), pos[..., [0, 1, 3]].contiguous().numpy(), tri.numpy(),
-                             topology.neighbour.numpy(), silhouette.numpy())
+    assert (topology.opposite < 0).any() == open_border
+    silhouette = silhouette_edges_python(pos.double(), tri, topology.opposite)
+    assert 0 < silhouette.sum() < silhouette.numel() // 2    # some edges are outlines, most are not
+    fast = outline_crossings(rast.numpy(), pos[..., [0, 1, 3]].double().contiguous().numpy(), tri.numpy(),
+                             topology.neighbour.numpy(), topology.opposite.numpy())
     front, other, start_tri, horizontal = neighbour_pairs_python(rast[..., 3].long(), rast[..., 2])
     assert torch.equal(rast[..., 3].reshape(-1)[front].long() - 1, start_tri)
     edge_tri, edge = outline_walk_python(pos, tri, topology.neighbour, silhouette, front, other, start_tri,

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import torch
 
-from . import antialias_kernels
 from .antialias_kernels import MAX_WALK, outline_crossings
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .inputs import check_rast_ids, check_triangles
@@ -32,16 +31,6 @@ class _ScaleGradient(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad: torch.Tensor):
         return grad * ctx.scale, None
-
-
-def silhouette_edges(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tensor) -> torch.Tensor:
-    """:func:`silhouette_edges_python` by a compiled loop (``antialias_kernels.silhouette_edges``):
-    the twin's ``[B, T, 3, 3]`` gathers were a third of a 4-million-triangle render."""
-    xyw = pos.detach()[..., [0, 1, 3]].contiguous()
-    silhouette = torch.empty(xyw.shape[0], tri.shape[0], 3, dtype=torch.bool)
-    antialias_kernels.silhouette_edges(xyw.numpy(), tri.long().contiguous().numpy(), opposite.contiguous().numpy(),
-                                       silhouette.numpy())
-    return silhouette
 
 
 def silhouette_edges_python(pos: torch.Tensor, tri: torch.Tensor, opposite: torch.Tensor) -> torch.Tensor:
@@ -214,7 +203,7 @@ def outline_blend(
     For every horizontally or vertically adjacent pixel pair whose triangle ids differ, the
     segment from the nearer (*front*) pixel centre ``P_f`` to the other, ``P_o``, is
     followed across interior edges until it crosses a silhouette edge (see
-    :func:`silhouette_edges` and :func:`.antialias_kernels.outline_crossings`), at
+    :func:`silhouette_edges_python` and :func:`.antialias_kernels.outline_crossings`), at
     ``alpha = e(P_f) / (e(P_f) - e(P_o))`` with that edge's function ``e``.  nvdiffrast
     looks at the front triangle's own edges only, which misses most of the outline of a
     finely tessellated mesh, whose silhouette triangles are grazing slivers.
@@ -243,13 +232,12 @@ def outline_blend(
     if pos_gradient_boost != 1.0:
         views = _ScaleGradient.apply(views, pos_gradient_boost)
 
-    silhouette = silhouette_edges(views, tri, topology.opposite)  # [B, T, 3]
     crossings = outline_crossings(
         rast.detach().contiguous().numpy(),
         views.detach()[..., [0, 1, 3]].double().contiguous().numpy(),
         tri.numpy(),
         topology.neighbour.numpy(),
-        silhouette.numpy(),
+        topology.opposite.numpy(),
     )
     front, other, horizontal, edge_tri, edge = (torch.from_numpy(a) for a in crossings)
     verts = triangle_vertices_xyw(views, tri, front // (height * width), edge_tri)  # [M, 3, 3]

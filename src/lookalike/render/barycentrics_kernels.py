@@ -105,14 +105,17 @@ def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
 
 
 @njit(cache=True, parallel=True)
-def triangle_coefficients_forward(xyw, tri, coef):
+def triangle_coefficients_forward(xyw, tri, shown, coef):
     """Fill ``coef [B, T, 9]`` with ``(c_0, c_1, c_0 + c_1 + c_2)``, ``c_i = v_j x v_k``
     (``(i, j, k)`` cyclic) of the vertices ``v = xyw[b, tri[t]]`` (``(x, y, w)``, ``xyw [B, V, 3]``,
-    ``tri [T, 3]`` int64): :func:`.barycentrics.triangle_coefficients` without its
-    ``[B, T, 3, 3]`` temporaries, in parallel over views and triangles."""
+    ``tri [T, 3]`` int64) where ``shown [B, T]`` bool, leaving the other rows as they are:
+    :func:`.barycentrics.triangle_coefficients` without its ``[B, T, 3, 3]`` temporaries, in
+    parallel over views and triangles."""
     n_views, n_tris = xyw.shape[0], tri.shape[0]
     for job in prange(n_views * n_tris):
         b, t = job // n_tris, job % n_tris
+        if not shown[b, t]:
+            continue
         for k in range(9):
             coef[b, t, k] = 0.0
         for i in range(3):
@@ -127,3 +130,14 @@ def triangle_coefficients_forward(xyw, tri, coef):
             coef[b, t, 6] += cx
             coef[b, t, 7] += cy
             coef[b, t, 8] += cw
+
+
+@njit(cache=True, parallel=True)
+def shown_triangles(tri_id, shown):
+    """Set ``shown[b, t]`` (``[B, T]`` bool, cleared by the caller) for every triangle ``t``
+    that a pixel of view ``b`` shows (``tri_id [B, H, W]`` int32, triangle + 1, 0 = none)."""
+    for b in prange(tri_id.shape[0]):
+        for y in range(tri_id.shape[1]):
+            for x in range(tri_id.shape[2]):
+                if tri_id[b, y, x] > 0:
+                    shown[b, tri_id[b, y, x] - 1] = True
