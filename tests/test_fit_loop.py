@@ -6,15 +6,24 @@ from __future__ import annotations
 
 import copy
 import math
+import os
+import signal
 
 import numpy as np
 import pytest
 import torch
+from test_fit_latent import make_latent
 
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.fit.checkpoint import CHECKPOINT_VERSION, Checkpointer, read_checkpoint
-from lookalike.fit.config import COLD_START, WARM_START, Config, loop_settings, objective
+from lookalike.fit.config import (
+    COLD_START,
+    WARM_START,
+    Config,
+    loop_settings,
+    objective,
+)
 from lookalike.fit.config_file import config_from_dict, config_to_dict
 from lookalike.fit.loop import SNAPSHOT_EVERY, Fitter, LoopSettings
 from lookalike.fit.objective import Objective
@@ -23,8 +32,6 @@ from lookalike.fit.training_views import Batch
 from lookalike.shading.camera import Camera
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render_coverage
-
-from test_fit_latent import make_latent
 
 SIZE = 4
 
@@ -214,6 +221,22 @@ def test_ctrl_c_writes_a_checkpoint_and_resume_continues_exactly(tmp_path):
     assert torch.equal(second.latent.v_pos, straight_fit.latent.v_pos)
 
 
+def test_ctrl_c_during_a_step_stops_the_loop_after_that_step():
+    """A SIGINT that arrives inside a step (here: while drawing the 14th view) lets the step
+    finish, then stops the loop as Ctrl-C does."""
+    calls = {"n": 0}
+
+    def signalling(asset, camera, light):
+        calls["n"] += 1
+        if calls["n"] == 14:
+            os.kill(os.getpid(), signal.SIGINT)
+        return toy_render(asset, camera, light)
+
+    result = fitter(config(iterations=24), draw=signalling).run(progress=False)
+    assert result.interrupted and result.iterations == 14 and len(result.losses) == 14
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_a_resume_from_a_periodic_checkpoint_continues_like_the_uninterrupted_run(tmp_path):
     """Written between steps (not on Ctrl-C), here after 10 of 16, with a validator's scores
     and the best state so far in it; the uninterrupted run is unaffected by writing it."""
@@ -317,8 +340,9 @@ class PositionTarget:
 
 
 def test_the_rolling_pool_refreshes_and_rebuilds_from_its_state():
-    from lookalike.fit.training_views import ViewPool, view_sampler
     from mesh_factory import icosphere
+
+    from lookalike.fit.training_views import ViewPool, view_sampler
 
     sampler = view_sampler(*icosphere(1).bounding_sphere())
     pool = ViewPool(PositionTarget(), sampler, size=4, seed=(7, 1), refresh_every=2, resolution=2)

@@ -35,8 +35,9 @@ def _command_module(name: str):
 
 class StopSignals:
     """While active, SIGTERM (what ``docker stop``, ``timeout``, Slurm and Ray send) stops the
-    run the way Ctrl-C does: it raises ``KeyboardInterrupt`` where the program is, so that the
-    loop writes its checkpoint and the best model so far. ``terminated`` tells which it was."""
+    run the way Ctrl-C does: it raises ``KeyboardInterrupt`` (where the program is, or, in the
+    optimisation loop, after the step under way: ``lookalike.interrupts``), so that the loop
+    writes its checkpoint and the best model so far. ``terminated`` tells which it was."""
 
     def __init__(self):
         self.terminated = False

@@ -13,8 +13,9 @@ latent clamp itself. Around that:
 - under a time budget the step count follows the clock;
 - with a ``CoreShare``, the loop gives cores to other busy programs while they run
   (``lookalike.threads``);
-- ``KeyboardInterrupt`` stops the loop cleanly; a ``Checkpointer`` writes the state
-  periodically and then, and ``load_state_dict`` continues from it exactly where it stopped.
+- ``KeyboardInterrupt`` stops the loop cleanly (Ctrl-C and SIGTERM are acted on between
+  steps, ``lookalike.interrupts``); a ``Checkpointer`` writes the state periodically and
+  then, and ``load_state_dict`` continues from it exactly where it stopped.
 """
 
 from __future__ import annotations
@@ -22,13 +23,14 @@ from __future__ import annotations
 import copy
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
+from ..interrupts import BetweenSteps
 from ..phases import phase
 from ..threads import CoreShare
 from .checkpoint import Checkpointer
@@ -282,26 +284,28 @@ class Fitter:
         if p.iteration == 0:
             self._score()
         try:
-            while p.total is None or p.iteration < p.total:
-                started = time.monotonic()
-                value = self.step()
-                durations.append(time.monotonic() - started)
-                p.seconds += durations[-1]
-                if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
-                        p.total is None or len(durations) % REPLAN_EVERY == 0):
-                    pace = float(np.mean(durations[1:][-REPLAN_EVERY:])) + self._validation_pace()
-                    left = seconds_available - (time.monotonic() - loop_start)
-                    p.total = p.iteration + max(0, int(left / pace))
-                bar.set_postfix(self._postfix(value), refresh=False)
-                bar.update(1 if seconds_available is None
-                           else min(time.monotonic() - loop_start, seconds_available) - bar.n)
-                if p.rollbacks_in_a_row >= self.settings.max_rollbacks:
-                    bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
-                    break
-                if self.checkpointer is not None and self.checkpointer.due():
-                    self.checkpointer.save(self.state_dict())
-                if self.cores is not None:
-                    self.cores.update()
+            with BetweenSteps() as stops:
+                while p.total is None or p.iteration < p.total:
+                    started = time.monotonic()
+                    value = self.step()
+                    durations.append(time.monotonic() - started)
+                    p.seconds += durations[-1]
+                    if seconds_available is not None and len(durations) > CALIBRATION_STEPS and (
+                            p.total is None or len(durations) % REPLAN_EVERY == 0):
+                        pace = float(np.mean(durations[1:][-REPLAN_EVERY:])) + self._validation_pace()
+                        left = seconds_available - (time.monotonic() - loop_start)
+                        p.total = p.iteration + max(0, int(left / pace))
+                    bar.set_postfix(self._postfix(value), refresh=False)
+                    bar.update(1 if seconds_available is None
+                               else min(time.monotonic() - loop_start, seconds_available) - bar.n)
+                    if p.rollbacks_in_a_row >= self.settings.max_rollbacks:
+                        bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
+                        break
+                    if self.checkpointer is not None and self.checkpointer.due():
+                        self.checkpointer.save(self.state_dict())
+                    if self.cores is not None:
+                        self.cores.update()
+                    stops.deliver()
         except KeyboardInterrupt:
             interrupted = True
             if self.checkpointer is not None:
