@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 import signal
 
 import numpy as np
@@ -222,19 +221,23 @@ def test_ctrl_c_writes_a_checkpoint_and_resume_continues_exactly(tmp_path):
 
 
 def test_ctrl_c_during_a_step_stops_the_loop_after_that_step():
-    """A SIGINT that arrives inside a step (here: while drawing the 14th view) lets the step
-    finish, then stops the loop as Ctrl-C does."""
+    """A SIGINT that arrives inside a step (here: while drawing the 14th view; its handler is
+    called as Python would call it) lets the step finish, then stops the loop as Ctrl-C does."""
     calls = {"n": 0}
 
     def signalling(asset, camera, light):
         calls["n"] += 1
         if calls["n"] == 14:
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.getsignal(signal.SIGINT)(signal.SIGINT, None)
         return toy_render(asset, camera, light)
 
-    result = fitter(config(iterations=24), draw=signalling).run(progress=False)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        result = fitter(config(iterations=24), draw=signalling).run(progress=False)
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert result.interrupted and result.iterations == 14 and len(result.losses) == 14
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_a_resume_from_a_periodic_checkpoint_continues_like_the_uninterrupted_run(tmp_path):
