@@ -140,12 +140,15 @@ class SurfaceFit:
         self.laplacian = scipy.sparse.csr_matrix((laplacian.values().numpy(), (indices[0], indices[1])),
                                                  shape=(self.count, self.count))
         self.shape_weight = smoothness / self.count
+        # the parts of the normal equations that no round changes
+        self.fixed_term = self.mesh_samples.T @ self.mesh_samples / samples \
+            + self.laplacian.T @ self.laplacian * self.shape_weight
 
     def rounds(self, positions: np.ndarray, differentials: np.ndarray, count: int) -> np.ndarray:
         """``positions [V, 3]`` float64 after ``count`` rounds, each recomputing the
         correspondences and solving for the minimum of the energy with ``D = differentials [V, 3]``."""
-        lap, count_v = self.laplacian, self.count
-        shape_term, shape_rhs = lap.T @ lap * self.shape_weight, lap.T @ differentials * self.shape_weight
+        count_v = self.count
+        shape_rhs = self.laplacian.T @ differentials * self.shape_weight
         anchor = 1e-6 / count_v        # holds vertices no term reaches (on no triangle)
         for _ in range(count):
             points = self.mesh_samples @ positions
@@ -154,7 +157,7 @@ class SurfaceFit:
                                        self.rays, self.reach)
             nearest = SurfaceQuery(positions, self.triangles).closest(self.surface_points)
             covering = barycentric_rows(self.triangles, nearest.triangle, nearest.barycentric, count_v)
-            lhs = (self.mesh_samples.T @ self.mesh_samples + covering.T @ covering) / self.samples + shape_term
+            lhs = covering.T @ covering / self.samples + self.fixed_term
             rhs = (self.mesh_samples.T @ targets + covering.T @ self.surface_points) / self.samples + shape_rhs
             lhs = (lhs + anchor * scipy.sparse.identity(count_v)).tocsc()
             positions = scipy.sparse.linalg.spsolve(lhs, rhs + anchor * positions)
