@@ -10,7 +10,7 @@ import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.shading import Camera, PointLight, look_at, perspective, render
-from lookalike.shading.pipeline import render_coverage
+from lookalike.shading.pipeline import box_downsample, render_coverage
 from lookalike.shading.texturing import TextureSampler, sample_texture
 from mesh_factory import icosphere
 
@@ -63,6 +63,17 @@ def emissive_material(rgb, alpha: float, mode: str) -> Material:
     """A material whose colour is its emission (black, no specular), with alpha."""
     return Material(kd=Texture.constant([0.0, 0.0, 0.0, alpha]), ks=Texture.constant(NO_SPECULAR),
                     emissive=Texture.constant(rgb), alpha_mode=mode, double_sided=True)
+
+
+@pytest.mark.parametrize("factor", [1, 2, 3])
+def test_box_downsample_averages_blocks(factor):
+    image = torch.rand(2, 3 * factor, 2 * factor, 4, dtype=torch.float64, requires_grad=True)
+    expected = torch.stack([torch.stack([image[:, r * factor:(r + 1) * factor, c * factor:(c + 1) * factor].mean(dim=(1, 2))
+                                         for c in range(2)], 1) for r in range(3)], 1)
+    torch.testing.assert_close(box_downsample(image, factor), expected)
+    weights = torch.rand(2, 3, 2, 4, dtype=torch.float64)
+    grad, = torch.autograd.grad((box_downsample(image, factor) * weights).sum(), image)
+    torch.testing.assert_close(grad, weights.repeat_interleave(factor, 1).repeat_interleave(factor, 2) / factor**2)
 
 
 def test_look_at_and_perspective():

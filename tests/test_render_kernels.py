@@ -23,7 +23,7 @@ from lookalike.render.barycentrics import (
     triangle_coefficients,
 )
 from lookalike.render.interpolate import interpolate_python
-from lookalike.render.mipmap import build_pyramid
+from lookalike.render.mipmap import texture_pyramid
 from lookalike.render.texture import texture_python
 
 
@@ -111,12 +111,28 @@ def test_texture_matches_torch_twin(filter_mode, boundary_mode, per_view, user_m
 
 def test_compiled_pyramid_matches_area_mips():
     tex = torch.rand(2, 12, 7, 3, dtype=torch.float64, requires_grad=True)
-    pyramid = build_pyramid(tex)
+    pyramid = texture_pyramid(tex)
     levels = [tex, *dr.texture_construct_mip(tex)]
     expected = torch.cat([level.reshape(-1, 3) for level in levels])
     torch.testing.assert_close(pyramid.table, expected)
     assert pyramid.heights.tolist() == [12, 6, 3, 1] and pyramid.widths.tolist() == [7, 3, 1, 1]
     torch.testing.assert_close(gradients([pyramid.table], tex), gradients([expected], tex))
+
+
+def test_a_prebuilt_pyramid_serves_lookups_as_a_pyramid_built_per_call():
+    tex = torch.rand(1, 16, 8, 3, dtype=torch.float64, requires_grad=True)
+    uv = torch.rand(2, 5, 4, 2, dtype=torch.float64, requires_grad=True)
+    uv_da = (torch.randn(2, 5, 4, 4, dtype=torch.float64) / 6).requires_grad_(True)
+    pyramid = dr.texture_pyramid(tex)
+    shared = dr.texture(tex, uv, uv_da, mip=pyramid)
+    per_call = dr.texture(tex, uv, uv_da)
+    twin = texture_python(tex, uv, uv_da, mip=pyramid)
+    torch.testing.assert_close(shared, per_call)
+    torch.testing.assert_close(twin, per_call)
+    inputs = [tex, uv, uv_da]
+    torch.testing.assert_close(gradients([shared], inputs), gradients([per_call], inputs))
+    with pytest.raises(ValueError, match="pyramid"):
+        dr.texture(tex[..., :2], uv, uv_da, mip=pyramid)
 
 
 def bumpy_sphere_clip(n_views: int = 2, level: int = 2, seed: int = 0):

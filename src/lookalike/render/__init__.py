@@ -27,9 +27,10 @@ mipmap kernels' twin is :func:`.mipmap.texture_construct_mip`.
 from .antialias import OutlineBlend, antialias, antialias_construct_topology_hash, outline_blend
 from .context import RasterizeContext, RasterizeCudaContext, RasterizeGLContext
 from .interpolate import interpolate
-from .mipmap import texture_construct_mip
+from .mipmap import texture_construct_mip, texture_pyramid
 from .peel import DepthPeeler
 from .rasterize import rasterize
+from .sampling import Pyramid
 from .texture import texture
 from .topology import EdgeTopology
 
@@ -41,6 +42,8 @@ __all__ = [
     "interpolate",
     "texture",
     "texture_construct_mip",
+    "texture_pyramid",
+    "Pyramid",
     "antialias",
     "antialias_construct_topology_hash",
     "EdgeTopology",

@@ -51,5 +51,7 @@ def check_rast_ids(rast: torch.Tensor, n_tris: int) -> None:
     if rast.dim() != 4 or rast.shape[-1] != 4:
         raise ValueError(f"rast must have shape [B, H, W, 4], got {tuple(rast.shape)}")
     ids = rast[..., 3].detach()
-    if ids.numel() and not (ids.min() >= 0 and ids.max() <= n_tris):
-        raise ValueError(f"rast names triangles beyond the {n_tris} of tri")
+    if ids.numel():
+        low, high = torch.aminmax(ids)  # one pass, not two
+        if low < 0 or high > n_tris:
+            raise ValueError(f"rast names triangles beyond the {n_tris} of tri")

@@ -5,7 +5,7 @@ pooling): output texel ``i`` of ``n_out`` averages input texels
 ``floor(i n_in / n_out) .. ceil((i + 1) n_in / n_out) - 1`` along each axis, so a 2x2 box
 filter when the input side is even.  Levels live in a flat ``[N, C]`` table, level
 blocks in ``[B, h, w]`` order starting at a row offset.  Used by
-:func:`.mipmap.build_pyramid`, whose plain-torch twin is :func:`.mipmap.texture_construct_mip`;
+:func:`.mipmap.texture_pyramid`, whose plain-torch twin is :func:`.mipmap.texture_construct_mip`;
 tests compare values and gradients.
 """
 

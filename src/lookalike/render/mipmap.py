@@ -1,6 +1,6 @@
 """Mip pyramids and the mip level (level of detail) of a texture footprint.
 
-:func:`build_pyramid` builds the pyramid with compiled loops (:mod:`.mip_kernels`) and a
+:func:`texture_pyramid` builds the pyramid with compiled loops (:mod:`.mip_kernels`) and a
 hand-written backward; :func:`texture_construct_mip` (nvdiffrast's API, plain torch) builds
 the same levels and is its twin in the tests.
 """
@@ -93,10 +93,11 @@ class _BuildPyramid(torch.autograd.Function):
         return grad[:n_base].reshape(ctx.tex_shape), None
 
 
-def build_pyramid(tex: torch.Tensor, max_mip_level: int | None = None) -> Pyramid:
+def texture_pyramid(tex: torch.Tensor, max_mip_level: int | None = None) -> Pyramid:
     """:class:`Pyramid` of ``tex [B, H, W, C]`` and the levels :func:`texture_construct_mip`
     would build, computed by compiled loops straight into one table (gradients reach
-    ``tex``)."""
+    ``tex``). Pass it as ``texture(tex, ..., mip=pyramid)`` to filter several lookups of the
+    same texels with one pyramid."""
     sizes = [tuple(tex.shape[1:3])] + mip_sizes(tex.shape[1], tex.shape[2], max_mip_level)
     table = _BuildPyramid.apply(tex.contiguous(), sizes)
     return Pyramid(table, sizes, tex.shape[0])

@@ -9,7 +9,7 @@ import numba
 import torch
 
 from . import texture_kernels as kernels
-from .mipmap import build_pyramid, footprint_level, texture_construct_mip
+from .mipmap import texture_pyramid, footprint_level, texture_construct_mip
 from .sampling import Pyramid, sample_bilinear, sample_nearest
 
 FILTER_MODES = {
@@ -63,7 +63,7 @@ def texture(
     uv: torch.Tensor,
     uv_da: torch.Tensor | None = None,
     mip_level_bias: torch.Tensor | None = None,
-    mip: list[torch.Tensor] | None = None,
+    mip: list[torch.Tensor] | Pyramid | None = None,
     filter_mode: str = "auto",
     boundary_mode: str = "wrap",
     max_mip_level: int | None = None,
@@ -79,9 +79,11 @@ def texture(
             :func:`interpolate` with ``diff_attrs``), which pick the mip level.
         mip_level_bias: ``[B, H, W]`` added to the mip level.
         mip: mip levels 1, 2, ... as a list of ``[B, h_l, w_l, C]`` tensors, each its own
-            variable (gradients go to each level); None builds the same levels as
-            :func:`texture_construct_mip` with compiled loops (faster; gradients reach
-            ``tex``).
+            variable (gradients go to each level); or a ``Pyramid`` from
+            :func:`.mipmap.texture_pyramid` of ``tex`` (nvdiffrast's opaque mip object: built
+            once, it serves every lookup of the same texels; ``max_mip_level`` is the
+            pyramid's); None builds the same levels as :func:`texture_construct_mip` with
+            compiled loops (faster than a list; gradients reach ``tex``).
         filter_mode: ``"nearest"``, ``"linear"`` (bilinear), ``"linear-mipmap-nearest"``
             (bilinear in the nearest level), ``"linear-mipmap-linear"`` (trilinear), or
             ``"auto"``: trilinear when ``uv_da`` or ``mip_level_bias`` is given, else bilinear.
@@ -103,7 +105,10 @@ def texture(
     filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
     n_views, height, width = uv.shape[:3]
     mipmapped = filter_mode in ("linear-mipmap-nearest", "linear-mipmap-linear")
-    pyramid = build_pyramid(tex, max_mip_level) if levels is None else Pyramid.from_levels(levels)
+    if isinstance(levels, Pyramid):
+        pyramid = levels
+    else:
+        pyramid = texture_pyramid(tex, max_mip_level) if levels is None else Pyramid.from_levels(levels)
     out = _Texture.apply(
         pyramid.table,
         uv.reshape(-1, 2),
@@ -120,8 +125,8 @@ def texture(
 
 def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level):
     """Validate the arguments of :func:`texture`; returns the concrete filter mode and the
-    list of levels to sample: ``[tex]`` without mipmapping, ``[tex, *mip]`` with user mips,
-    None when the mips are to be built from ``tex``."""
+    levels to sample: ``[tex]`` without mipmapping, ``[tex, *mip]`` with user mips, the given
+    ``Pyramid``, or None when the mips are to be built from ``tex``."""
     if filter_mode != "auto" and filter_mode not in FILTER_MODES:
         raise ValueError(f"filter_mode must be 'auto' or one of {tuple(FILTER_MODES)}, got {filter_mode!r}")
     if boundary_mode not in BOUNDARY_MODES:
@@ -141,6 +146,10 @@ def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, ma
         raise ValueError(f"filter_mode {filter_mode!r} needs uv_da or mip_level_bias")
     if mip is None:
         return filter_mode, None
+    if isinstance(mip, Pyramid):
+        if mip.table.shape[1] != tex.shape[3] or (int(mip.heights[0]), int(mip.widths[0])) != tuple(tex.shape[1:3]):
+            raise ValueError(f"the mip pyramid is not one of a texture shaped like tex {tuple(tex.shape)}")
+        return filter_mode, mip
     levels = [tex, *mip]
     return filter_mode, levels if max_mip_level is None else levels[: max_mip_level + 1]
 
@@ -150,7 +159,7 @@ def texture_python(
     uv: torch.Tensor,
     uv_da: torch.Tensor | None = None,
     mip_level_bias: torch.Tensor | None = None,
-    mip: list[torch.Tensor] | None = None,
+    mip: list[torch.Tensor] | Pyramid | None = None,
     filter_mode: str = "auto",
     boundary_mode: str = "wrap",
     max_mip_level: int | None = None,
@@ -162,12 +171,12 @@ def texture_python(
     view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
     if levels is None:
         levels = [tex, *texture_construct_mip(tex, max_mip_level)]
-    pyramid = Pyramid.from_levels(levels)
+    pyramid = levels if isinstance(levels, Pyramid) else Pyramid.from_levels(levels)
     if filter_mode in ("nearest", "linear"):
         sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
         out = sample(pyramid, None, view, flat_uv, boundary_mode)
         return out.reshape(n_views, height, width, -1)
-    top = float(len(levels) - 1)
+    top = float(pyramid.heights.shape[0] - 1)
     level = uv.new_zeros(n_views * height * width)
     if uv_da is not None:
         level = level + footprint_level(uv_da.reshape(-1, 4), tex.shape[1], tex.shape[2])

@@ -34,10 +34,13 @@ Conventions:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import torch
+import torch.nn.functional as F
 
 import lookalike.render as dr
+from lookalike.render.msaa import covered_sample_index, upsample_over
 
 from ..asset.normals import safe_normalize
 from . import bsdf
@@ -138,7 +141,8 @@ def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed:
 
 def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int):
     """One sample per ``factor x factor`` block for stochastic MSAA shading: a covered sample
-    of the block drawn uniformly at random (any of its samples where none is covered).
+    of the block drawn uniformly at random (any of its samples where none is covered), with
+    ``torch``'s global generator.
 
     Args:
         rast, rast_db: ``[B, H*factor, W*factor, 4]``.
@@ -148,30 +152,25 @@ def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: in
     """
     batch, high, wide = rast.shape[:3]
     height, width = high // factor, wide // factor
+    u = torch.rand(batch, height, width, dtype=rast.dtype, device=rast.device)
+    index = covered_sample_index(rast[..., 3], u, factor).reshape(-1)
 
-    def blocks(x: torch.Tensor) -> torch.Tensor:
-        return (x.reshape(batch, height, factor, width, factor, 4)
-                 .permute(0, 1, 3, 2, 4, 5).reshape(batch, height, width, factor * factor, 4))
+    def pick(image: torch.Tensor) -> torch.Tensor:
+        return image.reshape(-1, 4).index_select(0, index).reshape(batch, height, width, 4)
 
-    rast_blocks, db_blocks = blocks(rast), blocks(rast_db)
-    covered = (rast_blocks[..., 3] > 0).to(rast.dtype)
-    priority = covered + torch.rand(covered.shape, device=rast.device, dtype=rast.dtype) * 0.5
-    choice = priority.argmax(dim=-1)[..., None, None].expand(-1, -1, -1, 1, 4)
-    return rast_blocks.gather(3, choice).squeeze(3), db_blocks.gather(3, choice).squeeze(3)
+    return pick(rast), pick(rast_db)
 
 
 def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
                      factor: int) -> torch.Tensor:
     """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel at
-    a random covered sample (stochastic MSAA, see the module docstring); coverage (alpha) stays
-    per sample."""
+    a random covered sample (stochastic MSAA, see the module docstring). Returns the pixels'
+    straight-alpha colour ``[B, H, W, 4]``; ``upsample_over`` composites it over the samples,
+    with coverage per sample."""
     low_rast, low_db = random_covered_samples(rast, rast_db, factor)
     batch, high, wide = needed.shape
     low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
-    colour = shade_layer(frame, low_rast, low_db, low_needed)
-    colour = colour.repeat_interleave(factor, dim=1).repeat_interleave(factor, dim=2)
-    covered = (rast[..., 3:4] > 0).to(colour)
-    return torch.cat([colour[..., :3], colour[..., 3:4] * covered], dim=-1)
+    return shade_layer(frame, low_rast, low_db, low_needed)
 
 
 def background_image(background, batch: int, height: int, width: int, factor: int,
@@ -209,8 +208,9 @@ def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
     """Average ``factor x factor`` blocks of ``image [B, H*factor, W*factor, C]`` -> ``[B, H, W, C]``."""
     if factor == 1:
         return image
-    batch, high, wide, channels = image.shape
-    return image.reshape(batch, high // factor, factor, wide // factor, factor, channels).mean(dim=(2, 4))
+    # avg_pool2d on the channels-last view: 4x faster than a mean over the reshaped blocks'
+    # dims, and its backward 2-3x (on 1024^2 x 4 at 2 x 2: 3.6 ms + 5.6 ms against 14 + 11-18).
+    return F.avg_pool2d(image.permute(0, 3, 1, 2), factor).permute(0, 2, 3, 1)
 
 
 def image_size(resolution) -> tuple[int, int]:
@@ -246,24 +246,27 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     buffers = mesh_buffers(asset, camera)
     topology = edge_topology(asset, buffers)
     frame = Frame(asset, buffers, camera, light)
-    shaded = []  # (rast, colour) per layer, nearest first
+    shaded = []  # (rast, over) per layer, nearest first: over(accum) composites the layer over accum
     transmittance = buffers.clip.new_ones(camera.batch_size, *full)
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full) as peeler:
-        for _ in range(layers):
+        for layer in range(layers):
             rast, rast_db = peeler.rasterize_next_layer()
             needed = (rast[..., 3] > 0) & (transmittance > 0)
             if not needed.any():
                 break
             if msaa and spp > 1:
                 colour = shade_layer_msaa(frame, rast, rast_db, needed, spp)
+                over = partial(upsample_over, colour=colour, ids=rast[..., 3], factor=spp)
             else:
                 colour = shade_layer(frame, rast, rast_db, needed)
-            transmittance = transmittance * (1.0 - colour[..., 3].detach())
-            shaded.append((rast, colour))
+                over = partial(composite_over, colour=colour)
+            shaded.append((rast, over))
+            if layer + 1 < layers:
+                with torch.no_grad():
+                    transmittance = transmittance * (1.0 - over(torch.zeros_like(rast))[..., 3])
     accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
-    for rast, colour in reversed(shaded):
-        accum = dr.antialias(composite_over(accum, colour).contiguous(), rast, buffers.clip, buffers.tri,
-                             topology_hash=topology)
+    for rast, over in reversed(shaded):
+        accum = dr.antialias(over(accum).contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)
     return box_downsample(accum, spp).flip(1)
 
 

@@ -63,7 +63,7 @@ class _Stack:
 
     textures: list[Texture]
     data: torch.Tensor
-    mips: list[torch.Tensor] | None = None
+    mips: list[torch.Tensor] | dr.Pyramid | None = None
 
 
 class TextureSampler:
@@ -71,24 +71,25 @@ class TextureSampler:
 
     Textures of one material that share size, UV set, transform and wrap mode (typically
     base colour, specular and normal map) are stacked channel-wise and filtered in one lookup.
-    Each stack's mip pyramid (``dr.texture_construct_mip``, differentiable) is built at most
-    once per sampler: it depends only on the texels, so one serves every layer and view of a
-    render. Textures with their own ``mips`` (latent prefiltered levels) use those.
+    Each stack's mip pyramid (``dr.texture_pyramid``, compiled, differentiable) is built at
+    most once per sampler: it depends only on the texels, so one serves every layer and view
+    of a render. Textures with their own ``mips`` (latent prefiltered levels) use those.
     """
 
     def __init__(self):
         self._stacks: dict[tuple[int, ...], _Stack] = {}
 
-    def _stack(self, textures: list[Texture], mipmapped: bool) -> tuple[torch.Tensor, list[torch.Tensor] | None]:
-        """``([1, H, W, sum C] texels, mip levels 1.. [1, h, w, sum C] or None)`` of
-        ``textures``; the pyramid is built on the first mipmapped request."""
+    def _stack(self, textures: list[Texture], mipmapped: bool) -> tuple[torch.Tensor, list[torch.Tensor] | dr.Pyramid | None]:
+        """``([1, H, W, sum C] texels, their mips or None)`` of ``textures``: the mips are the
+        textures' own levels 1.. ``[1, h, w, sum C]`` or a ``dr.Pyramid`` built on the first
+        mipmapped request."""
         key = tuple(id(t) for t in textures)
         if key not in self._stacks:
             self._stacks[key] = _Stack(textures, torch.cat([t.data for t in textures], dim=-1)[None])
         stack = self._stacks[key]
         if mipmapped and stack.mips is None:
             own = textures[0].mips
-            stack.mips = [level[None] for level in own] if own is not None else dr.texture_construct_mip(stack.data)
+            stack.mips = [level[None] for level in own] if own is not None else dr.texture_pyramid(stack.data)
         return stack.data, stack.mips if mipmapped else None
 
     def sample(self, textures: list[Texture], uv_of: UVLookup, count: int) -> list[torch.Tensor]:
