@@ -9,8 +9,6 @@ the rows of the low-resolution image in parallel, and each pixel writes only its
 
 from __future__ import annotations
 
-import math
-
 from numba import njit, prange
 
 
@@ -33,7 +31,7 @@ def covered_sample_index(ids, u, factor, out):
                     if ids[b, y * factor + sy, x * factor + sx] > 0:
                         covered += 1
             pool = covered if covered > 0 else factor * factor
-            target = min(int(math.floor(u[b, y, x] * pool)), pool - 1)
+            target = min(int(u[b, y, x] * pool), pool - 1)  # u * pool >= 0: truncation is floor
             seen = 0
             chosen = 0
             for slot in range(factor * factor):

@@ -9,7 +9,7 @@ import numba
 import torch
 
 from . import texture_kernels as kernels
-from .mipmap import texture_pyramid, footprint_level, texture_construct_mip
+from .mipmap import footprint_level, texture_construct_mip, texture_pyramid
 from .sampling import Pyramid, sample_bilinear, sample_nearest
 
 FILTER_MODES = {

@@ -14,8 +14,8 @@ maps show as grain wherever the filter is narrower. Lookups therefore take the f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import torch
 
