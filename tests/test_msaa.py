@@ -8,6 +8,8 @@ import torch
 from lookalike.render.msaa import (
     covered_sample_index,
     covered_sample_index_python,
+    pick_samples,
+    pick_samples_python,
     upsample_over,
     upsample_over_python,
 )
@@ -47,6 +49,19 @@ def test_covered_sample_index_is_uniform_over_the_covered_samples():
     counts = torch.bincount(picks, minlength=4).float() / picks.numel()
     assert counts[0] == 0
     torch.testing.assert_close(counts[1:], torch.full((3,), 1 / 3), atol=0.03, rtol=0)
+
+
+def test_picking_samples_matches_twin_in_values_and_gradients():
+    ids = sample_ids(2, 4, 3, 2, seed=6)
+    index = covered_sample_index(ids, torch.rand(2, 4, 3, generator=torch.Generator().manual_seed(7)), 2)
+    image = torch.rand(2, 8, 6, 4, dtype=torch.float64, requires_grad=True)
+    fast, slow = pick_samples(image, index), pick_samples_python(image, index)
+    torch.testing.assert_close(fast, slow)
+    weights = torch.randn(fast.shape, dtype=torch.float64)
+    fast_grad, = torch.autograd.grad((fast * weights).sum(), image)
+    slow_grad, = torch.autograd.grad((slow * weights).sum(), image)
+    torch.testing.assert_close(fast_grad, slow_grad)
+    assert int((fast_grad != 0).any(-1).sum()) == index.numel()
 
 
 @pytest.mark.parametrize("factor", [1, 2, 3])

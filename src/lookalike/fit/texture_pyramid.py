@@ -76,7 +76,7 @@ class TexturePyramid(torch.nn.Module):
                 total = term.contiguous()
             else:
                 total = F.interpolate(total, size=term.shape[-2:], mode="bilinear", align_corners=False) + term
-        return total[0].permute(1, 2, 0)
+        return total.squeeze(0).permute(1, 2, 0)  # a view: indexing [0] would copy in the backward
 
     @torch.no_grad()
     def clamp_(self, low, high) -> None:

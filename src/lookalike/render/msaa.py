@@ -1,10 +1,11 @@
 """Stochastic MSAA: visibility at ``f x f`` samples per pixel, shading once per pixel.
 
 :func:`covered_sample_index` picks the sample each pixel is shaded at (uniformly among its
-covered samples) and :func:`upsample_over` composites the shaded pixels over the samples, each
-in one compiled pass (:mod:`.msaa_kernels`) instead of the dozen full-size torch operations
-(block reshapes, random priorities, argmax, gathers, repeats, concatenations, lerp) that do the
-same; ``*_python`` are their plain-torch twins.
+covered samples), :func:`pick_samples` reads those samples of an image, and
+:func:`upsample_over` composites the shaded pixels over the samples, each in one compiled pass
+(:mod:`.msaa_kernels`) instead of the dozen full-size torch operations (block reshapes, random
+priorities, argmax, gathers, scatters, repeats, concatenations, lerp) that do the same;
+``*_python`` are their plain-torch twins.
 """
 
 from __future__ import annotations
@@ -49,6 +50,37 @@ def covered_sample_index_python(ids: torch.Tensor, u: torch.Tensor, factor: int)
     row = torch.arange(height)[:, None] * factor + slot // factor
     col = torch.arange(width)[None, :] * factor + slot % factor
     return (torch.arange(batch)[:, None, None] * height * factor + row) * (width * factor) + col
+
+
+class _PickSamples(torch.autograd.Function):
+    """``(image [M, C], index [N])`` -> ``image[index]`` ``[N, C]``; the backward scatters with the
+    compiled loop (the indices are distinct)."""
+
+    @staticmethod
+    def forward(ctx, image, index):
+        ctx.save_for_backward(index)
+        ctx.rows = image.shape[0]
+        return image.index_select(0, index)
+
+    @staticmethod
+    def backward(ctx, grad):
+        index, = ctx.saved_tensors
+        grad_image = grad.new_zeros(ctx.rows, grad.shape[1])
+        msaa_kernels.scatter_rows(grad.contiguous().numpy(), index.numpy(), grad_image.numpy())
+        return grad_image, None
+
+
+def pick_samples(image: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """``[B, H, W, C]``: the sample of ``image [B, H f, W f, C]`` each pixel is shaded at, for
+    ``index [B, H, W]`` from :func:`covered_sample_index`. Differentiable in ``image``."""
+    batch, height, width = index.shape
+    flat = _PickSamples.apply(image.reshape(-1, image.shape[-1]), index.reshape(-1))
+    return flat.reshape(batch, height, width, image.shape[-1])
+
+
+def pick_samples_python(image: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """Plain-torch twin of :func:`pick_samples` (same contract), the tests' oracle."""
+    return image.reshape(-1, image.shape[-1])[index.reshape(-1)].reshape(*index.shape, image.shape[-1])
 
 
 class _UpsampleOver(torch.autograd.Function):

@@ -1,8 +1,10 @@
 """Compiled loops of stochastic MSAA (:mod:`.msaa`): choosing the sample a pixel is shaded at,
-and compositing the shaded pixels over the samples, forward and hand-written backward.
+the backward of reading it, and compositing the shaded pixels over the samples, forward and
+hand-written backward.
 
-The plain-torch twins are :func:`.msaa.covered_sample_index_python` and
-:func:`.msaa.upsample_over_python`; tests compare values and gradients. Every loop runs over
+The plain-torch twins are :func:`.msaa.covered_sample_index_python`,
+:func:`.msaa.pick_samples_python` and :func:`.msaa.upsample_over_python`; tests compare values
+and gradients. Every loop runs over
 the rows of the low-resolution image in parallel, and each pixel writes only its own
 ``f x f`` block of samples, so no two threads write the same element.
 """
@@ -43,6 +45,16 @@ def covered_sample_index(ids, u, factor, out):
                     seen += 1
             sy, sx = chosen // factor, chosen % factor
             out[b, y, x] = (b * high + y * factor + sy) * wide + x * factor + sx
+
+
+@njit(cache=True, parallel=True)
+def scatter_rows(values, index, out):
+    """``out[index[i]] = values[i]`` for ``values [N, C]`` and distinct ``index [N]`` (``out``
+    zeroed by the caller): the gradient of reading rows ``index`` of ``out``'s shape (torch's
+    serial ``index_add_`` takes 7 ms for 262k rows of 4 into 1M)."""
+    for i in prange(index.shape[0]):
+        for ch in range(values.shape[1]):
+            out[index[i], ch] = values[i, ch]
 
 
 @njit(cache=True, parallel=True)

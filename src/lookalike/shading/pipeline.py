@@ -40,7 +40,7 @@ import torch
 import torch.nn.functional as F
 
 import lookalike.render as dr
-from lookalike.render.msaa import covered_sample_index, upsample_over
+from lookalike.render.msaa import covered_sample_index, pick_samples, upsample_over
 
 from ..asset.normals import safe_normalize
 from . import bsdf
@@ -153,12 +153,8 @@ def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: in
     batch, high, wide = rast.shape[:3]
     height, width = high // factor, wide // factor
     u = torch.rand(batch, height, width, dtype=rast.dtype, device=rast.device)
-    index = covered_sample_index(rast[..., 3], u, factor).reshape(-1)
-
-    def pick(image: torch.Tensor) -> torch.Tensor:
-        return image.reshape(-1, 4).index_select(0, index).reshape(batch, height, width, 4)
-
-    return pick(rast), pick(rast_db)
+    index = covered_sample_index(rast[..., 3], u, factor)
+    return pick_samples(rast, index), pick_samples(rast_db, index)
 
 
 def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
