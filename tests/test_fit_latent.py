@@ -56,15 +56,19 @@ def test_the_parameter_groups_hold_every_parameter_once():
     assert sorted(grouped) == sorted(id(p) for p in latent.parameters()) and len(set(grouped)) == len(grouped)
 
 
-def test_clamp_projects_every_texture_into_the_stored_limits():
+def test_reading_projects_every_texture_into_the_stored_limits():
     latent = make_latent(limits=ClampConfig(roughness=(0.1, 0.9), normal_max_slope=2.0),
                          texture_scales=(0.5, 1.0, 1.0))
     with torch.no_grad():
         for pyramid in (latent.kd, latent.ks, latent.normal):
             for level in pyramid.levels:
                 level.copy_(10 * torch.randn_like(level))
-    latent.clamp_()
     kd, ks, normal = (channel().detach() for channel in (latent.kd, latent.ks, latent.normal))
+    stored = [channel.levels[0].detach().clone() for channel in (latent.kd, latent.ks, latent.normal)]
+    again = [channel().detach() for channel in (latent.kd, latent.ks, latent.normal)]
+    for first, second, level, channel in zip((kd, ks, normal), again, stored, (latent.kd, latent.ks, latent.normal)):
+        torch.testing.assert_close(second, first)  # the projection was written back: a second read changes nothing
+        torch.testing.assert_close(channel.levels[0].detach(), level)  # up to rounding of the re-summed texels
     assert kd.min() >= -1e-5 and kd.max() <= 1 + 1e-5
     assert ks[..., 1].min() >= 0.1 - 1e-5 and ks[..., 1].max() <= 0.9 + 1e-5
     assert ks[..., 0].min() >= -1e-5 and ks[..., 2].max() <= 1 + 1e-5 and ks.min() >= -1e-5

@@ -59,14 +59,26 @@ def test_a_coarse_level_spreads_one_texel_s_gradient_and_the_fine_level_is_scale
     assert coarse.sum() == pytest.approx(1.0) and coarse.count_nonzero() > 1  # bilinear weights
 
 
-def test_clamp_takes_the_excess_off_the_finest_level_only():
-    pyramid = TexturePyramid(torch.full((8, 8, 1), 0.5), (0.5, 1.0))
+def test_reading_takes_the_excess_off_the_finest_level_only():
+    pyramid = TexturePyramid(torch.full((8, 8, 1), 0.5), (0.5, 1.0), low=0.0, high=1.0)
     with torch.no_grad():
         pyramid.levels[1][0, 0, 0] = 2.0
     coarse = pyramid.levels[1].detach().clone()
-    pyramid.clamp_(0.0, 1.0)
-    assert pyramid().max() <= 1.0 + 1e-6 and pyramid().min() >= 0.0
+    unbounded = compose_python([level.detach() for level in pyramid.levels], pyramid.scales)
+    assert unbounded.max() > 1.5
+    texture = pyramid()
+    torch.testing.assert_close(texture, unbounded.clamp(0.0, 1.0))
     assert torch.equal(pyramid.levels[1].detach(), coarse)
+    torch.testing.assert_close(compose_python([level.detach() for level in pyramid.levels], pyramid.scales), texture.detach())
+
+
+def test_the_projection_passes_gradients_to_every_level_as_the_sum_does():
+    pyramid = TexturePyramid(torch.full((8, 8, 1), 2.0), (0.5, 1.0), low=0.0, high=1.0)
+    pyramid()[3, 3, 0].backward()
+    unbounded = TexturePyramid(torch.full((8, 8, 1), 2.0), (0.5, 1.0))
+    unbounded()[3, 3, 0].backward()
+    for bounded_level, level in zip(pyramid.levels, unbounded.levels):
+        torch.testing.assert_close(bounded_level.grad, level.grad)
 
 
 def scan_like(colour=(0.75, 0.72, 0.68, 1.0), textured: bool = False) -> Asset:

@@ -58,7 +58,7 @@ class TexturedMesh(torch.nn.Module):
         kd, ks: initial textures as above (``[S, S, C]`` or ``[1, 1, C]``).
         normal: initial ``[S, S, 3]`` tangent-space normals (z > 0), converted to slopes.
         centre, radius: the unit frame.
-        limits: the valid ranges ``clamp_`` projects onto.
+        limits: the valid ranges the textures are projected onto (whenever they are read).
         msaa: visibility samples per axis when rendering (shading once per pixel).
         alpha_mode: the material's glTF alpha mode (``"OPAQUE"`` unless alpha is trained).
         double_sided: whether the material renders back faces.
@@ -99,6 +99,19 @@ class TexturedMesh(torch.nn.Module):
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
         self.register_buffer("occlusion", None if occlusion is None else occlusion.float().clone())
+        self._bound_textures()
+
+    def _bound_textures(self) -> None:
+        """Give each texture pyramid the ranges of ``limits`` (it projects itself onto them
+        whenever it is read): kd into ``limits.kd``, each specular channel into its range, each
+        normal slope into [-limits.normal_max_slope, limits.normal_max_slope], emission >= 0."""
+        limits = self.limits
+        self.kd.set_bounds(*limits.kd)
+        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=torch.float32)
+        self.ks.set_bounds(ranges[:, 0], ranges[:, 1])
+        self.normal.set_bounds(-limits.normal_max_slope, limits.normal_max_slope)
+        if self.emissive is not None:
+            self.emissive.set_bounds(0.0, None)
 
     @classmethod
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
@@ -124,7 +137,6 @@ class TexturedMesh(torch.nn.Module):
                      msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
                      **_emission_and_occlusion(material, size))
-        latent.clamp_()
         return latent
 
     def get_extra_state(self) -> dict:
@@ -137,6 +149,7 @@ class TexturedMesh(torch.nn.Module):
         self.wrap = state["wrap"]
         self.msaa = state["msaa"]
         self.limits = ClampConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in state["limits"].items()})
+        self._bound_textures()
 
     @property
     def trains_alpha(self) -> bool:
@@ -213,16 +226,9 @@ class TexturedMesh(torch.nn.Module):
 
     @torch.no_grad()
     def clamp_(self) -> None:
-        """Project the textures onto their valid ranges in place: kd into ``limits.kd``, each
-        specular channel into its range, each normal slope into
-        [-limits.normal_max_slope, limits.normal_max_slope]."""
-        limits = self.limits
-        self.kd.clamp_(*limits.kd)
-        ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=torch.float32)
-        self.ks.clamp_(ranges[:, 0], ranges[:, 1])
-        self.normal.clamp_(-limits.normal_max_slope, limits.normal_max_slope)
-        if self.emissive is not None:
-            self.emissive.clamp_(0.0, float("inf"))
+        """Nothing to do: the texture pyramids project themselves onto ``limits`` whenever they
+        are read (``_bound_textures``), so the loop's call after every update costs nothing and
+        each pyramid is summed once per step, by the render."""
 
 
 def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:
