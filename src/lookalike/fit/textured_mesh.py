@@ -224,7 +224,6 @@ class TexturedMesh(torch.nn.Module):
         mesh (the relative term itself is zero at the start)."""
         return {"laplacian": float((self.rest_delta ** 2).sum(dim=-1).mean())}
 
-    @torch.no_grad()
     def clamp_(self) -> None:
         """Nothing to do: the texture pyramids project themselves onto ``limits`` whenever they
         are read (``_bound_textures``), so the loop's call after every update costs nothing and

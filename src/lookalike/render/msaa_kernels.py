@@ -4,9 +4,9 @@ hand-written backward.
 
 The plain-torch twins are :func:`.msaa.covered_sample_index_python`,
 :func:`.msaa.pick_samples_python` and :func:`.msaa.upsample_over_python`; tests compare values
-and gradients. Every loop runs over
-the rows of the low-resolution image in parallel, and each pixel writes only its own
-``f x f`` block of samples, so no two threads write the same element.
+and gradients. The loops run in parallel over the rows of the low-resolution image (or the
+picked samples), and each pixel writes only its own ``f x f`` block of samples (or its own
+row), so no two threads write the same element.
 """
 
 from __future__ import annotations

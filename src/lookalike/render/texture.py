@@ -105,10 +105,7 @@ def texture(
     filter_mode, levels = _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level)
     n_views, height, width = uv.shape[:3]
     mipmapped = filter_mode in ("linear-mipmap-nearest", "linear-mipmap-linear")
-    if isinstance(levels, Pyramid):
-        pyramid = levels
-    else:
-        pyramid = texture_pyramid(tex, max_mip_level) if levels is None else Pyramid.from_levels(levels)
+    pyramid = texture_pyramid(tex, max_mip_level) if levels is None else _as_pyramid(levels)
     out = _Texture.apply(
         pyramid.table,
         uv.reshape(-1, 2),
@@ -121,6 +118,11 @@ def texture(
         BOUNDARY_MODES[boundary_mode],
     )
     return out.reshape(n_views, height, width, -1)
+
+
+def _as_pyramid(levels: list[torch.Tensor] | Pyramid) -> Pyramid:
+    """The ``Pyramid`` of ``_prepare``'s levels (a given one as it is)."""
+    return levels if isinstance(levels, Pyramid) else Pyramid.from_levels(levels)
 
 
 def _prepare(tex, uv, uv_da, mip_level_bias, mip, filter_mode, boundary_mode, max_mip_level):
@@ -171,7 +173,7 @@ def texture_python(
     view = torch.arange(n_views, device=uv.device).repeat_interleave(height * width) if tex.shape[0] > 1 else None
     if levels is None:
         levels = [tex, *texture_construct_mip(tex, max_mip_level)]
-    pyramid = levels if isinstance(levels, Pyramid) else Pyramid.from_levels(levels)
+    pyramid = _as_pyramid(levels)
     if filter_mode in ("nearest", "linear"):
         sample = sample_nearest if filter_mode == "nearest" else sample_bilinear
         out = sample(pyramid, None, view, flat_uv, boundary_mode)

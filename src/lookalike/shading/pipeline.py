@@ -250,7 +250,8 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
             needed = (rast[..., 3] > 0) & (transmittance > 0)
             if not needed.any():
                 break
-            if msaa and spp > 1:
+            sampled = msaa and spp > 1
+            if sampled:
                 colour = shade_layer_msaa(frame, rast, rast_db, needed, spp)
                 over = partial(upsample_over, colour=colour, ids=rast[..., 3], factor=spp)
             else:
@@ -258,8 +259,9 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
                 over = partial(composite_over, colour=colour)
             shaded.append((rast, over))
             if layer + 1 < layers:
-                with torch.no_grad():
-                    transmittance = transmittance * (1.0 - over(torch.zeros_like(rast))[..., 3])
+                with torch.no_grad():  # the samples' alpha: the pixels' spread over their covered samples
+                    alpha = over(torch.zeros_like(rast))[..., 3] if sampled else colour[..., 3]
+                    transmittance = transmittance * (1.0 - alpha)
     accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
     for rast, over in reversed(shaded):
         accum = dr.antialias(over(accum).contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)
