@@ -21,10 +21,11 @@ never import each other, ``jobs`` composes them):
 - ``lookalike.colour``  sRGB encoding and the paper's tone map
 """
 
-from . import kernel_cache
+from . import heap, kernel_cache
 from .version import __version__  # noqa: F401  (re-exported)
 
 kernel_cache.choose()
+heap.keep_freed_memory()
 
 
 def __getattr__(name: str):
