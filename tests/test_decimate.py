@@ -12,7 +12,8 @@ from scipy.sparse.csgraph import connected_components
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.init import decimate
-from lookalike.init.decimate import clean_triangles, row_ids
+from lookalike.init.decimate import clean_triangles, clean_triangles_python
+from lookalike.init.transfer import surface_patches, surface_patches_python
 from lookalike.init.weld import weld_vertices
 
 
@@ -184,26 +185,50 @@ def test_bad_targets_are_refused_clearly(target, message):
         decimate(icosphere(4), target)
 
 
-def test_clean_triangles_removes_degenerates_and_fins():
+@pytest.mark.parametrize("clean", [clean_triangles, clean_triangles_python])
+def test_clean_triangles_removes_degenerates_and_fins(clean):
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 2, 0]], dtype=np.float64)
     f = np.array([
         [0, 1, 2],            # kept
         [1, 3, 2],            # kept
-        [1, 3, 2],            # a repeat: dropped
+        [3, 2, 1],            # a repeat (a rotation of the one above): dropped
         [0, 0, 1],            # repeated index
         [0, 3, 4],            # zero area (collinear)
         [1, 2, 4], [4, 2, 1], # a fin: both orientations of one triple
     ])
-    out_v, out_f = clean_triangles(v, f)
+    out_v, out_f = clean(v, f)
     assert len(out_f) == 2 and len(out_v) == 4
     np.testing.assert_array_equal(out_v[out_f], v[f[:2]])
 
 
-def test_row_ids_match_numpy_unique_rows():
-    rows = np.random.default_rng(3).integers(0, 4, size=(500, 3))
-    expected = np.unique(rows, axis=0, return_inverse=True)[1].reshape(-1)
-    np.testing.assert_array_equal(row_ids(rows), expected)
-    assert len(row_ids(np.zeros((0, 3), np.int64))) == 0
+def test_clean_triangles_matches_its_sorting_twin_on_a_messy_soup():
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(40, 3))
+    v[30:] = v[:10]  # coincident copies (not welded here: different indices, same places)
+    f = rng.integers(0, 40, size=(3000, 3))  # repeats, both orientations, repeated indices
+    f[::7] = f[::7, [2, 1, 0]]
+    for got, expected in zip(clean_triangles(v, f), clean_triangles_python(v, f)):
+        np.testing.assert_array_equal(got, expected)
+    empty = clean_triangles(v, np.zeros((0, 3), np.int64))
+    assert empty[0].shape == (0, 3) and empty[1].shape == (0, 3)
+
+
+def test_surface_patches_match_their_twin_over_seams_materials_and_non_manifold_edges():
+    rng = np.random.default_rng(5)
+    n = 24  # a grid of n x n quads, two triangles each
+    corner = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).reshape(-1)
+    quads = np.stack([corner, corner + 1, corner + n + 1, corner + n + 2], -1)
+    tri = np.concatenate([quads[:, [0, 2, 1]], quads[:, [1, 2, 3]], quads[rng.choice(len(quads), 40), :3]])
+    grid = np.stack(np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij"), -1).reshape(-1, 2) / n
+    corner_uv = grid[tri].copy()
+    seam = rng.random(len(tri)) < 0.1
+    corner_uv[seam] += rng.choice([1e-6, 1e-3], size=(int(seam.sum()), 1, 1))  # within and beyond the tolerance
+    corner_uv[7, 1, 0] = np.nan
+    materials = (rng.random(len(tri)) < 0.05).astype(np.int64)
+    expected = surface_patches_python(tri, materials, corner_uv)
+    assert 1 < expected.max() < len(tri) - 1  # seams and materials split the grid, not into singletons
+    np.testing.assert_array_equal(surface_patches(tri, materials, corner_uv), expected)
+    np.testing.assert_array_equal(surface_patches(tri, materials, None), surface_patches_python(tri, materials, None))
 
 
 def test_real_textured_asset(shared_assets):

@@ -20,6 +20,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..asset.mesh import Mesh
 from .closest_point import SurfaceQuery
+from .index_tables import patch_labels
 from .weld import weld_tolerance, weld_vertices
 
 UV_SEAM_TOLERANCE = 1e-5           # UVs closer than this (in UV units) count as continuous
@@ -28,7 +29,7 @@ _VOTE_SHRINK = 0.5                 # corners move this fraction of the way to th
 
 def surface_patches(w_idx: np.ndarray, t_mat_idx: np.ndarray, corner_uv: np.ndarray | None) -> np.ndarray:
     """Patch label of each triangle: connected components of triangles that share a material
-    and an edge across which UVs are continuous.
+    and an edge across which UVs are continuous (``UV_SEAM_TOLERANCE``).
 
     Args:
         w_idx: ``[T, 3]`` int64 welded position indices.
@@ -36,8 +37,17 @@ def surface_patches(w_idx: np.ndarray, t_mat_idx: np.ndarray, corner_uv: np.ndar
         corner_uv: ``[T, 3, 2]`` float64 UV at each corner, or ``None`` (then a patch is a material).
 
     Returns:
-        ``[T]`` int64 labels, ``0 .. P-1``.
+        ``[T]`` int64 labels, ``0 .. P-1``, numbered in order of each patch's first triangle
+        (compiled: ``index_tables.patch_labels``; :func:`surface_patches_python` is the twin).
     """
+    if corner_uv is None:
+        return np.unique(t_mat_idx, return_inverse=True)[1].astype(np.int64)
+    return patch_labels(np.ascontiguousarray(w_idx, dtype=np.int64), np.ascontiguousarray(t_mat_idx, dtype=np.int64),
+                        np.ascontiguousarray(corner_uv, dtype=np.float64), UV_SEAM_TOLERANCE)
+
+
+def surface_patches_python(w_idx: np.ndarray, t_mat_idx: np.ndarray, corner_uv: np.ndarray | None) -> np.ndarray:
+    """Twin of :func:`surface_patches` by sorting the edges and scipy's connected components."""
     if corner_uv is None:
         return np.unique(t_mat_idx, return_inverse=True)[1].astype(np.int64)
     n = len(w_idx)

@@ -176,20 +176,24 @@ def _stack(parts: list[_Primitive], name: str, width: int, dtype) -> np.ndarray 
 
 
 def _stack_nan(parts: list[_Primitive], name: str, width: int) -> np.ndarray:
-    """``[n, width]`` float64 concatenation of a per-vertex attribute, NaN where a primitive lacks it."""
-    return np.concatenate([np.full((len(p.positions), width), np.nan) if getattr(p, name) is None
-                           else getattr(p, name).astype(np.float64) for p in parts])
+    """``[n, width]`` float32 concatenation of a per-vertex attribute, NaN where a primitive lacks it."""
+    return np.concatenate([np.full((len(p.positions), width), np.nan, np.float32) if getattr(p, name) is None
+                           else getattr(p, name).astype(np.float32) for p in parts])
 
 
 def _file_corner_normals(positions: np.ndarray, parts: list[_Primitive], corners: np.ndarray) -> np.ndarray:
     """``[T, 3, 3]`` float32 normals a glTF client uses at each corner: NORMAL where the primitive
     has it, else the flat triangle normal (glTF 2.0, Sec. 3.7.2.1) of the float32 ``positions``
-    ``[n, 3]`` (the concatenated per-vertex arrays)."""
+    ``[n, 3]`` (the concatenated per-vertex arrays), computed in float64 for the triangles that
+    need it."""
     normals = _stack_nan(parts, "normals", 3)[corners]
-    p = positions.astype(np.float64)[corners]
-    flat = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    flat /= np.maximum(np.linalg.norm(flat, axis=-1, keepdims=True), 1e-30)
-    return np.where(np.isnan(normals), flat[:, None, :], normals).astype(np.float32)
+    missing = np.flatnonzero(np.isnan(normals).any(axis=(1, 2)))
+    if len(missing):
+        p = positions.astype(np.float64)[corners[missing]]
+        flat = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        flat /= np.maximum(np.linalg.norm(flat, axis=-1, keepdims=True), 1e-30)
+        normals[missing] = np.where(np.isnan(normals[missing]), flat[:, None, :], normals[missing])
+    return normals
 
 
 def _merge(parts: list[_Primitive], path: Path) -> tuple[Mesh, np.ndarray]:
