@@ -17,6 +17,7 @@ import scipy.sparse.csgraph
 import torch
 
 from .edges import edge_index
+from .index_tables import first_occurrence_slots
 
 FALLBACK_NORMAL = (0.0, 0.0, 1.0)
 """Normal given to slots whose triangles all have zero area (or that no triangle uses)."""
@@ -191,9 +192,10 @@ def weld_normals(t_pos_idx: torch.Tensor, corner_normals: torch.Tensor) -> tuple
     """Slots of authored per-corner normals: one slot per distinct (position, normal) pair,
     normals compared bitwise (``-0.0`` equal to ``0.0``).
 
-    Each corner's key, position index and the three normals' bit patterns, is packed into two
-    int64 words and the keys sorted together (``np.lexsort``): a sort of N words, not of N rows
-    (``torch.unique(dim=0)`` took 8 s on a million triangles, this 1 s).
+    Each corner's normal is compared, bit for bit, with the distinct normals met so far at its
+    position (``index_tables.first_occurrence_slots``, compiled): one pass over the corners
+    (4 million triangles: 0.1-0.5 s, against 2.7-4.5 s for a ``np.lexsort`` of the keys and 8 s
+    per million triangles for ``torch.unique(dim=0)``).
 
     Args:
         t_pos_idx: ``[T, 3]`` int64 triangles.
@@ -203,19 +205,11 @@ def weld_normals(t_pos_idx: torch.Tensor, corner_normals: torch.Tensor) -> tuple
         ``corner_normals``, slots numbered in the order their first corner occurs.
     """
     normals = corner_normals.reshape(-1, 3).float() + 0.0
-    bits = normals.cpu().view(torch.int32).numpy().astype(np.int64) & 0xFFFFFFFF
-    high = (t_pos_idx.reshape(-1).cpu().numpy() << 32) | bits[:, 0]
-    low = (bits[:, 1] << 32) | bits[:, 2]
-    order = np.lexsort((low, high))                  # stable: a group's first corner comes first
-    high, low = high[order], low[order]
-    starts = np.ones(len(order), dtype=bool)
-    starts[1:] = (high[1:] != high[:-1]) | (low[1:] != low[:-1])
-    group = np.empty(len(order), dtype=np.int64)
-    group[order] = np.cumsum(starts) - 1
-    rank = np.empty(int(starts.sum()), dtype=np.int64)
-    rank[np.argsort(order[starts], kind="stable")] = np.arange(len(rank))
-    slot = torch.from_numpy(rank[group]).to(t_pos_idx.device)
-    v_nrm = normals.new_zeros(len(rank), 3).index_copy(0, slot, normals)
+    bits = normals.cpu().contiguous().view(torch.int32).numpy()
+    position = np.ascontiguousarray(t_pos_idx.reshape(-1).cpu().numpy(), np.int64)
+    slot_np, count = first_occurrence_slots(position, bits, int(position.max(initial=-1)) + 1)
+    slot = torch.from_numpy(slot_np).to(t_pos_idx.device)
+    v_nrm = normals.new_zeros(count, 3).index_copy(0, slot, normals)
     return v_nrm, slot.reshape(-1, 3)
 
 

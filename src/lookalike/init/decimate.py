@@ -27,10 +27,10 @@ from dataclasses import replace
 import fast_simplification
 import numpy as np
 
+from ..asset.index_tables import triple_copies
 from ..asset.mesh import Mesh
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
-from .index_tables import triple_copies
 from .transfer import transfer_attributes
 from .weld import weld_tolerance, weld_vertices
 

@@ -18,9 +18,9 @@ import torch
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ..asset.index_tables import patch_labels
 from ..asset.mesh import Mesh
 from .closest_point import SurfaceQuery
-from .index_tables import patch_labels
 from .weld import weld_tolerance, weld_vertices
 
 UV_SEAM_TOLERANCE = 1e-5           # UVs closer than this (in UV units) count as continuous
