@@ -87,3 +87,24 @@ def test_a_relit_pool_draws_fresh_lights_and_renders_them():
 def test_capture_takes_one_camera():
     with pytest.raises(ValueError, match="one camera"):
         capture_view(bumpy_textured_sphere(), Camera.cat([oblique_camera(), oblique_camera()]), 16)
+
+
+def test_a_fixed_asset_shares_its_texture_stacks_across_renders(monkeypatch):
+    """A reference's material stacks and mip pyramids are built at its first render and reused
+    by the next ones, which draw what a plain render draws; above the byte bound each render
+    builds its own."""
+    from lookalike.shading import pipeline
+
+    asset, camera = bumpy_textured_sphere(), oblique_camera()
+    fixed = pipeline.FixedAsset.of(asset)
+    stacks = []
+    for position in ([2.0, 2.0, 2.0], [-2.5, 0.5, 1.0]):
+        light = light_at(position, 15.0)
+        torch.testing.assert_close(render(fixed, camera, light, 40, spp=2), render(asset, camera, light, 40, spp=2))
+        stacks.append(list(fixed.sampler._stacks.values()))
+    assert len(stacks[0]) == 1 and stacks[0][0] is stacks[1][0] and stacks[1][0].mips is not None
+    maps = 32 * 32 * 4 + 32 * 32 * 3 + 3 + 3   # base colour, normal map, constant specular and emission
+    assert pipeline.texel_bytes(asset.materials) == 4 * maps
+
+    monkeypatch.setattr(pipeline, "SHARED_SAMPLER_TEXEL_BYTES", 4 * maps - 1)
+    assert pipeline.FixedAsset.of(asset).sampler is None

@@ -119,7 +119,8 @@ def light_points(points: SurfacePoints, light: PointLight) -> torch.Tensor:
 @dataclass
 class Frame:
     """What every layer of one ``render`` call shares: the asset, its per-render vertex
-    buffers, the views and lights, and the texture sampler (mip pyramids built once)."""
+    buffers, the views and lights, and the texture sampler (mip pyramids built once per
+    render, or once for all renders of a ``FixedAsset``)."""
 
     asset: object
     buffers: MeshBuffers
@@ -241,7 +242,7 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     full = (height * spp, width * spp)
     buffers = mesh_buffers(asset, camera)
     topology = edge_topology(asset, buffers)
-    frame = Frame(asset, buffers, camera, light)
+    frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
     shaded = []  # (rast, over) per layer, nearest first: over(accum) composites the layer over accum
     transmittance = buffers.clip.new_ones(camera.batch_size, *full)
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full) as peeler:
@@ -281,6 +282,19 @@ def tangent_uv_sets(asset) -> set[int]:
     return {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(asset.mesh.uv)}
 
 
+def texture_sampler(asset) -> TextureSampler:
+    """The sampler for one render of ``asset``: a ``FixedAsset``'s shared one where it keeps
+    one, else a new one (whose stacks and pyramids serve that render's layers and views)."""
+    shared = asset.sampler if isinstance(asset, FixedAsset) else None
+    return shared if shared is not None else TextureSampler()
+
+
+def texel_bytes(materials) -> int:
+    """Bytes of the distinct texture maps of ``materials``."""
+    maps = {id(t): t for m in materials for t in (m.kd, m.ks, m.normal, m.emissive, m.occlusion) if t is not None}
+    return sum(t.data.numel() * t.data.element_size() for t in maps.values())
+
+
 def edge_topology(asset, buffers: MeshBuffers) -> dr.EdgeTopology:
     """The antialiasing topology of ``buffers.tri`` (a ``FixedAsset``'s computed once)."""
     if isinstance(asset, FixedAsset):
@@ -288,27 +302,37 @@ def edge_topology(asset, buffers: MeshBuffers) -> dr.EdgeTopology:
     return dr.antialias_construct_topology_hash(buffers.tri)
 
 
+SHARED_SAMPLER_TEXEL_BYTES = 512 * 2**20
+"""A ``FixedAsset`` whose maps hold at most this many bytes keeps one ``TextureSampler`` for
+all its views: its material stacks and their mip pyramids (about 2.3 times the maps' bytes)
+are built once. Larger maps are stacked again for each render, as a latent's are."""
+
+
 @dataclass
 class FixedAsset:
-    """An asset whose geometry never changes (a reference), rendered as the asset is (it has
-    its ``mesh``, ``materials`` and ``source``), with what every view of it shares computed
-    once: ``MeshBuffers.without_camera`` and the antialiasing topology. On a 1-million-triangle
-    input these were 40 % of each view's capture.
+    """An asset that never changes (a reference), rendered as the asset is (it has its
+    ``mesh``, ``materials`` and ``source``), with what every view of it shares computed once:
+    ``MeshBuffers.without_camera`` and the antialiasing topology (on a 1-million-triangle input
+    these were 40 % of each view's capture), and the texture stacks with their mip pyramids
+    (a fifth of each pool refresh of the flight helmet).
 
     Attributes:
         asset: the asset; buffers: its ``MeshBuffers`` without a camera; topology: its
-            ``EdgeTopology``.
+            ``EdgeTopology``; sampler: the ``TextureSampler`` every view shares, or ``None``
+            where the maps exceed ``SHARED_SAMPLER_TEXEL_BYTES``.
     """
 
     asset: object
     buffers: MeshBuffers
     topology: dr.EdgeTopology
+    sampler: TextureSampler | None = None
 
     @staticmethod
     @torch.no_grad()
     def of(asset) -> FixedAsset:
         buffers = MeshBuffers.without_camera(asset.mesh, tangent_uv_sets(asset))
-        return FixedAsset(asset, buffers, dr.antialias_construct_topology_hash(buffers.tri))
+        shared = TextureSampler() if texel_bytes(asset.materials) <= SHARED_SAMPLER_TEXEL_BYTES else None
+        return FixedAsset(asset, buffers, dr.antialias_construct_topology_hash(buffers.tri), shared)
 
     @property
     def mesh(self):

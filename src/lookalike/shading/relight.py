@@ -36,9 +36,9 @@ from .pipeline import (
     light_points,
     mesh_buffers,
     surface_points,
+    texture_sampler,
 )
 from .surface import sample_surface
-from .texturing import TextureSampler
 
 
 @dataclass
@@ -98,7 +98,7 @@ def capture_view(asset, camera: Camera, resolution, spp: int = 1, dtype: torch.d
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, (height * spp, width * spp)) as peeler:
         rast, rast_db = peeler.rasterize_next_layer()
     gb = GBuffer.build(buffers, rast, rast_db)
-    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, TextureSampler(), getattr(asset, "source", None))
+    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, texture_sampler(asset), getattr(asset, "source", None))
     points = surface_points(gb, surface, camera)
     stored = {f.name: getattr(points, f.name) for f in fields(SurfacePoints)}
     stored = {name: value if value is None else value.to(torch.float32 if name in ("position", "normal") else dtype).clone()
