@@ -13,7 +13,7 @@ from test_pipeline import light_at, uv_sphere
 from lookalike.asset import Asset, Material, Texture
 from lookalike.fit.reference import MeshReference
 from lookalike.fit.training_views import ViewPool, light_sampler, view_sampler
-from lookalike.shading import Camera, render
+from lookalike.shading import Camera, pipeline, render
 from lookalike.shading.relight import capture_view
 
 
@@ -93,8 +93,6 @@ def test_a_fixed_asset_shares_its_texture_stacks_across_renders(monkeypatch):
     """A reference's material stacks and mip pyramids are built at its first render and reused
     by the next ones, which draw what a plain render draws; above the byte bound each render
     builds its own."""
-    from lookalike.shading import pipeline
-
     asset, camera = bumpy_textured_sphere(), oblique_camera()
     fixed = pipeline.FixedAsset.of(asset)
     stacks = []

@@ -95,3 +95,9 @@ class Material:
     @property
     def uses_alpha(self) -> bool:
         return self.alpha_mode != "OPAQUE"
+
+    @property
+    def textures(self) -> list[Texture]:
+        """The material's textures that are present: base colour, specular, then the normal
+        map, emission and occlusion where it has them."""
+        return [t for t in (self.kd, self.ks, self.normal, self.emissive, self.occlusion) if t is not None]

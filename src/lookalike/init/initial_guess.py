@@ -178,9 +178,7 @@ def reusable_source_material(asset: Asset, low_poly: Mesh) -> Material | None:
     if len(asset.materials) != 1 or not low_poly.uv:
         return None
     material = asset.materials[0]
-    textures = [t for t in (material.kd, material.ks, material.normal, material.emissive, material.occlusion)
-                if t is not None]
-    if any(t.uv_set != 0 or t.transform is not None for t in textures):
+    if any(t.uv_set != 0 or t.transform is not None for t in material.textures):
         return None
     return material
 

@@ -291,7 +291,7 @@ def texture_sampler(asset) -> TextureSampler:
 
 def texel_bytes(materials) -> int:
     """Bytes of the distinct texture maps of ``materials``."""
-    maps = {id(t): t for m in materials for t in (m.kd, m.ks, m.normal, m.emissive, m.occlusion) if t is not None}
+    maps = {id(t): t for m in materials for t in m.textures}
     return sum(t.data.numel() * t.data.element_size() for t in maps.values())
 
 
