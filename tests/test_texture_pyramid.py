@@ -3,22 +3,16 @@ untextured inputs, and the map-noise figure (``lookalike.report.map_noise``)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
-from lookalike.fit.texture_pyramid import TexturePyramid, level_sizes, upsample
+from lookalike.fit.texture_pyramid import TexturePyramid, compose, compose_python, level_sizes, upsample
 from lookalike.fit.textured_mesh import TexturedMesh, constant_channels
 from lookalike.report.map_noise import laplacian_residual_rms, map_noise
-
-
-def compose_python(levels: list[torch.Tensor], scales: tuple[float, ...]) -> torch.Tensor:
-    """The sum of the module docstring, coarse to fine, one level at a time."""
-    total = scales[-1] * levels[-1]
-    for k in range(len(levels) - 2, -1, -1):
-        total = scales[k] * levels[k] + upsample(total, levels[k].shape[:2])
-    return total
 
 
 def test_level_sizes_halve_rounding_up_and_stop_at_small_sides():
@@ -49,6 +43,29 @@ def test_upsampling_keeps_a_constant_and_aligns_texel_centres():
     fine = upsample(ramp, (1, 8))[0, :, 0]
     # fine centres at 0.25, 0.75, ... in coarse texel units; linear between centres, clamped at the edges
     assert fine.tolist() == pytest.approx([0.0, 0.25, 0.75, 1.25, 1.75, 2.25, 2.75, 3.0])
+
+
+@pytest.mark.parametrize("size", [(10, 7), (33, 64), (5, 5), (3, 2)])
+def test_the_compiled_sum_matches_its_torch_twin_in_value_gradient_and_projection(size):
+    torch.manual_seed(0)
+    sizes = level_sizes(*size, 4)
+    scales = (0.25, 0.5, 0.75, 1.0)[: len(sizes)]
+    levels = [4 * torch.randn(h, w, 3) for h, w in sizes]
+    low, high = torch.tensor([0.0, -0.5, -math.inf]), 0.8
+    fast = [level.clone().requires_grad_() for level in levels]
+    slow = [level.clone().requires_grad_() for level in levels]
+    out_fast, out_slow = compose(fast, scales, low, high), compose_python(slow, scales, low, high)
+    torch.testing.assert_close(out_fast, out_slow)
+    assert out_fast.max() == 0.8 and out_fast[..., 2].min() < -0.5  # the bounds were active
+    torch.testing.assert_close(fast[0].detach(), slow[0].detach())  # the same excess taken off the finest level
+    weights = torch.randn_like(out_fast)
+    for a, b in zip(torch.autograd.grad(out_fast, fast, weights), torch.autograd.grad(out_slow, slow, weights)):
+        torch.testing.assert_close(a, b)
+
+
+def test_the_compiled_sum_s_gradient_agrees_with_finite_differences():
+    levels = [torch.randn(h, w, 2, dtype=torch.float64, requires_grad=True) for h, w in level_sizes(9, 7, 3)]
+    assert torch.autograd.gradcheck(lambda *ls: compose(list(ls), (0.5, 0.25, 1.0)), levels)
 
 
 def test_a_coarse_level_spreads_one_texel_s_gradient_and_the_fine_level_is_scaled():
