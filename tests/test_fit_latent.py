@@ -8,7 +8,8 @@ import torch
 
 from lookalike.asset import Mesh
 from lookalike.fit.config import ClampConfig
-from lookalike.fit.textured_mesh import TexturedMesh, normal_to_slopes, slopes_to_normal
+from lookalike.fit.slope_normals import normal_to_slopes, slopes_to_normal, slopes_to_normal_python
+from lookalike.fit.textured_mesh import TexturedMesh
 
 
 def make_latent(size: int = 4, alpha: bool = False, cls: type[TexturedMesh] = TexturedMesh, **kwargs) -> TexturedMesh:
@@ -81,6 +82,16 @@ def test_normals_are_unit_slopes_and_round_trip():
     assert normal_to_slopes(normal)[0].tolist() == pytest.approx([0.375, -0.5])
     latent = make_latent()
     assert torch.equal(latent.unit_normal(), torch.tensor([0.0, 0.0, 1.0]).expand(4, 4, 3))
+
+
+def test_the_compiled_slopes_to_normal_matches_its_twin_and_finite_differences():
+    slopes = 3 * torch.randn(5, 7, 2)
+    fast, slow = slopes.clone().requires_grad_(), slopes.clone().requires_grad_()
+    out_fast, out_slow = slopes_to_normal(fast), slopes_to_normal_python(slow)
+    torch.testing.assert_close(out_fast, out_slow)
+    weights = torch.randn_like(out_fast)
+    torch.testing.assert_close(*(torch.autograd.grad(out, s, weights)[0] for out, s in ((out_fast, fast), (out_slow, slow))))
+    assert torch.autograd.gradcheck(slopes_to_normal, torch.randn(3, 4, 2, dtype=torch.float64, requires_grad=True))
 
 
 def test_the_laplacian_is_relative_to_the_initial_mesh_and_scaled_by_its_energy():

@@ -22,6 +22,7 @@ from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render, render_coverage
 from .config import ClampConfig
+from .slope_normals import normal_to_slopes, slopes_to_normal
 from .texture_pyramid import TexturePyramid
 
 
@@ -271,13 +272,3 @@ def _facing_outwards(normal: torch.Tensor, limits: ClampConfig) -> torch.Tensor:
     lifted = normal.clone()
     lifted[..., 2].clamp_(min=1.0 / limits.normal_max_slope)
     return torch.nn.functional.normalize(lifted, dim=-1)
-
-
-def normal_to_slopes(normal: torch.Tensor) -> torch.Tensor:
-    """``[..., 2]`` slopes (x / z, y / z) of tangent-space normals ``[..., 3]`` (z > 0)."""
-    return normal[..., :2] / normal[..., 2:].clamp(min=1e-6)
-
-
-def slopes_to_normal(slopes: torch.Tensor) -> torch.Tensor:
-    """``[..., 3]`` unit normals normalize(x, y, 1) of slopes ``[..., 2]`` (differentiable)."""
-    return torch.nn.functional.normalize(torch.cat([slopes, torch.ones_like(slopes[..., :1])], dim=-1), dim=-1)
