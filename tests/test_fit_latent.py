@@ -8,7 +8,11 @@ import torch
 
 from lookalike.asset import Mesh
 from lookalike.fit.config import ClampConfig
-from lookalike.fit.slope_normals import normal_to_slopes, slopes_to_normal, slopes_to_normal_python
+from lookalike.fit.slope_normals import (
+    normal_to_slopes,
+    slopes_to_normal,
+    slopes_to_normal_python,
+)
 from lookalike.fit.textured_mesh import TexturedMesh
 
 

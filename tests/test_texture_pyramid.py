@@ -10,7 +10,13 @@ import pytest
 import torch
 
 from lookalike.asset import Asset, Material, Mesh, Texture
-from lookalike.fit.texture_pyramid import TexturePyramid, compose, compose_python, level_sizes, upsample
+from lookalike.fit.texture_pyramid import (
+    TexturePyramid,
+    compose,
+    compose_python,
+    level_sizes,
+    upsample,
+)
 from lookalike.fit.textured_mesh import TexturedMesh, constant_channels
 from lookalike.report.map_noise import laplacian_residual_rms, map_noise
 

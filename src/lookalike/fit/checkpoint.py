@@ -4,8 +4,8 @@ and read back with a version check so that a resumed run continues exactly where
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import torch
 

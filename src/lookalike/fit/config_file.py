@@ -20,7 +20,7 @@ from ..errors import ConfigError
 from .config import Config
 
 
-def parse_duration(text: str | float | int) -> float:
+def parse_duration(text: str | float) -> float:
     """Seconds in ``"90"``, ``"90s"``, ``"10m"``, ``"1h"``, ``"1h30m"`` or a number.
 
     Raises ``ConfigError`` for anything else or for a duration that is not positive.

@@ -7,7 +7,7 @@ mean over all elements of a per-element error.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 

@@ -117,7 +117,7 @@ class TexturedMesh(torch.nn.Module):
     @classmethod
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
-                   texture_scales: tuple[float, ...] = (1.0,)) -> "TexturedMesh":
+                   texture_scales: tuple[float, ...] = (1.0,)) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
