@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from numba import njit
 
 import lookalike.render as dr
 from lookalike.render import visibility
@@ -137,18 +138,44 @@ def test_view_parallel_and_tile_parallel_paths_agree():
     begin = np.zeros(3, np.int64)
     end = np.full(3, tri.shape[0], np.int64)
     min_depth = np.full((3, 40, 70), -np.inf, np.float32)
+    screen, code = visibility.project_vertices(pos, 70, 40)
     results = []
     for by_tiles in (False, True):
         tri_id = np.zeros((3, 40, 70), np.int32)
         depth = np.full((3, 40, 70), np.inf, np.float32)
         if by_tiles:
-            bbox, bin_start, bin_tris = visibility._bin_triangles(pos, tri, begin, end, 70, 40)
+            bbox, bin_start, bin_tris = visibility._bin_triangles(pos, screen, code, tri, begin, end, 70, 40)
             visibility._rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, 70, 40, min_depth, tri_id, depth)
         else:
-            visibility._rasterize_views(pos, tri, begin, end, 70, 40, min_depth, tri_id, depth)
+            visibility._rasterize_views(pos, screen, code, tri, begin, end, 70, 40, min_depth, tri_id, depth)
         results.append((tri_id, depth))
     assert (results[0][0] == results[1][0]).all() and (results[0][1] == results[1][1]).all()
     assert (results[0][0] > 0).mean() > 0.2
+
+
+@njit
+def _both_boxes(pos, screen, code, tri, width, height):
+    """``[B, T, 2, 4]``: each triangle's box by ``_triangle_bbox`` and by ``_projected_bbox``."""
+    out = np.zeros((pos.shape[0], tri.shape[0], 2, 4), np.int64)
+    for b in range(pos.shape[0]):
+        for t in range(tri.shape[0]):
+            out[b, t, 0] = visibility._triangle_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            out[b, t, 1] = visibility._projected_bbox(pos, screen, code, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+    return out
+
+
+def test_boxes_from_projected_vertices_equal_the_per_triangle_ones():
+    pos, tri = random_scene(3, 400)
+    pos = pos.numpy().copy()
+    pos[:, ::7, 3] *= -1.0  # some vertices behind the eye: triangles crossing the near plane
+    pos[:, 1::5, 2] = 2.0 * np.abs(pos[:, 1::5, 3])  # beyond the far plane
+    tri = tri.int().numpy()
+    screen, code = visibility.project_vertices(pos, 70, 40)
+    boxes = _both_boxes(pos, screen, code, tri, 70, 40)
+    assert (boxes[:, :, 0] == boxes[:, :, 1]).all()
+    culled = boxes[:, :, 0, 0] > boxes[:, :, 0, 1]
+    assert 0.05 < culled.mean() < 0.95  # both the culled and the drawn cases were compared
+    assert not ((code & visibility._FRONT) > 0).all()  # and the clipping path
 
 
 def test_empty_and_invalid_geometry_never_crash():

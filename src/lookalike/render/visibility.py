@@ -174,6 +174,55 @@ def _triangle_bbox(pos, b, i0, i1, i2, width, height):
     return _pixel_range(xmin, xmax, ymin, ymax, width, height)
 
 
+_FRONT = 64
+"""Bit of ``project_vertices``'s codes: the vertex is in front of the eye and the near plane."""
+
+
+@njit(cache=True, parallel=True)
+def project_vertices(pos, width, height):
+    """Per view and vertex, what ``_triangle_bbox`` needs, computed once instead of once per
+    triangle (a vertex is shared by about six): ``(screen [B, V, 2] float64, code [B, V]
+    uint8)``, the pixel coordinates ``X = (x/w + 1) W/2 - 1/2``, ``Y`` alike (valid where the
+    vertex is in front), and the outcode (bit ``2 axis``: ``c > w``, bit ``2 axis + 1``: ``c <
+    -w`` for ``c = x, y, z``; ``_FRONT``: ``w > 0`` and ``z + w >= 0``)."""
+    n_views, n_vertices = pos.shape[0], pos.shape[1]
+    screen = np.empty((n_views, n_vertices, 2), np.float64)
+    code = np.zeros((n_views, n_vertices), np.uint8)
+    half_w, half_h = 0.5 * width, 0.5 * height
+    for job in prange(n_views * _CHUNKS):
+        b, chunk = job // _CHUNKS, job % _CHUNKS
+        for v in range(chunk * n_vertices // _CHUNKS, (chunk + 1) * n_vertices // _CHUNKS):
+            w = pos[b, v, 3]
+            bits = 0
+            for axis in range(3):
+                c = pos[b, v, axis]
+                if c > w:
+                    bits |= 1 << (2 * axis)
+                if c < -w:
+                    bits |= 1 << (2 * axis + 1)
+            if w > 0.0 and pos[b, v, 2] + w >= 0.0:
+                bits |= _FRONT
+                r = 1.0 / np.float64(w)
+                screen[b, v, 0] = (pos[b, v, 0] * r + 1.0) * half_w - 0.5
+                screen[b, v, 1] = (pos[b, v, 1] * r + 1.0) * half_h - 0.5
+            code[b, v] = bits
+    return screen, code
+
+
+@njit(cache=True, inline="always")
+def _projected_bbox(pos, screen, code, b, i0, i1, i2, width, height):
+    """``_triangle_bbox`` from ``project_vertices``'s output: the same box, bit for bit (the
+    general clipping path where a vertex is not in front)."""
+    c0, c1, c2 = code[b, i0], code[b, i1], code[b, i2]
+    if (c0 & c1 & c2) & (_FRONT - 1):
+        return 1, 0, 1, 0
+    if c0 & c1 & c2 & _FRONT:
+        X0, X1, X2 = screen[b, i0, 0], screen[b, i1, 0], screen[b, i2, 0]
+        Y0, Y1, Y2 = screen[b, i0, 1], screen[b, i1, 1], screen[b, i2, 1]
+        return _pixel_range(min(X0, X1, X2), max(X0, X1, X2), min(Y0, Y1, Y2), max(Y0, Y1, Y2), width, height)
+    return _triangle_bbox(pos, b, i0, i1, i2, width, height)
+
+
 @njit(cache=True, inline="always")
 def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
     """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
@@ -205,22 +254,23 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
 
 
 @njit(cache=True, parallel=True)
-def _rasterize_views(pos, tri, tri_begin, tri_end, width, height, min_depth, tri_id, depth):
+def _rasterize_views(pos, screen, code, tri, tri_begin, tri_end, width, height, min_depth, tri_id, depth):
     """One view per parallel job: each walks its triangles in ascending order (so with the
     strict depth test the lower index wins ties).  Used when there are at least as many
     views as threads."""
     for b in prange(pos.shape[0]):
         planes = np.empty(12, np.float64)
         for t in range(tri_begin[b], tri_end[b]):
-            x0, x1, y0, y1 = _triangle_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            x0, x1, y0, y1 = _projected_bbox(pos, screen, code, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
             if x0 <= x1 and y0 <= y1:
                 _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth)
 
 
 @njit(cache=True, parallel=True)
-def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
+def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height):
     """Bound each view's triangles and bin them into screen tiles.
 
+    ``screen``, ``code``: from :func:`project_vertices`.
     Returns ``(bbox [B, T, 4] int32, bin_start [B, tiles+1] int64, bin_tris [N] int32)``:
     the boxes of :func:`_triangle_bbox` (only for the view's triangle range), and the
     triangles of tile ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b,
@@ -236,7 +286,7 @@ def _bin_triangles(pos, tri, tri_begin, tri_end, width, height):
         b, chunk = job // _CHUNKS, job % _CHUNKS
         n = tri_end[b] - tri_begin[b]
         for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
-            x0, x1, y0, y1 = _triangle_bbox(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            x0, x1, y0, y1 = _projected_bbox(pos, screen, code, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
             bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = x0, x1, y0, y1
             if x0 > x1 or y0 > y1:
                 continue
@@ -323,9 +373,10 @@ def visible_triangles(
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
     tri_id = np.zeros((n_views, height, width), np.int32)
     depth = np.full((n_views, height, width), np.inf, np.float32)
+    screen, code = project_vertices(pos, width, height)
     if n_views >= numba.get_num_threads():
-        _rasterize_views(pos, tri, begin, end, width, height, min_depth, tri_id, depth)
+        _rasterize_views(pos, screen, code, tri, begin, end, width, height, min_depth, tri_id, depth)
     else:
-        bbox, bin_start, bin_tris = _bin_triangles(pos, tri, begin, end, width, height)
+        bbox, bin_start, bin_tris = _bin_triangles(pos, screen, code, tri, begin, end, width, height)
         _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
     return tri_id, depth
