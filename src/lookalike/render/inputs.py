@@ -39,10 +39,11 @@ def check_triangles(tri: torch.Tensor, n_verts: int) -> torch.Tensor:
         raise ValueError(f"tri must have shape [T, 3], got {tuple(tri.shape)}")
     if tri.dtype not in (torch.int32, torch.int64):
         raise ValueError(f"tri must be int32 or int64, got {tri.dtype}")
-    tri = tri.long()
-    if tri.numel() and (tri.min() < 0 or tri.max() >= n_verts):
-        raise ValueError(f"tri indexes vertices outside 0..{n_verts - 1}")
-    return tri
+    if tri.numel():
+        low, high = torch.aminmax(tri)  # one pass over the given type, before the int64 copy
+        if low < 0 or high >= n_verts:
+            raise ValueError(f"tri indexes vertices outside 0..{n_verts - 1}")
+    return tri.long()
 
 
 def check_rast_ids(rast: torch.Tensor, n_tris: int) -> None:
