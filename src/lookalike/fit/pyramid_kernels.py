@@ -51,11 +51,13 @@ def readers(n_in, n_out):
     output = np.empty(2 * n_out, np.int64)
     weight = np.empty(2 * n_out, np.float32)
     fill = start[:-1].copy()
-    for o in range(2 * n_out):
-        j, w = (i0[o // 2], 1 - f[o // 2]) if o % 2 == 0 else (i1[o // 2], f[o // 2])
-        output[fill[j]] = o // 2
-        weight[fill[j]] = w
-        fill[j] += 1
+    for o in range(n_out):
+        output[fill[i0[o]]] = o
+        weight[fill[i0[o]]] = 1 - f[o]
+        fill[i0[o]] += 1
+        output[fill[i1[o]]] = o
+        weight[fill[i1[o]]] = f[o]
+        fill[i1[o]] += 1
     return start, output, weight
 
 
@@ -90,7 +92,8 @@ def upsample_add(coarse, fine, scale, low, high, out):
             value = weight * fine_rows[y, k] + (1 - wy) * wide[a, k] + wy * wide[b, k]
             bounded = min(max(value, lows[k]), highs[k])
             out_rows[y, k] = bounded
-            fine_rows[y, k] += (bounded - value) * inverse
+            if bounded != value:
+                fine_rows[y, k] += (bounded - value) * inverse
 
 
 @njit(cache=True, parallel=True)
@@ -114,7 +117,7 @@ def upsample_adjoint(grad, height, width):
                 row[k] += w * fine_rows[source, k]
         for x in range(width):
             for ch in range(channels):
-                total = row[0] * 0
+                total = grad.dtype.type(0.0)
                 for t in range(col_start[x], col_start[x + 1]):
                     total += col_weight[t] * row[col_output[t] * channels + ch]
                 out[y, x, ch] = total
