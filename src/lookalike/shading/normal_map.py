@@ -12,6 +12,7 @@ from __future__ import annotations
 import torch
 
 from ..asset.normals import safe_normalize
+from . import normal_map_kernels
 
 BEND_THRESHOLD = 0.1
 """Shading normals whose cosine with the view direction is below this are blended towards the
@@ -54,3 +55,63 @@ def bend_towards_viewer(normal: torch.Tensor, geometric: torch.Tensor, view: tor
     """
     weight = (_dot(normal, view) / BEND_THRESHOLD).clamp(0.0, 1.0)
     return safe_normalize(torch.lerp(geometric, normal, weight))
+
+
+class _ShadingNormal(torch.autograd.Function):
+    """``(normal [N,3], tangent [N,4], tangent_space [N,3], mapped [N] bool, geometric [N,3],
+    view_dir [N,3], facing [N])`` -> ``[N, 3]`` with the compiled kernels."""
+
+    @staticmethod
+    def forward(ctx, normal, tangent, tangent_space, mapped, geometric, view_dir, facing):
+        arrays = [t.detach().to(normal.dtype).contiguous() for t in (normal, tangent, tangent_space)]
+        rest = [t.detach().to(normal.dtype).contiguous() for t in (geometric, view_dir, facing)]
+        mapped = mapped.contiguous()
+        out = torch.empty_like(arrays[0])
+        normal_map_kernels.shading_normal_forward(*(a.numpy() for a in arrays), mapped.numpy(),
+                                                  *(a.numpy() for a in rest), BEND_THRESHOLD, out.numpy())
+        ctx.save_for_backward(*arrays, mapped, *rest)
+        return out
+
+    @staticmethod
+    def backward(ctx, grad_out):
+        normal, tangent, tangent_space, mapped, geometric, view_dir, facing = ctx.saved_tensors
+        grads = [torch.empty_like(t) for t in (normal, tangent, tangent_space, geometric, view_dir)]
+        normal_map_kernels.shading_normal_backward(
+            normal.numpy(), tangent.numpy(), tangent_space.numpy(), mapped.numpy(), geometric.numpy(), view_dir.numpy(),
+            facing.numpy(), BEND_THRESHOLD, grad_out.to(normal.dtype).contiguous().numpy(), *(g.numpy() for g in grads))
+        grad_normal, grad_tangent, grad_tangent_space, grad_geometric, grad_view_dir = grads
+        return grad_normal, grad_tangent, grad_tangent_space, None, grad_geometric, grad_view_dir, None
+
+
+def shading_normal(normal: torch.Tensor, tangent: torch.Tensor, tangent_space: torch.Tensor, mapped: torch.Tensor,
+                   geometric: torch.Tensor, view_dir: torch.Tensor, facing: torch.Tensor) -> torch.Tensor:
+    """The unit shading normals ``[N, 3]`` of N points: normal-mapped where ``mapped``, flipped by
+    ``facing``, bent towards the viewer:
+    ``bend_towards_viewer(f * m, f * geometric, view_dir)`` with ``m = perturb_normal(normal,
+    tangent, tangent_space)`` where ``mapped`` and ``safe_normalize(normal)`` elsewhere.
+
+    Args:
+        normal: ``[N, 3]`` interpolated vertex normals (any length).
+        tangent: ``[N, 4]`` interpolated tangents (``w`` = handedness), read where ``mapped``.
+        tangent_space: ``[N, 3]`` normal-map values, read where ``mapped``.
+        mapped: ``[N]`` bool.
+        geometric: ``[N, 3]`` unit face normals; view_dir: ``[N, 3]`` unit directions to the camera.
+        facing: ``[N]`` +1 for front faces, -1 for back faces (no gradient).
+
+    Differentiable in ``normal``, ``tangent``, ``tangent_space``, ``geometric`` and
+    ``view_dir``. Compiled (:mod:`.normal_map_kernels`), one pass per point each way; the twin
+    is :func:`shading_normal_python`.
+    """
+    return _ShadingNormal.apply(normal, tangent, tangent_space, mapped, geometric, view_dir, facing)
+
+
+def shading_normal_python(normal: torch.Tensor, tangent: torch.Tensor, tangent_space: torch.Tensor,
+                          mapped: torch.Tensor, geometric: torch.Tensor, view_dir: torch.Tensor,
+                          facing: torch.Tensor) -> torch.Tensor:
+    """Plain-torch twin of :func:`shading_normal` (same contract)."""
+    shading = safe_normalize(normal)
+    rows = torch.nonzero(mapped).reshape(-1)
+    if rows.numel():
+        shading = shading.index_put((rows,), perturb_normal(normal[rows], tangent[rows], tangent_space[rows]))
+    facing = facing[:, None].to(normal)
+    return bend_towards_viewer(shading * facing, geometric * facing, view_dir)

@@ -43,11 +43,11 @@ import lookalike.render as dr
 from lookalike.render.msaa import covered_sample_index, pick_samples, upsample_over
 
 from ..asset.normals import safe_normalize
-from . import bsdf
 from .camera import Camera
 from .gbuffer import GBuffer, MeshBuffers
 from .light import PointLight
-from .normal_map import bend_towards_viewer, perturb_normal
+from .normal_map import shading_normal
+from .point_lighting import lit_radiance
 from .surface import Surface, sample_surface
 from .texturing import TextureSampler
 
@@ -87,30 +87,35 @@ class SurfacePoints:
 def surface_points(gb: GBuffer, surface: Surface, camera: Camera) -> SurfacePoints:
     """The light-independent shading inputs of the G-buffer's pixels (see ``SurfacePoints``)."""
     view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
-    normal = safe_normalize(gb.normal)
-    if surface.normal_map is not None:
-        for uv_set, tangent in gb.tangent.items():
-            rows = torch.nonzero(surface.normal_uv_set == uv_set).reshape(-1)
-            mapped = perturb_normal(gb.normal[rows], tangent[rows], surface.normal_map[rows])
-            normal = normal.index_put((rows,), mapped)
     front = _dot(gb.geometric_normal, view_dir) >= 0
-    facing = torch.where(front, 1.0, -1.0).to(normal)
-    normal = bend_towards_viewer(normal * facing, gb.geometric_normal * facing, view_dir)
+    facing = torch.where(front, 1.0, -1.0).to(view_dir)
+    normal = shading_normal(gb.normal, *_normal_map_inputs(gb, surface), gb.geometric_normal, view_dir, facing[:, 0])
     visible = front | surface.double_sided[:, None]
     return SurfacePoints(view=gb.view, position=gb.position, normal=normal, geometric_normal=gb.geometric_normal * facing,
                          view_dir=view_dir, kd=surface.kd[:, :3], ks=surface.ks, emissive=surface.emissive,
                          alpha=surface.alpha * visible.to(normal))
 
 
+def _normal_map_inputs(gb: GBuffer, surface: Surface) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``(tangent [N, 4], tangent_space [N, 3], mapped [N] bool)`` for ``shading_normal``: each
+    pixel's tangent frame of the UV set its normal map uses, and its normal-map value."""
+    mapped = torch.zeros(gb.position.shape[0], dtype=torch.bool, device=gb.position.device)
+    if surface.normal_map is None or not gb.tangent:
+        return gb.position.new_zeros(mapped.shape[0], 4), gb.position.new_zeros(mapped.shape[0], 3), mapped
+    tangent = None
+    for uv_set, frame in gb.tangent.items():
+        rows = surface.normal_uv_set == uv_set
+        tangent = frame if tangent is None else torch.where(rows[:, None], frame, tangent)
+        mapped = mapped | rows
+    return tangent, surface.normal_map, mapped
+
+
 def light_points(points: SurfacePoints, light: PointLight) -> torch.Tensor:
     """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of ``points`` under
-    ``light``: ``shade(kd, ks, n, v, l) * irradiance + emissive``, no light where the view's
-    horizon test finds the light below the geometric surface."""
-    light_dir, irradiance = light.illuminate(points.position, points.view)
-    below = light.below_horizon(points.geometric_normal, light_dir, points.view)
-    if below is not None:
-        irradiance = torch.where(below, 0.0, irradiance)
-    radiance = bsdf.shade(points.kd, points.ks, points.normal, points.view_dir, light_dir) * irradiance
+    ``light``: ``lit_radiance`` (``bsdf.shade(kd, ks, n, v, l) * irradiance``, compiled) +
+    emissive, no light where the view's horizon test finds the light below the geometric surface."""
+    radiance = lit_radiance(points.kd, points.ks, points.normal, points.view_dir, points.position,
+                            points.geometric_normal, points.view, light)
     if points.emissive is not None:
         radiance = radiance + points.emissive
     return torch.cat([radiance, points.alpha], dim=-1)
