@@ -90,6 +90,34 @@ def test_interpolate_matches_torch_twin(shared_attr, diff_attrs):
     torch.testing.assert_close(gradients(fast, (attr, rast, rast_db)), gradients(slow, (attr, rast, rast_db)))
 
 
+@pytest.mark.parametrize(("shared_attr", "diff_attrs"), [(True, None), (True, "all"), (False, [1])])
+def test_interpolate_at_pixels_matches_torch_twin(shared_attr, diff_attrs):
+    """A shuffled list of some covered pixels (and background ones, which read 0): the rows of
+    the twin's images, with the same gradients (the other pixels' never touched)."""
+    pos, tri = random_mesh()
+    rast, rast_db = dr.rasterize(None, pos, tri, (16, 20))
+    rast, rast_db = rast.requires_grad_(True), rast_db.requires_grad_(True)
+    attr = torch.randn(*(() if shared_attr else (2,)), 40, 3, dtype=torch.float64, requires_grad=True)
+    generator = torch.Generator().manual_seed(4)
+    pixels = torch.randperm(2 * 16 * 20, generator=generator)[:300]
+    covered = rast[..., 3].detach().reshape(-1)[pixels] > 0
+    assert covered.sum() > 50 and (~covered).any()
+    fast = dr.interpolate_at(attr, rast, tri, pixels, rast_db, diff_attrs=diff_attrs)
+    slow = [image.reshape(2 * 16 * 20, image.shape[-1])[pixels]
+            for image in interpolate_python(attr, rast, tri, rast_db, diff_attrs=diff_attrs)]
+    torch.testing.assert_close(fast, slow)
+    fast_grads = gradients(fast, (attr, rast, rast_db))
+    torch.testing.assert_close(fast_grads, gradients(slow, (attr, rast, rast_db)))
+    assert fast_grads[1].abs().sum() > 0
+
+
+def test_interpolate_at_rejects_pixels_outside_the_images():
+    pos, tri = random_mesh()
+    rast, _ = dr.rasterize(None, pos, tri, (16, 20))
+    with pytest.raises(ValueError, match="outside"):
+        dr.interpolate_at(torch.randn(40, 3, dtype=torch.float64), rast, tri, torch.tensor([2 * 16 * 20]))
+
+
 @pytest.mark.parametrize(
     ("filter_mode", "boundary_mode", "per_view", "user_mips"),
     list(itertools.product(["nearest", "linear", "linear-mipmap-nearest", "linear-mipmap-linear"], ["wrap", "clamp", "zero"], [False, True], [False, True])),

@@ -26,7 +26,7 @@ mipmap kernels' twin is :func:`.mipmap.texture_construct_mip`.
 
 from .antialias import OutlineBlend, antialias, antialias_construct_topology_hash, outline_blend
 from .context import RasterizeContext, RasterizeCudaContext, RasterizeGLContext
-from .interpolate import interpolate
+from .interpolate import interpolate, interpolate_at
 from .mipmap import texture_construct_mip, texture_pyramid
 from .peel import DepthPeeler
 from .rasterize import rasterize
@@ -40,6 +40,7 @@ __all__ = [
     "RasterizeGLContext",
     "rasterize",
     "interpolate",
+    "interpolate_at",
     "texture",
     "texture_construct_mip",
     "texture_pyramid",

@@ -4,6 +4,7 @@ per-pixel loops are compiled (:mod:`.interpolate_kernels`) with a hand-written b
 
 from __future__ import annotations
 
+import numba
 import torch
 
 from . import interpolate_kernels
@@ -12,42 +13,46 @@ from .inputs import check_rast_ids, check_triangles
 
 
 class _Interpolate(torch.autograd.Function):
-    """``(attr [Ba,V,C], rast, rast_db or None, tri [T,3] int64, channels [D] int64)`` ->
-    ``(out, out_da)`` with the compiled kernels."""
+    """``(attr [Ba,V,C], rast [B,H,W,4], rast_db or None, tri [T,3] int64, channels [D] int64,
+    pixels [N] int64 or None)`` -> ``(out [N, C], out_da [N, 2D])`` at the listed pixels (every
+    pixel, ``N = B H W``, for None) with the compiled kernels."""
 
     @staticmethod
-    def forward(ctx, attr, rast, rast_db, tri, channels):
+    def forward(ctx, attr, rast, rast_db, tri, channels, pixels):
         n_views, height, width = rast.shape[:3]
         dtype = torch.promote_types(attr.dtype, rast.dtype)
         attr, rast = attr.detach().to(dtype).contiguous(), rast.detach().to(dtype).contiguous()
         db = rast if rast_db is None else rast_db.detach().to(dtype).contiguous()
-        out = attr.new_empty(n_views, height, width, attr.shape[2])
-        out_da = attr.new_empty(n_views, height, width, 2 * channels.shape[0])
+        every = pixels is None
+        pixels = tri.new_empty(0) if every else pixels.contiguous()
+        count = n_views * height * width if every else pixels.shape[0]
+        out = attr.new_empty(count, attr.shape[2])
+        out_da = attr.new_empty(count, 2 * channels.shape[0])
         interpolate_kernels.interpolate_forward(
-            attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(), out.numpy(), out_da.numpy()
+            attr.numpy(), tri.numpy(), rast.reshape(-1, 4).numpy(), db.reshape(-1, 4).numpy(), channels.numpy(),
+            pixels.numpy(), every, height * width, out.numpy(), out_da.numpy(),
         )
-        ctx.save_for_backward(attr, rast, db, tri, channels)
-        ctx.has_db = rast_db is not None
+        ctx.save_for_backward(attr, rast, db, tri, channels, pixels)
+        ctx.has_db, ctx.every = rast_db is not None, every
         return out, out_da
 
     @staticmethod
     def backward(ctx, grad_out, grad_da):
-        attr, rast, db, tri, channels = ctx.saved_tensors
-        n_views = rast.shape[0]
-        grad_out = torch.zeros_like(rast[..., :1].expand(-1, -1, -1, attr.shape[2])) if grad_out is None else grad_out
+        attr, rast, db, tri, channels, pixels = ctx.saved_tensors
+        count = rast.shape[0] * rast.shape[1] * rast.shape[2] if ctx.every else pixels.shape[0]
+        grad_out = attr.new_zeros(count, attr.shape[2]) if grad_out is None else grad_out
         if grad_da is None or channels.numel() == 0:
-            grad_da, channels = grad_out[..., :0], channels[:0]
-        grad_attr = attr.new_zeros(n_views, *attr.shape[1:])
-        grad_rast = torch.empty_like(rast)
-        grad_db = torch.empty_like(rast) if ctx.has_db else rast.new_empty(0, 0, 0, 0)
+            grad_da, channels = grad_out[:, :0], channels[:0]
+        grad_attr = torch.zeros_like(attr)
+        grad_rast = torch.zeros_like(rast)
+        grad_db = torch.zeros_like(rast) if ctx.has_db else rast.new_empty(0, 4)
         interpolate_kernels.interpolate_backward(
-            attr.numpy(), tri.numpy(), rast.numpy(), db.numpy(), channels.numpy(),
+            attr.numpy(), tri.numpy(), rast.reshape(-1, 4).numpy(), db.reshape(-1, 4).numpy(), channels.numpy(),
+            pixels.numpy(), ctx.every, rast.shape[1] * rast.shape[2],
             grad_out.to(attr.dtype).contiguous().numpy(), grad_da.to(attr.dtype).contiguous().numpy(),
-            grad_attr.numpy(), grad_rast.numpy(), grad_db.numpy(),
+            grad_attr.numpy(), grad_rast.reshape(-1, 4).numpy(), grad_db.reshape(-1, 4).numpy(), numba.get_num_threads(),
         )
-        if attr.shape[0] == 1:
-            grad_attr = grad_attr.sum(0, keepdim=True)
-        return grad_attr, grad_rast, grad_db if ctx.has_db else None, None, None
+        return grad_attr, grad_rast, grad_db if ctx.has_db else None, None, None, None
 
 
 def interpolate(
@@ -77,15 +82,39 @@ def interpolate(
     The per-pixel loops are compiled (:mod:`.interpolate_kernels`) with a hand-written backward;
     :func:`interpolate_python` is the plain-torch twin.
     """
+    out, out_da = interpolate_at(attr, rast, tri, None, rast_db, diff_attrs)
+    return out.reshape(*rast.shape[:3], -1), out_da.reshape(*rast.shape[:3], -1)
+
+
+def interpolate_at(
+    attr: torch.Tensor,
+    rast: torch.Tensor,
+    tri: torch.Tensor,
+    pixels: torch.Tensor | None,
+    rast_db: torch.Tensor | None = None,
+    diff_attrs: str | list[int] | None = None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`interpolate` at a list of pixels only, e.g. the covered ones of a G-buffer: the
+    images are never written.
+
+    Args:
+        pixels: ``[N]`` int64 distinct flat indices into ``[B, H, W]``, or None for every pixel.
+        attr, rast, tri, rast_db, diff_attrs: as :func:`interpolate`.
+
+    Returns:
+        ``(out [N, C], out_da [N, 2D])``: rows ``pixels`` of ``interpolate``'s images flattened
+        to ``[B H W, C]`` and ``[B H W, 2D]``, with the same gradients.
+    """
     attr, channels = _check_inputs(attr, rast, rast_db, diff_attrs)
     tri = check_triangles(tri, attr.shape[1])
     check_rast_ids(rast, tri.shape[0])
-    out, out_da = _Interpolate.apply(
-        attr, rast, rast_db if channels else None, tri.contiguous(), torch.tensor(channels, dtype=torch.int64)
+    if pixels is not None:
+        pixels = pixels.long()
+        if pixels.numel() and (pixels.min() < 0 or pixels.max() >= rast.shape[0] * rast.shape[1] * rast.shape[2]):
+            raise ValueError(f"pixels index outside the {tuple(rast.shape[:3])} images")
+    return _Interpolate.apply(
+        attr, rast, rast_db if channels else None, tri.contiguous(), torch.tensor(channels, dtype=torch.int64), pixels
     )
-    return out, out_da
-
-
 
 
 def interpolate_python(

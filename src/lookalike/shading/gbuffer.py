@@ -111,24 +111,20 @@ class GBuffer:
         """Interpolate every attribute of ``buffers`` over ``rast [B, H, W, 4]`` (with
         ``rast_db [B, H, W, 4]`` for UV derivatives) and keep the covered pixels (those of
         them where ``needed [B, H, W]`` bool is set, when given)."""
-        batch, height, width = rast.shape[:3]
+        _, height, width = rast.shape[:3]
         triangle_flat = rast[..., 3].reshape(-1).long() - 1
         keep = triangle_flat >= 0 if needed is None else (triangle_flat >= 0) & needed.reshape(-1)
         pixel = torch.nonzero(keep).reshape(-1)
 
-        def covered(image: torch.Tensor) -> torch.Tensor:
-            return image.reshape(-1, image.shape[-1])[pixel]
+        def at_pixels(attr, tri, **derivatives):
+            return dr.interpolate_at(attr, rast, tri, pixel, **derivatives)
 
         mesh = buffers.mesh
         vertex_attrs = [mesh.v_pos] + ([mesh.v_color] if mesh.v_color is not None else [])
-        interpolated = covered(dr.interpolate(torch.cat(vertex_attrs, dim=-1), rast, buffers.tri)[0])
-        normal = covered(dr.interpolate(buffers.v_nrm, rast, buffers.t_nrm_idx)[0])
-        uv = []
-        for v_tex, t_tex_idx in buffers.uv:
-            values, derivatives = dr.interpolate(v_tex, rast, t_tex_idx, rast_db=rast_db, diff_attrs="all")
-            uv.append((covered(values), covered(derivatives)))
-        tangent = {k: covered(dr.interpolate(v_tng, rast, t_tng_idx)[0])
-                   for k, (v_tng, t_tng_idx) in buffers.tangents.items()}
+        interpolated = at_pixels(torch.cat(vertex_attrs, dim=-1), buffers.tri)[0]
+        normal = at_pixels(buffers.v_nrm, buffers.t_nrm_idx)[0]
+        uv = [at_pixels(v_tex, t_tex_idx, rast_db=rast_db, diff_attrs="all") for v_tex, t_tex_idx in buffers.uv]
+        tangent = {k: at_pixels(v_tng, t_tng_idx)[0] for k, (v_tng, t_tng_idx) in buffers.tangents.items()}
         triangle = triangle_flat[pixel]
         return GBuffer(
             pixel=pixel,
