@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import torch
 
-from lookalike.shading.normal_map import BEND_THRESHOLD, shading_normal, shading_normal_python
+from lookalike.shading.normal_map import (
+    BEND_THRESHOLD,
+    shading_normal,
+    shading_normal_python,
+)
 
 
 def _unit(x: torch.Tensor) -> torch.Tensor:

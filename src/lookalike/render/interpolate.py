@@ -8,8 +8,8 @@ import numba
 import torch
 
 from . import interpolate_kernels
-from .pixels import covered_pixels, scatter_to_image
 from .inputs import check_rast_ids, check_triangles
+from .pixels import covered_pixels, scatter_to_image
 
 
 class _Interpolate(torch.autograd.Function):
@@ -160,7 +160,7 @@ def _check_inputs(attr, rast, rast_db, diff_attrs) -> tuple[torch.Tensor, list[i
         raise ValueError(f"attr must have shape [B, V, C] or [V, C], got {tuple(attr.shape)}")
     if rast.dim() != 4 or rast.shape[-1] != 4:
         raise ValueError(f"rast must have shape [B, H, W, 4], got {tuple(rast.shape)}")
-    n_views, height, width = rast.shape[:3]
+    n_views = rast.shape[0]
     if attr.shape[0] not in (1, n_views):
         raise ValueError(f"attr has {attr.shape[0]} views, rast has {n_views}")
     if diff_attrs is None:
