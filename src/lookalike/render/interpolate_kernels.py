@@ -26,7 +26,7 @@ def interpolate_forward(attr, tri, rast, rast_db, diff, pixels, every, pixels_pe
     at the pixels ``pixels [N]`` (flat indices into ``[B, H, W]``; every pixel, ``N = B H W``,
     when ``every``). ``attr [Ba, V, C]`` (``Ba`` is 1 or B), ``tri [T, 3]`` int64, ``rast``,
     ``rast_db [B H W, 4]`` (``rast_db`` unused when ``D = 0``); pixels showing no triangle get 0."""
-    attr_stride = 0 if attr.shape[0] == 1 else 1  # attr view of view b is b * attr_stride
+    per_view = attr.shape[0] > 1  # else one attribute set shared by every view
     n_channels = attr.shape[2]
     for i in prange(out.shape[0]):
         p = _pixel(pixels, every, i)
@@ -35,7 +35,7 @@ def interpolate_forward(attr, tri, rast, rast_db, diff, pixels, every, pixels_pe
             out[i, :] = 0.0
             out_da[i, :] = 0.0
             continue
-        ab = (p // pixels_per_view) * attr_stride
+        ab = p // pixels_per_view if per_view else 0
         u, v = rast[p, 0], rast[p, 1]
         i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
         for ch in range(n_channels):
@@ -55,7 +55,7 @@ def _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view
                   grad_rast, grad_db, start, end):
     """:func:`interpolate_backward` for list entries ``start .. end-1``, attribute gradients
     into ``target [Ba, V, C]``."""
-    attr_stride = 0 if attr.shape[0] == 1 else 1
+    per_view = attr.shape[0] > 1
     n_channels = attr.shape[2]
     write_db = grad_db.shape[0] > 0
     for i in range(start, end):
@@ -63,7 +63,7 @@ def _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view
         t = int(rast[p, 3]) - 1
         if t < 0:
             continue
-        ab = (p // pixels_per_view) * attr_stride
+        ab = p // pixels_per_view if per_view else 0
         u, v = rast[p, 0], rast[p, 1]
         i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
         g_u = 0.0
