@@ -180,7 +180,8 @@ def test_materials_factors_textures_and_extensions(tmp_path):
     assert torch.allclose(m.emissive.data.reshape(-1), torch.tensor([3.0, 0, 0]))
 
 
-def test_skin_and_animations(tmp_path, caplog):
+def _skinned_quad_doc() -> Doc:
+    """A quad skinned to a two-joint chain (root, tip), its mesh node moved to z = 2."""
     doc, prim = quad_doc()
     prim["attributes"]["JOINTS_0"] = doc.accessor(np.array([[0, 1, 0, 0]] * 4, np.uint8), 5121)
     prim["attributes"]["WEIGHTS_0"] = doc.accessor(np.array([[0.25, 0.75, 0, 0]] * 4, np.float32))
@@ -191,6 +192,11 @@ def test_skin_and_animations(tmp_path, caplog):
     ibm[1, 3, 0] = -1.0  # column-major: translation x of joint 1
     doc.json["skins"] = [{"joints": [0, 1], "inverseBindMatrices": doc.accessor(ibm.reshape(2, 16), kind="MAT4")}]
     doc.mesh_node([prim], skin=0, translation=[0, 0, 2])
+    return doc
+
+
+def test_skin_and_animations(tmp_path):
+    doc = _skinned_quad_doc()
     times = doc.accessor(np.array([0, 1], np.float32))
     cubic = np.array([[0, 0, 0], [1, 2, 3], [0, 0, 0], [0, 0, 0], [4, 5, 6], [0, 0, 0]], np.float32)
     doc.json["animations"] = [{"name": "walk", "samplers": [
@@ -199,8 +205,7 @@ def test_skin_and_animations(tmp_path, caplog):
         {"input": times, "output": doc.accessor(cubic), "interpolation": "CUBICSPLINE"}],
         "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}},
                      {"sampler": 1, "target": {"node": 0, "path": "translation"}}]}]
-    with expect_warning(caplog, "CUBICSPLINE"):
-        asset = io.load(doc.write(tmp_path / "skin.gltf"))
+    asset = io.load(doc.write(tmp_path / "skin.gltf"))
     skin = asset.skin
     assert [n.name for n in skin.nodes[:2]] == ["root", "tip"] and skin.nodes[1].parent == 0
     assert skin.joints.tolist() == [0, 1]
@@ -209,7 +214,7 @@ def test_skin_and_animations(tmp_path, caplog):
     assert asset.mesh.v_joints.shape == (4, 4) and torch.allclose(asset.mesh.v_weights[:, 1], torch.tensor(0.75))
     (rot, trans), = [asset.animations[0].channels]
     assert rot.interpolation == "STEP" and rot.values.shape == (2, 4)
-    assert trans.interpolation == "LINEAR" and torch.equal(trans.values, torch.tensor([[1.0, 2, 3], [4, 5, 6]]))
+    assert trans.interpolation == "CUBICSPLINE" and torch.equal(trans.values, torch.from_numpy(cubic))
 
 
 def _single_triangle_doc(positions, indices) -> Doc:
@@ -370,6 +375,16 @@ def test_validator_sees_a_broken_file(tmp_path):
     assert validate(tmp_path / "bad.glb")["issues"]["numErrors"] > 0
 
 
+def test_animation_sampler_with_the_wrong_number_of_values_is_a_one_line_error(tmp_path):
+    doc = _skinned_quad_doc()
+    times = doc.accessor(np.array([0, 1], np.float32))
+    values = doc.accessor(np.array([[0, 0, 0], [1, 2, 3]], np.float32))  # 2 rows; CUBICSPLINE needs 6
+    doc.json["animations"] = [{"samplers": [{"input": times, "output": values, "interpolation": "CUBICSPLINE"}],
+                               "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}]
+    with pytest.raises(AssetError, match="CUBICSPLINE sampler with 2 key times and 2 output values"):
+        io.load(doc.write(tmp_path / "bad.gltf"))
+
+
 def test_skinned_asset_round_trip_keeps_skin_and_animations(tmp_path):
     mesh = plane(3)
     mesh.v_joints = torch.tensor([[0, 1, 0, 0]] * mesh.num_vertices)
@@ -380,14 +395,17 @@ def test_skinned_asset_round_trip_keeps_skin_and_animations(tmp_path):
     mesh_to_world[:3, 3] = torch.tensor([0.0, 0, 2])
     skin = Skin(nodes=nodes, joints=torch.tensor([0, 1]), inverse_bind=torch.eye(4).repeat(2, 1, 1),
                 mesh_to_world=mesh_to_world)
+    cubic = torch.tensor([[0.0, 0, 0], [1, 0, 0], [0.5, 0, 0], [0.25, 0, 0], [2, 0, 0], [0, 0, 0]])
     anim = Animation("wave", [Channel(1, "rotation", torch.tensor([0.0, 1.0]),
-                                      torch.tensor([[0.0, 0, 0, 1], [0, 0, 0.6, 0.8]]), "STEP")])
+                                      torch.tensor([[0.0, 0, 0, 1], [0, 0, 0.6, 0.8]]), "STEP"),
+                              Channel(0, "translation", torch.tensor([0.0, 1.0]), cubic, "CUBICSPLINE")])
     io.save(Asset(mesh=mesh, skin=skin, animations=[anim]), tmp_path / "s.glb")
     assert_valid(tmp_path / "s.glb")
     back = io.load(tmp_path / "s.glb")
     assert back.skin.joints.tolist() == [0, 1] and len(back.animations) == 1
-    ch = back.animations[0].channels[0]
+    ch, spline = back.animations[0].channels
     assert (ch.node, ch.path, ch.interpolation) == (1, "rotation", "STEP")
+    assert spline.interpolation == "CUBICSPLINE" and torch.equal(spline.values, cubic)  # tangents kept
     # Skinning matrices world(joint) @ IBM applied to loaded positions reproduce the originals:
     # the written IBM absorbs the baked mesh transform.
     assert torch.allclose(back.skin.inverse_bind[:, :3, 3], torch.tensor([[0.0, 0, -2]] * 2), atol=1e-6)

@@ -9,7 +9,7 @@ import torch
 
 from lookalike.asset import Animation, Channel, Node, Skin
 from lookalike.asset.skinning import (dense_weights, joint_matrices, node_world_matrices, quaternion_to_matrix,
-                                      skin_vertices, slerp)
+                                      sample_channel, skin_vertices, slerp)
 
 
 def axis_angle_quaternion(axis, angle):
@@ -135,3 +135,28 @@ def test_skins_the_shared_characters(shared_assets, relative):
         assert (frames - mesh.v_pos).abs().max() > 0.01 * extent
         frame_extent = (frames.max(1).values - frames.min(1).values).max(-1).values
         assert (frame_extent < 1.5 * extent).all() and (frame_extent > 0.5 * extent).all()
+
+
+def test_cubicspline_sampling_matches_hand_computed_values():
+    """glTF Appendix C: between keys 0 (t=1, v=2, out-tangent 4) and 1 (t=3, v=6, in-tangent
+    -2), at s = 1/4 with d = 2: h00 = 27/32, h10 = 9/64, h01 = 5/32, h11 = -3/64, so
+    p = 27/32*2 + 2*9/64*4 + 5/32*6 + 2*(-3/64)*(-2) = 3.75; clamped to the end values
+    outside; keys are hit exactly; rotations come out unit length."""
+    values = torch.tensor([[9.0], [2.0], [4.0], [-2.0], [6.0], [7.0]])  # (in, value, out) per key
+    channel = Channel(0, "translation", torch.tensor([1.0, 3.0]), values, "CUBICSPLINE")
+    got = sample_channel(channel, torch.tensor([0.0, 1.0, 1.5, 3.0, 4.0]))[:, 0]
+    assert torch.allclose(got, torch.tensor([2.0, 2.0, 3.9375, 6.0, 6.0]))
+    q0, q1 = torch.tensor([0.0, 0, 0, 1]), axis_angle_quaternion([0, 0, 1], math.pi / 2)
+    zero = torch.zeros(4)
+    rotation = Channel(0, "rotation", torch.tensor([0.0, 1.0]), torch.stack([zero, q0, zero, zero, q1, zero]),
+                       "CUBICSPLINE")
+    halfway = sample_channel(rotation, torch.tensor([0.5]))[0]
+    assert torch.allclose(halfway.norm(), torch.tensor(1.0))
+    # zero tangents: the Hermite blend of the two keys is symmetric at s = 1/2, i.e. 45 degrees
+    assert torch.allclose(halfway, axis_angle_quaternion([0, 0, 1], math.pi / 4), atol=1e-6)
+
+
+def test_step_holds_each_key_until_the_next():
+    channel = Channel(0, "scale", torch.tensor([0.0, 1.0, 2.0]), torch.tensor([[1.0] * 3, [2.0] * 3, [5.0] * 3]), "STEP")
+    got = sample_channel(channel, torch.tensor([-1.0, 0.0, 0.99, 1.0, 1.5, 2.0, 9.0]))[:, 0]
+    assert torch.equal(got, torch.tensor([1.0, 1.0, 1.0, 2.0, 2.0, 5.0, 5.0]))

@@ -32,8 +32,11 @@ class Channel:
         node: index into ``Skin.nodes``.
         path: ``"translation"``, ``"rotation"`` or ``"scale"``.
         times: ``[K]`` float32 key times in seconds, increasing.
-        values: ``[K, 3]`` or ``[K, 4]`` (quaternion xyzw) key values.
-        interpolation: ``"LINEAR"`` (slerp for rotations) or ``"STEP"``.
+        values: the sampler's output as glTF stores it: ``[K, 3]`` or ``[K, 4]`` (quaternion
+            xyzw) key values for ``LINEAR`` and ``STEP``; ``[3K, C]`` for ``CUBICSPLINE``, each
+            key's in-tangent, value and out-tangent in turn.
+        interpolation: ``"LINEAR"`` (slerp for rotations), ``"STEP"`` or ``"CUBICSPLINE"``
+            (cubic Hermite, glTF 2.0 Appendix C).
     """
 
     node: int

@@ -6,7 +6,8 @@ association can be optimised). Joint matrices follow glTF 2.0 (Sec. 3.7.3): for 
 the skinned mesh node's transform that the loader applied to the bind-pose positions.
 ``world`` composes local ``T @ R @ S`` matrices from the root down; animated channels override
 a node's translation, rotation or scale (LINEAR: lerp, slerp for rotations; STEP: the key at or
-before ``t``; times outside the keys clamp to the first or last key).
+before ``t``; CUBICSPLINE: cubic Hermite with the keys' tangents; times outside the keys clamp
+to the first or last key).
 """
 
 from __future__ import annotations
@@ -76,18 +77,34 @@ def slerp(q0: torch.Tensor, q1: torch.Tensor, s: torch.Tensor) -> torch.Tensor:
 
 
 def sample_channel(channel: Channel, times: torch.Tensor) -> torch.Tensor:
-    """Values ``[F, C]`` of ``channel`` at ``times [F]`` (glTF LINEAR or STEP sampling)."""
+    """Values ``[F, C]`` of ``channel`` at ``times [F]``, with glTF's sampler semantics: times
+    outside the keys clamp to the first or last key; between keys ``k`` and ``k + 1``, at
+    ``s = (t - t_k) / (t_{k+1} - t_k)``, STEP holds ``v_k``, LINEAR lerps (slerps rotations),
+    and CUBICSPLINE is the cubic Hermite spline ``(2s^3 - 3s^2 + 1) v_k + d (s^3 - 2s^2 + s)
+    b_k + (-2s^3 + 3s^2) v_{k+1} + d (s^3 - s^2) a_{k+1}`` with ``d = t_{k+1} - t_k``, ``b_k``
+    the out-tangent of key ``k`` and ``a_{k+1}`` the in-tangent of key ``k + 1`` (rotations
+    normalised after)."""
     keys = channel.times.to(times)
     values = channel.values.to(times)
+    if channel.interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
+        raise ValueError(f"unsupported animation interpolation {channel.interpolation!r}")
+    cubic = channel.interpolation == "CUBICSPLINE"
+    if cubic:
+        in_tangent, values, out_tangent = values.reshape(keys.numel(), 3, -1).unbind(1)
     if keys.numel() == 1:
         return values[:1].expand(times.shape[0], -1)
     t = times.clamp(keys[0], keys[-1])
     k = (torch.searchsorted(keys, t, right=True) - 1).clamp(0, keys.numel() - 2)
-    s = ((t - keys[k]) / (keys[k + 1] - keys[k]).clamp(min=1e-12)).clamp(0, 1)
+    span = keys[k + 1] - keys[k]
+    s = ((t - keys[k]) / span.clamp(min=1e-12)).clamp(0, 1)
     if channel.interpolation == "STEP":
         return torch.where((s >= 1).unsqueeze(-1), values[k + 1], values[k])
-    if channel.interpolation != "LINEAR":
-        raise ValueError(f"unsupported animation interpolation {channel.interpolation!r}")
+    if cubic:
+        s, d = s.unsqueeze(-1), span.unsqueeze(-1)
+        s2, s3 = s * s, s * s * s
+        out = ((2 * s3 - 3 * s2 + 1) * values[k] + d * (s3 - 2 * s2 + s) * out_tangent[k]
+               + (-2 * s3 + 3 * s2) * values[k + 1] + d * (s3 - s2) * in_tangent[k + 1])
+        return out / out.norm(dim=-1, keepdim=True) if channel.path == "rotation" else out
     if channel.path == "rotation":
         return slerp(values[k], values[k + 1], s)
     return torch.lerp(values[k], values[k + 1], s.unsqueeze(-1))

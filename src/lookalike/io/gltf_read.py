@@ -384,10 +384,10 @@ def _read_animations(data: GltfData) -> list[Animation]:
             times = data.accessor(sampler.input).astype(np.float32).reshape(-1)
             values = data.accessor(sampler.output).astype(np.float32)
             interpolation = sampler.interpolation or "LINEAR"
-            if interpolation == "CUBICSPLINE":
-                log.warning(f"{data.path}: animation {a_index} uses CUBICSPLINE; tangents dropped, keys kept")
-                values = values.reshape(len(times), 3, -1)[:, 1]
-                interpolation = "LINEAR"
+            rows = 3 * len(times) if interpolation == "CUBICSPLINE" else len(times)
+            if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE") or len(times) == 0 or len(values) != rows:
+                raise AssetError(data.path, f"animation {a_index} has a {interpolation} sampler with {len(times)} key "
+                                            f"times and {len(values)} output values")
             channels.append(Channel(node=int(ch.target.node), path=ch.target.path, times=torch.from_numpy(times),
                                     values=torch.from_numpy(np.ascontiguousarray(values)),
                                     interpolation=interpolation))
