@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-
 from io_factory import covered_texels, npm_package, plane, two_material_asset
 from log_capture import expect_warning
+
 from lookalike import io
 from lookalike.asset import Animation, Asset, Channel, Material, Node, Skin
 from lookalike.errors import AssetError

@@ -8,8 +8,15 @@ import pytest
 import torch
 
 from lookalike.asset import Animation, Channel, Node, Skin
-from lookalike.asset.skinning import (dense_weights, joint_matrices, node_world_matrices, quaternion_to_matrix,
-                                      sample_channel, skin_vertices, slerp)
+from lookalike.asset.skinning import (
+    dense_weights,
+    joint_matrices,
+    node_world_matrices,
+    quaternion_to_matrix,
+    sample_channel,
+    skin_vertices,
+    slerp,
+)
 
 
 def axis_angle_quaternion(axis, angle):
