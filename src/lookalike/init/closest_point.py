@@ -17,6 +17,7 @@ from numba import njit, prange
 from scipy.spatial import cKDTree
 
 from ..threads import thread_count
+from .triangle_kernels import centroids_and_extents
 
 _SHORTLIST = 16                    # first shortlist size (samples per query point)
 _MAX_GATHER = 1 << 20              # query points x shortlist size evaluated in one batch
@@ -171,12 +172,11 @@ def _cover_samples(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     Returns:
         ``(samples [S, 3] float64, sample_triangle [S] int64, r)``.
     """
-    centroid = corners.mean(axis=1)
-    extent = np.linalg.norm(corners - centroid[:, None], axis=-1).max(axis=1)
+    centroid, extent = centroids_and_extents(corners)
     radius = max(float(np.percentile(extent, 90)), float(extent.max()) / _MAX_SUBDIVISION, 1e-300)
     splits = np.clip(np.ceil(extent / radius), 1, _MAX_SUBDIVISION).astype(np.int64)
     samples, owners = [], []
-    for n in np.unique(splits):
+    for n in np.nonzero(np.bincount(splits))[0]:   # the split counts present (1 .. _MAX_SUBDIVISION; no sort)
         tris = np.nonzero(splits == n)[0]
         if n == 1:   # most triangles: the one sample is the centroid
             samples.append(centroid[tris])

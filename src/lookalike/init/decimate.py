@@ -32,6 +32,7 @@ from ..asset.mesh import Mesh
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
 from .transfer import transfer_attributes
+from .triangle_kernels import triangle_areas
 from .weld import weld_tolerance, weld_vertices
 
 SCHEDULE = tuple((frozen, agg) for frozen in (True, False) for agg in (3.0, 5.0, 7.0, 10.0))
@@ -111,8 +112,7 @@ def clean_triangles_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np
 
 def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
     """``[T]`` bool: triangle area above ``_ZERO_AREA`` times the squared bounding-box diagonal."""
-    corners = v_pos[t_pos_idx]
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    area = triangle_areas(v_pos, t_pos_idx)
     diagonal = np.linalg.norm(v_pos.max(axis=0) - v_pos.min(axis=0)) if len(v_pos) else 0.0
     return area > _ZERO_AREA * diagonal ** 2
 
