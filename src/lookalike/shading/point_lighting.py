@@ -9,6 +9,7 @@ oracle.
 
 from __future__ import annotations
 
+import numba
 import torch
 
 from . import bsdf
@@ -28,7 +29,7 @@ class _LitRadiance(torch.autograd.Function):
         view, horizon = view.contiguous(), horizon.contiguous()
         out = kd.new_empty(kd.shape[0], 3)
         kernels.lit_radiance_forward(*(a.numpy() for a in arrays[:6]), view.numpy(), *(a.numpy() for a in arrays[6:]),
-                                     horizon.numpy(), out.numpy())
+                                     horizon.numpy(), out.numpy(), numba.get_num_threads())
         ctx.save_for_backward(*arrays, view, horizon)
         return out
 
@@ -38,7 +39,7 @@ class _LitRadiance(torch.autograd.Function):
         grads = [torch.empty_like(arrays[0]) for _ in range(6)]
         kernels.lit_radiance_backward(*(a.numpy() for a in arrays[:6]), view.numpy(), *(a.numpy() for a in arrays[6:]),
                                       horizon.numpy(), grad_out.to(arrays[0].dtype).contiguous().numpy(),
-                                      *(g.numpy() for g in grads))
+                                      *(g.numpy() for g in grads), numba.get_num_threads())
         grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity = grads
         light_pos = arrays[6]
         grad_light_pos = grad_light_intensity = None

@@ -54,37 +54,52 @@ def _half(vx, vy, vz, lx, ly, lz):
     return hx * hinv, hy * hinv, hz * hinv, inside, hinv
 
 
-@njit(cache=True, parallel=True)
-def lit_radiance_forward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out):
-    """``out [N, 3]`` = the radiance above for ``kd, ks, normal, view_dir, position, geometric
-    [N, 3]`` and ``view [N]`` int64 (the light of each point: ``light_pos [L, 3]``,
-    ``intensity [L, 3]``, ``horizon [L]`` bool, with ``L = 1`` shared by all points)."""
+@njit(cache=True, inline="always")
+def _point(ks, normal, view_dir, position, geometric, light_pos, horizon, p, b):
+    """Everything the radiance of point ``p`` under light ``b`` needs besides its base colour:
+    ``(below, (o, d2, d2 clamp passed, 1/sqrt(d2)), l, n, v, h, |v+l|^2 clamp passed, 1/|v+l|,
+    n.l, (nh, passed, vh, passed, clamped nl, passed, clamped nv, passed), (gamma, metal, r,
+    r clamp passed, a2), (den, D, root_v, root_l, Vis, (1 - vh)^5))`` with vectors as 3-tuples
+    and ``below`` True where the view tests the horizon and the light is below the surface."""
+    ox, oy, oz, d2, d2_inside, rinv = _light(position, light_pos, p, b)
+    lx, ly, lz = ox * rinv, oy * rinv, oz * rinv
+    below = horizon[b] and geometric[p, 0] * lx + geometric[p, 1] * ly + geometric[p, 2] * lz <= 0.0
+    nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
+    vx, vy, vz = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
+    hx, hy, hz, hh_inside, hinv = _half(vx, vy, vz, lx, ly, lz)
+    nl = nx * lx + ny * ly + nz * lz
+    rough, rough_inside = _clamp(ks[p, 1], MIN_ROUGHNESS, 1.0)
+    a2 = rough * rough * rough * rough
+    nh, nh_inside = _clamp(nx * hx + ny * hy + nz * hz, 0.0, 1.0)
+    vh, vh_inside = _clamp(vx * hx + vy * hy + vz * hz, 0.0, 1.0)
+    nlc, nl_inside = _clamp(nl, COSINE_EPSILON, 1.0)
+    nvc, nv_inside = _clamp(nx * vx + ny * vy + nz * vz, COSINE_EPSILON, 1.0)
+    den = nh * nh * (a2 - 1.0) + 1.0
+    dist = a2 / (math.pi * den * den)
+    root_v = math.sqrt(nvc * nvc * (1.0 - a2) + a2)
+    root_l = math.sqrt(nlc * nlc * (1.0 - a2) + a2)
+    vis = 0.5 / (nlc * root_v + nvc * root_l)
+    return (below, (ox, oy, oz, d2, d2_inside, rinv), (lx, ly, lz), (nx, ny, nz), (vx, vy, vz), (hx, hy, hz),
+            hh_inside, hinv, nl, (nh, nh_inside, vh, vh_inside, nlc, nl_inside, nvc, nv_inside),
+            (ks[p, 0], ks[p, 2], rough, rough_inside, a2), (den, dist, root_v, root_l, vis, (1.0 - vh) ** 5))
+
+
+@njit(cache=True)
+def _forward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out, start, end):
+    """:func:`lit_radiance_forward` for points ``start .. end-1``."""
     shared = light_pos.shape[0] == 1
-    for p in prange(kd.shape[0]):
+    for p in range(start, end):
         b = 0 if shared else view[p]
-        ox, oy, oz, d2, _, rinv = _light(position, light_pos, p, b)
-        lx, ly, lz = ox * rinv, oy * rinv, oz * rinv
-        if horizon[b] and geometric[p, 0] * lx + geometric[p, 1] * ly + geometric[p, 2] * lz <= 0.0:
+        below, light, _l, _n, _v, _h, _hh, _hinv, nl, _cosines, material, lobe = _point(
+            ks, normal, view_dir, position, geometric, light_pos, horizon, p, b)
+        if below:
             out[p, 0] = 0.0
             out[p, 1] = 0.0
             out[p, 2] = 0.0
             continue
-        nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
-        vx, vy, vz = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
-        hx, hy, hz, _, _ = _half(vx, vy, vz, lx, ly, lz)
-        nl = nx * lx + ny * ly + nz * lz
-        cosine = max(0.0, nl)
-        gamma, metal = ks[p, 0], ks[p, 2]
-        rough, _ = _clamp(ks[p, 1], MIN_ROUGHNESS, 1.0)
-        a2 = rough * rough * rough * rough
-        nh, _ = _clamp(nx * hx + ny * hy + nz * hz, 0.0, 1.0)
-        vh, _ = _clamp(vx * hx + vy * hy + vz * hz, 0.0, 1.0)
-        nlc, _ = _clamp(nl, COSINE_EPSILON, 1.0)
-        nvc, _ = _clamp(nx * vx + ny * vy + nz * vz, COSINE_EPSILON, 1.0)
-        den = nh * nh * (a2 - 1.0) + 1.0
-        dist = a2 / (math.pi * den * den)
-        vis = 0.5 / (nlc * math.sqrt(nvc * nvc * (1.0 - a2) + a2) + nvc * math.sqrt(nlc * nlc * (1.0 - a2) + a2))
-        schlick = (1.0 - vh) ** 5
+        d2, cosine = light[3], max(0.0, nl)
+        gamma, metal = material[0], material[1]
+        dist, vis, schlick = lobe[1], lobe[4], lobe[5]
         f90 = 1.0 - gamma
         for c in range(3):
             f0 = (DIELECTRIC_F0 * (1.0 - metal) + kd[p, c] * metal) * (1.0 - gamma)
@@ -93,15 +108,26 @@ def lit_radiance_forward(kd, ks, normal, view_dir, position, geometric, view, li
             out[p, c] = bsdf * cosine * intensity[b, c] / d2
 
 
+
+
 @njit(cache=True, parallel=True)
-def lit_radiance_backward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
-                          grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity):
-    """Gradients of :func:`lit_radiance_forward` for ``grad_out [N, 3]``: overwrite every row of
-    ``grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position [N, 3]`` and of
-    ``grad_intensity [N, 3]`` (each point's share of its light's intensity gradient; the light
-    position's is minus ``grad_position``, summed per light by the caller)."""
+def lit_radiance_forward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out, runs):
+    """``out [N, 3]`` = the radiance above for ``kd, ks, normal, view_dir, position, geometric
+    [N, 3]`` and ``view [N]`` int64 (the light of each point: ``light_pos [L, 3]``,
+    ``intensity [L, 3]``, ``horizon [L]`` bool, with ``L = 1`` shared by all points), in ``runs``
+    contiguous runs of points in parallel."""
+    n = kd.shape[0]
+    for run in prange(runs):
+        _forward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out,
+                     run * n // runs, (run + 1) * n // runs)
+
+
+@njit(cache=True)
+def _backward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
+                  grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity, start, end):
+    """:func:`lit_radiance_backward` for points ``start .. end-1``."""
     shared = light_pos.shape[0] == 1
-    for p in prange(kd.shape[0]):
+    for p in range(start, end):
         for c in range(3):
             grad_kd[p, c] = 0.0
             grad_ks[p, c] = 0.0
@@ -110,28 +136,19 @@ def lit_radiance_backward(kd, ks, normal, view_dir, position, geometric, view, l
             grad_position[p, c] = 0.0
             grad_intensity[p, c] = 0.0
         b = 0 if shared else view[p]
-        ox, oy, oz, d2, d2_inside, rinv = _light(position, light_pos, p, b)
-        lx, ly, lz = ox * rinv, oy * rinv, oz * rinv
-        if horizon[b] and geometric[p, 0] * lx + geometric[p, 1] * ly + geometric[p, 2] * lz <= 0.0:
+        below, light, l, n, v, h, hh_inside, hinv, nl, cosines, material, lobe = _point(
+            ks, normal, view_dir, position, geometric, light_pos, horizon, p, b)
+        if below:
             continue
-        nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
-        vx, vy, vz = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
-        hx, hy, hz, hh_inside, hinv = _half(vx, vy, vz, lx, ly, lz)
-        nl = nx * lx + ny * ly + nz * lz
+        ox, oy, oz, d2, d2_inside, rinv = light
+        lx, ly, lz = l
+        nx, ny, nz = n
+        vx, vy, vz = v
+        hx, hy, hz = h
+        nh, nh_inside, vh, vh_inside, nlc, nl_inside, nvc, nv_inside = cosines
+        gamma, metal, rough, rough_inside, a2 = material
+        den, dist, root_v, root_l, vis, schlick = lobe
         cosine = max(0.0, nl)
-        gamma, metal = ks[p, 0], ks[p, 2]
-        rough, rough_inside = _clamp(ks[p, 1], MIN_ROUGHNESS, 1.0)
-        a2 = rough * rough * rough * rough
-        nh, nh_inside = _clamp(nx * hx + ny * hy + nz * hz, 0.0, 1.0)
-        vh, vh_inside = _clamp(vx * hx + vy * hy + vz * hz, 0.0, 1.0)
-        nlc, nl_inside = _clamp(nl, COSINE_EPSILON, 1.0)
-        nvc, nv_inside = _clamp(nx * vx + ny * vy + nz * vz, COSINE_EPSILON, 1.0)
-        den = nh * nh * (a2 - 1.0) + 1.0
-        dist = a2 / (math.pi * den * den)
-        root_v = math.sqrt(nvc * nvc * (1.0 - a2) + a2)
-        root_l = math.sqrt(nlc * nlc * (1.0 - a2) + a2)
-        vis = 0.5 / (nlc * root_v + nvc * root_l)
-        schlick = (1.0 - vh) ** 5
         f90 = 1.0 - gamma
         # back through radiance_c = bsdf_c * cosine * E_c
         g_cosine = 0.0
@@ -196,3 +213,18 @@ def lit_radiance_backward(kd, ks, normal, view_dir, position, geometric, view, l
         grad_position[p, 0] = -(glx * rinv + g_o2 * ox)
         grad_position[p, 1] = -(gly * rinv + g_o2 * oy)
         grad_position[p, 2] = -(glz * rinv + g_o2 * oz)
+
+
+@njit(cache=True, parallel=True)
+def lit_radiance_backward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
+                          grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity, runs):
+    """Gradients of :func:`lit_radiance_forward` for ``grad_out [N, 3]``: overwrite every row of
+    ``grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position [N, 3]`` and of
+    ``grad_intensity [N, 3]`` (each point's share of its light's intensity gradient; the light
+    position's is minus ``grad_position``, summed per light by the caller), in ``runs``
+    contiguous runs of points in parallel."""
+    n = kd.shape[0]
+    for run in prange(runs):
+        _backward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
+                      grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity,
+                      run * n // runs, (run + 1) * n // runs)
