@@ -32,7 +32,7 @@ from ..asset.mesh import Mesh
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
 from .transfer import transfer_attributes
-from .triangle_kernels import triangle_areas
+from .triangle_kernels import triangle_areas, triangle_areas_python
 from .weld import weld_tolerance, weld_vertices
 
 SCHEDULE = tuple((frozen, agg) for frozen in (True, False) for agg in (3.0, 5.0, 7.0, 10.0))
@@ -91,7 +91,7 @@ def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarra
 
 def clean_triangles_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Twin of :func:`clean_triangles` by sorting rows (``np.unique``), the tests' oracle."""
-    keep = _large_enough(v_pos, t_pos_idx)
+    keep = _large_enough(v_pos, t_pos_idx, triangle_areas_python)
     a, b, c = t_pos_idx.T
     keep &= (a != b) & (b != c) & (c != a)
     # An even permutation of a triple keeps its orientation: rotate so the smallest index leads.
@@ -110,9 +110,10 @@ def clean_triangles_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np
     return v_pos[used], remapped.reshape(-1, 3).astype(np.int64)
 
 
-def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
-    """``[T]`` bool: triangle area above ``_ZERO_AREA`` times the squared bounding-box diagonal."""
-    area = triangle_areas(v_pos, t_pos_idx)
+def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray, areas=triangle_areas) -> np.ndarray:
+    """``[T]`` bool: triangle area (by ``areas``: the compiled pass, or its NumPy twin for the
+    twin of ``clean_triangles``) above ``_ZERO_AREA`` times the squared bounding-box diagonal."""
+    area = areas(v_pos, t_pos_idx)
     diagonal = np.linalg.norm(v_pos.max(axis=0) - v_pos.min(axis=0)) if len(v_pos) else 0.0
     return area > _ZERO_AREA * diagonal ** 2
 

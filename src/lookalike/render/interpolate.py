@@ -110,8 +110,10 @@ def interpolate_at(
     check_rast_ids(rast, tri.shape[0])
     if pixels is not None:
         pixels = pixels.long()
-        if pixels.numel() and (pixels.min() < 0 or pixels.max() >= rast.shape[0] * rast.shape[1] * rast.shape[2]):
-            raise ValueError(f"pixels index outside the {tuple(rast.shape[:3])} images")
+        if pixels.numel():
+            low, high = torch.aminmax(pixels)  # one pass, not two
+            if low < 0 or high >= rast.shape[0] * rast.shape[1] * rast.shape[2]:
+                raise ValueError(f"pixels index outside the {tuple(rast.shape[:3])} images")
     return _Interpolate.apply(
         attr, rast, rast_db if channels else None, tri.contiguous(), torch.tensor(channels, dtype=torch.int64), pixels
     )
