@@ -66,13 +66,22 @@ class Skin:
         nodes: every node of the scene graph that a joint or its ancestors use.
         joints: ``[J]`` int64 indices into ``nodes``; vertex joint index ``k`` means
             ``nodes[joints[k]]``.
-        inverse_bind: ``[J, 4, 4]`` float32 inverse bind matrices.
+        inverse_bind: ``[J, 4, 4]`` float32 inverse bind matrices, for bind-pose positions in
+            the frame ``inverse(mesh_to_world)`` maps the mesh's positions to.
         mesh_to_world: ``[4, 4]`` transform that was applied to the bind-pose mesh on load
             (the skinned mesh node's world matrix), so that skinning can undo it:
             glTF ignores the mesh node's transform for skinned meshes.
+        name: the skin's name in the file (``""``: none).
+        skeleton: index into ``nodes`` of the skeleton's root (glTF ``skin.skeleton``), or ``None``.
+        mesh_node: index into ``nodes`` of the node that held the (first) skinned mesh, where
+            the skin was read from a file: a writer puts the mesh back there, so that the node
+            tree keeps its shape; ``None``: a node of its own.
     """
 
     nodes: list[Node]
     joints: torch.Tensor
     inverse_bind: torch.Tensor
     mesh_to_world: torch.Tensor = field(default_factory=lambda: torch.eye(4))
+    name: str = ""
+    skeleton: int | None = None
+    mesh_node: int | None = None

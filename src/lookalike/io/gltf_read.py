@@ -16,6 +16,16 @@ into ours (``lookalike.io.normal_frames``). Emission is
 ``emissiveFactor * emissiveStrength * emissiveTexture`` (sRGB decoded; KHR_materials_emissive_strength);
 occlusion is ``1 + strength * (occlusionTexture.R - 1)``, with its own ``texCoord``. Morph targets
 are ignored.
+
+Skins: the asset has one ``Skin`` over every node of the document (file order, so node indices,
+joint indices and animation targets keep their meaning). Several skins over one skeleton (a
+multi-mesh character, one skin per mesh) are joined: a joint slot per (joint node, inverse bind
+matrix as it applies to the loaded positions), each primitive's JOINTS remapped into the slots
+before welding. ``mesh_to_world`` is the world matrix ``W_0`` of the first skinned mesh node; a
+skinned node with another world matrix ``W_n`` has ``inv(W_n) @ W_0`` folded into its inverse
+bind matrices (glTF ignores a skinned mesh node's transform), so where all skinned nodes share
+``W_0`` the matrices are the file's float32 values. Name and skeleton root are the first skin's;
+animations of TRS properties are kept with the skin (other paths are skipped with a warning).
 """
 
 from __future__ import annotations
@@ -60,6 +70,7 @@ class _Primitive:
     joints: np.ndarray | None  # [n, K] int64
     weights: np.ndarray | None  # [n, K] float32
     material: int  # index into the asset's materials
+    node: int  # glTF node that places it (its world matrix was applied)
     skin: int | None  # glTF skin index of its node
 
 
@@ -112,7 +123,10 @@ def _triangles(mode: int, indices: np.ndarray) -> np.ndarray | None:
     return None
 
 
-def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin, where: str) -> _Primitive | None:
+def _read_primitive(data: GltfData, prim, node: int, world: np.ndarray, material: int, skin: int | None,
+                    where: str) -> _Primitive | None:
+    """One triangle primitive of glTF node ``node`` placed by its world matrix ``world [4, 4]``,
+    or ``None`` for points and lines; joints and weights are kept only where the node has a skin."""
     attrs = {k: v for k, v in vars(prim.attributes).items() if v is not None}
     if "POSITION" not in attrs:
         raise AssetError(data.path, f"{where} has no POSITION attribute")
@@ -151,12 +165,16 @@ def _read_primitive(data: GltfData, prim, world: np.ndarray, material: int, skin
         c = data.accessor(attrs["COLOR_0"]).astype(np.float32)
         colors = np.concatenate([c, np.ones((n, 1), np.float32)], axis=1) if c.shape[1] == 3 else c
     joints = weights = None
-    if "JOINTS_0" in attrs and "WEIGHTS_0" in attrs:
+    if skin is not None and "JOINTS_0" in attrs and "WEIGHTS_0" in attrs:
         sets = [k for k in range(2) if f"JOINTS_{k}" in attrs and f"WEIGHTS_{k}" in attrs]
         joints = np.concatenate([data.accessor(attrs[f"JOINTS_{k}"]) for k in sets], axis=1).astype(np.int64)
         weights = np.concatenate([data.accessor(attrs[f"WEIGHTS_{k}"]) for k in sets], axis=1).astype(np.float32)
+        n_joints = len(data.gltf.skins[skin].joints)
+        if joints.size and (joints.min() < 0 or joints.max() >= n_joints):
+            raise AssetError(data.path, f"{where}: joint index {int(joints.max())} out of range for skin {skin} "
+                                        f"with {n_joints} joints")
     return _Primitive(positions, triangles.astype(np.int64), normals, tangents, uvs, colors, joints, weights,
-                      material, skin)
+                      material, node, skin)
 
 
 def _stack(parts: list[_Primitive], name: str, width: int, dtype) -> np.ndarray | None:
@@ -350,9 +368,8 @@ class _MaterialReader:
         )
 
 
-def _read_skin(data: GltfData, skin_index: int, mesh_world: np.ndarray, parents: np.ndarray) -> Skin:
-    gltf = data.gltf
-    skin = gltf.skins[skin_index]
+def _scene_nodes(gltf, parents: np.ndarray) -> list[Node]:
+    """Every node of the document, in file order, as a ``Node`` (a ``matrix`` decomposed into TRS)."""
     nodes = []
     for i, node in enumerate(gltf.nodes):
         if node.matrix is not None:
@@ -363,13 +380,72 @@ def _read_skin(data: GltfData, skin_index: int, mesh_world: np.ndarray, parents:
                           translation=torch.tensor(t, dtype=torch.float32),
                           rotation=torch.tensor(r, dtype=torch.float32),
                           scale=torch.tensor(s, dtype=torch.float32)))
-    joints = torch.tensor(skin.joints, dtype=torch.int64)
-    if skin.inverseBindMatrices is not None:
-        ibm = data.accessor(skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major
-    else:
-        ibm = np.tile(np.eye(4, dtype=np.float32), (len(skin.joints), 1, 1))
-    return Skin(nodes=nodes, joints=joints, inverse_bind=torch.from_numpy(np.ascontiguousarray(ibm, np.float32)),
-                mesh_to_world=torch.from_numpy(mesh_world.astype(np.float32)))
+    return nodes
+
+
+def _inverse_binds(data: GltfData, skin_index: int) -> np.ndarray:
+    """``[J, 4, 4]`` float32 inverse bind matrices of ``skins[skin_index]`` (identity where absent)."""
+    skin = data.gltf.skins[skin_index]
+    if skin.inverseBindMatrices is None:
+        return np.tile(np.eye(4, dtype=np.float32), (len(skin.joints), 1, 1))
+    ibm = data.accessor(skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major
+    if len(ibm) < len(skin.joints):
+        raise AssetError(data.path, f"skin {skin_index} has {len(skin.joints)} joints but {len(ibm)} inverse bind "
+                                    f"matrices")
+    return np.ascontiguousarray(ibm[: len(skin.joints)], np.float32)
+
+
+def _slot(slots: list[tuple[int, np.ndarray]], by_node: dict[int, list[int]], node: int, ibm: np.ndarray) -> int:
+    """Index in ``slots`` of joint ``node`` with inverse bind matrix ``ibm [4, 4]``: an existing
+    slot of that node whose matrix equals it to float32 rounding, else a new one."""
+    for i in by_node.setdefault(node, []):
+        if np.allclose(slots[i][1], ibm, rtol=1e-6, atol=1e-6 * float(np.abs(ibm).max())):
+            return i
+    by_node[node].append(len(slots))
+    slots.append((node, ibm))
+    return len(slots) - 1
+
+
+def _join_skins(data: GltfData, parts: list[_Primitive], world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One joint list for the skins of all skinned ``parts``, remapping each part's joints into it
+    (in place). Its mesh frame is the world matrix ``W_0`` of the first skinned part's node: a
+    part placed by another world matrix ``W_n`` gets ``IBM_j @ inv(W_n) @ W_0`` (float64), so that
+    ``world(joint) @ IBM' @ inv(W_0)`` maps its loaded positions ``W_n p`` as glTF's
+    ``world(joint) @ IBM_j`` maps ``p``; the others keep the file's float32 matrices. A slot is a
+    (joint node, such matrix) pair: skins sharing a skeleton share its slots; a joint of zero
+    weight becomes slot 0. Returns joint node indices ``[J]`` int64 and inverse bind matrices
+    ``[J, 4, 4]`` float32 (``world`` is ``[N, 4, 4]``)."""
+    mesh_world = world[next(p.node for p in parts if p.skin is not None)]
+    slots: list[tuple[int, np.ndarray]] = []
+    by_node: dict[int, list[int]] = {}
+    remaps: dict[tuple[int, int], np.ndarray] = {}
+    for part in parts:
+        if part.skin is None:
+            continue
+        key = (part.skin, part.node)
+        if key not in remaps:
+            ibm = _inverse_binds(data, part.skin)
+            if not np.array_equal(world[part.node], mesh_world):
+                if np.linalg.det(world[part.node]) == 0:
+                    raise AssetError(data.path, f"skinned node {part.node} has a singular world matrix")
+                ibm = (ibm.astype(np.float64) @ np.linalg.inv(world[part.node]) @ mesh_world).astype(np.float32)
+            joint_nodes = data.gltf.skins[part.skin].joints
+            remaps[key] = np.array([_slot(slots, by_node, n, m) for n, m in zip(joint_nodes, ibm)], dtype=np.int64)
+        if part.joints is not None:  # joints of zero weight become 0
+            part.joints = np.where(part.weights != 0, remaps[key][part.joints], 0)
+    return np.array([n for n, _ in slots], dtype=np.int64), np.array([m for _, m in slots], np.float32).reshape(-1, 4, 4)
+
+
+def _read_skin(data: GltfData, parts: list[_Primitive], world: np.ndarray, parents: np.ndarray) -> Skin:
+    """The skin of the skinned ``parts``, joined into one over their joints (``_join_skins``;
+    remaps the parts' joints), with every node of the document; name and skeleton root are the
+    first skinned part's skin's."""
+    first = next(p for p in parts if p.skin is not None)
+    joints, ibm = _join_skins(data, parts, world)
+    skin = data.gltf.skins[first.skin]
+    return Skin(nodes=_scene_nodes(data.gltf, parents), joints=torch.from_numpy(joints),
+                inverse_bind=torch.from_numpy(ibm), mesh_to_world=torch.from_numpy(world[first.node].astype(np.float32)),
+                name=skin.name or "", skeleton=skin.skeleton, mesh_node=first.node)
 
 
 def _read_animations(data: GltfData) -> list[Animation]:
@@ -413,30 +489,28 @@ def read_gltf(path: Path) -> Asset:
             continue
         if not 0 <= node.mesh < len(gltf.meshes):
             raise AssetError(path, f"node {node_index} refers to missing mesh {node.mesh}")
+        if node.skin is not None and not 0 <= node.skin < len(gltf.skins):
+            raise AssetError(path, f"node {node_index} refers to missing skin {node.skin}")
         for p_index, prim in enumerate(gltf.meshes[node.mesh].primitives):
             material = n_materials if prim.material is None else prim.material
             if not 0 <= material <= n_materials:
                 raise AssetError(path, f"mesh {node.mesh} primitive {p_index} refers to missing material {material}")
-            part = _read_primitive(data, prim, world[node_index], material, node.skin,
+            part = _read_primitive(data, prim, node_index, world[node_index], material, node.skin,
                                    f"mesh {node.mesh} primitive {p_index}")
             if part is not None and len(part.triangles):
                 parts.append(part)
     if not parts:
         raise AssetError(path, "the default scene contains no triangles")
+    skin, animations = None, []
+    if any(p.skin is not None for p in parts):
+        skin = _read_skin(data, parts, world, parents)  # before _merge: welding sees the joined joints
+        animations = _read_animations(data)
+    elif gltf.animations:
+        log.warning(f"{path}: animations of an unskinned scene are not kept")
     mesh, corners = _merge(parts, path)
     reader_ = _MaterialReader(data)
     materials = [reader_.material(m) for m in gltf.materials]
     if (mesh.t_mat_idx == n_materials).any() or not materials:
         materials.append(Material(name="default"))
-    skins = sorted({p.skin for p in parts if p.skin is not None})
-    skin, animations = None, []
-    if skins:
-        if len(skins) > 1:
-            log.warning(f"{path}: {len(skins)} skins; only skin {skins[0]} is kept")
-        skinned_node = next(i for i in order if gltf.nodes[i].skin == skins[0])
-        skin = _read_skin(data, skins[0], world[skinned_node], parents)
-        animations = _read_animations(data)
-    elif gltf.animations:
-        log.warning(f"{path}: animations of an unskinned scene are not kept")
     materials = import_normal_maps(mesh, materials, _stack_nan(parts, "tangents", 4)[corners])
     return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path)

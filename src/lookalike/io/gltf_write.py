@@ -19,9 +19,18 @@ specular factor scales only the dielectric lobe, while the paper's ``gamma`` als
 (sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
 then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
 image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
-its own. The node tree is flat (identity transforms:
-geometry is already in the asset's frame); skinned assets keep their joint nodes, skin and
-animations, with inverse bind matrices adjusted for the mesh transform baked in on load.
+its own.
+
+Unskinned assets are one mesh node with no transform (the geometry is in the asset's frame).
+Skinned assets keep every node of their ``Skin`` (so joint indices and animation targets keep
+their meaning), the skin and the animations, written as held: a file read with one skin keeps
+its joint list, node names, hierarchy and TRS values, and the float32 data of its inverse bind
+matrices and animation samplers byte for byte. Skinned meshes are written in the frame their
+inverse bind matrices expect: ``inv(mesh_to_world)`` applied to the positions, normals and
+tangents transformed to match (tangents are MikkTSpace of the asset-frame data, computed
+before), on the node that held the skinned mesh in the file read (``Skin.mesh_node``, where it is
+a leaf; else a new root node), with no transform (glTF ignores a skinned mesh node's transform).
+Weights whose rows sum to 1 to float32 rounding are written as given, others renormalised.
 """
 
 from __future__ import annotations
@@ -218,19 +227,66 @@ def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
     return out
 
 
+def _unit(x: np.ndarray) -> np.ndarray:
+    """``[n, 3]`` float32 rows of ``x`` scaled to unit length (computed in float64)."""
+    x = x.astype(np.float64)
+    return (x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-30)).astype(np.float32)
+
+
+def _to_mesh_frame(mesh_to_world: np.ndarray, positions: np.ndarray, normals: np.ndarray,
+                   tangents: np.ndarray | None, indices: np.ndarray):
+    """Vertex data in the asset's frame moved into the frame a skin's inverse bind matrices expect,
+    by ``inv(mesh_to_world)`` (``[4, 4]`` float64, linear part ``L``): positions ``[n, 3]``
+    (float64, then float32), normals ``[n, 3]`` by ``L^T`` and tangents ``[n, 4]`` xyz by
+    ``inv(L)``, both renormalised. A mirroring ``L`` (negative determinant) also flips the
+    tangents' handedness and the winding of ``indices [t, 3]``, undoing the reader's flip on load.
+    Returns ``(positions, normals, tangents, indices)``."""
+    linear = mesh_to_world[:3, :3]
+    to_mesh = np.linalg.inv(mesh_to_world)
+    positions = (positions.astype(np.float64) @ to_mesh[:3, :3].T + to_mesh[:3, 3]).astype(np.float32)
+    normals = _unit(normals @ linear)
+    mirror = np.linalg.det(linear) < 0
+    if tangents is not None:
+        handedness = -tangents[:, 3:] if mirror else tangents[:, 3:]
+        tangents = np.concatenate([_unit(tangents[:, :3] @ to_mesh[:3, :3].T), handedness], axis=1)
+    return positions, normals, tangents, indices[:, [0, 2, 1]] if mirror else indices
+
+
+def _normalized_weights(weights: np.ndarray) -> np.ndarray:
+    """``[n, K]`` float32 skinning weights whose rows sum to 1: rows that do to float32 rounding
+    (within 1e-7 per non-zero weight, half the Khronos validator's tolerance) are kept as given,
+    the others divided by their sum in float64; all-zero rows stay zero."""
+    sums = weights.astype(np.float64).sum(axis=1, keepdims=True)
+    off = (np.abs(sums - 1.0) > 1e-7 * np.count_nonzero(weights, axis=1)[:, None]) & (sums > 0)
+    return np.where(off, weights / np.where(off, sums, 1.0), weights).astype(np.float32)
+
+
 def _skin(builder: _GlbBuilder, asset: Asset) -> list[dict]:
-    """Write skin 0 and the animations to ``builder``; returns the JSON of the skeleton's nodes
-    (the caller appends the mesh node)."""
+    """Write skin 0 and the animations to ``builder``; returns the JSON of the skin's nodes
+    (the caller appends the mesh node). Joints, inverse bind matrices, node TRS and animation
+    samplers are written as held (float32), unchanged from a file read with one skin. glTF joints
+    are distinct nodes: a node that is the joint of several slots (skins joined on load with
+    different inverse bind matrices) gets, for each repeat, a child node with no transform."""
     skin = asset.skin
     nodes = [{"name": n.name, "translation": n.translation.tolist(), "rotation": n.rotation.tolist(),
               "scale": n.scale.tolist()} for n in skin.nodes]
     for i, node in enumerate(skin.nodes):
         if node.parent >= 0:
             nodes[node.parent].setdefault("children", []).append(i)
-    # Positions were moved by mesh_to_world on load: IBM' = IBM @ inverse(mesh_to_world).
-    ibm = skin.inverse_bind.double().numpy() @ np.linalg.inv(skin.mesh_to_world.double().numpy())
-    ibm_acc = builder.accessor(np.ascontiguousarray(ibm.transpose(0, 2, 1)).reshape(-1, 16), _FLOAT, matrix=True)
-    builder.doc["skins"] = [{"joints": skin.joints.tolist(), "inverseBindMatrices": ibm_acc}]
+    joints, seen = skin.joints.tolist(), set()
+    for k, j in enumerate(joints):
+        if j in seen:
+            nodes.append({"name": nodes[j]["name"]})
+            nodes[j].setdefault("children", []).append(len(nodes) - 1)
+            joints[k] = len(nodes) - 1
+        seen.add(j)
+    ibm = skin.inverse_bind.detach().float().numpy().transpose(0, 2, 1)  # column-major
+    out = {"joints": joints, "inverseBindMatrices": builder.accessor(ibm.reshape(-1, 16), _FLOAT, matrix=True)}
+    if skin.skeleton is not None:
+        out["skeleton"] = skin.skeleton
+    if skin.name:
+        out["name"] = skin.name
+    builder.doc["skins"] = [out]
     animations = []
     for anim in asset.animations:
         samplers, channels = [], []
@@ -252,6 +308,7 @@ def write_glb(asset: Asset, path: Path) -> None:
     """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
     path = Path(path)
     mesh = asset.mesh.detach()
+    skinned = asset.skin is not None and mesh.v_joints is not None
     v_nrm, t_nrm_idx = mesh.normals()
     n_tris = mesh.num_triangles
     corner_keys = [t.numpy().reshape(-1, 1) for t in (mesh.t_pos_idx, t_nrm_idx, *(t for _, t in mesh.uv))]
@@ -268,12 +325,18 @@ def write_glb(asset: Asset, path: Path) -> None:
         materials = export_normal_maps(mesh, materials)
     first, inverse = unique_rows(np.concatenate(corner_keys, axis=1))
     indices = inverse.reshape(n_tris, 3)
+    positions, normals = corner_pos.reshape(-1, 3)[first], corner_nrm.reshape(-1, 3)[first]
+    if tangents is not None:
+        tangents = tangents[first]
+    if skinned:
+        positions, normals, tangents, indices = _to_mesh_frame(
+            asset.skin.mesh_to_world.detach().double().numpy(), positions, normals, tangents, indices)
 
     builder = _GlbBuilder()
-    attributes = {"POSITION": builder.accessor(corner_pos.reshape(-1, 3)[first], _FLOAT, _ARRAY_BUFFER, bounds=True),
-                  "NORMAL": builder.accessor(corner_nrm.reshape(-1, 3)[first], _FLOAT, _ARRAY_BUFFER)}
+    attributes = {"POSITION": builder.accessor(positions, _FLOAT, _ARRAY_BUFFER, bounds=True),
+                  "NORMAL": builder.accessor(normals, _FLOAT, _ARRAY_BUFFER)}
     if tangents is not None:
-        attributes["TANGENT"] = builder.accessor(tangents[first], _FLOAT, _ARRAY_BUFFER)
+        attributes["TANGENT"] = builder.accessor(tangents, _FLOAT, _ARRAY_BUFFER)
     for k, (v_tex, t_tex_idx) in enumerate(mesh.uv):
         attributes[f"TEXCOORD_{k}"] = builder.accessor(v_tex.float()[t_tex_idx].numpy().reshape(-1, 2)[first],
                                                        _FLOAT, _ARRAY_BUFFER)
@@ -281,10 +344,9 @@ def write_glb(asset: Asset, path: Path) -> None:
     if mesh.v_color is not None:
         color = np.clip(mesh.v_color.float().numpy()[corner_vertex], 0, 1)
         attributes["COLOR_0"] = builder.accessor(color, _FLOAT, _ARRAY_BUFFER)
-    if asset.skin is not None and mesh.v_joints is not None:
+    if skinned:
         joints = mesh.v_joints.numpy()[corner_vertex]
-        weights = mesh.v_weights.float().numpy()[corner_vertex]
-        weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-12)
+        weights = _normalized_weights(mesh.v_weights.float().numpy()[corner_vertex])
         for s in range(joints.shape[1] // 4):
             attributes[f"JOINTS_{s}"] = builder.accessor(joints[:, 4 * s:4 * s + 4], _UNSIGNED_SHORT, _ARRAY_BUFFER)
             attributes[f"WEIGHTS_{s}"] = builder.accessor(weights[:, 4 * s:4 * s + 4], _FLOAT, _ARRAY_BUFFER)
@@ -298,10 +360,15 @@ def write_glb(asset: Asset, path: Path) -> None:
                                                        _ELEMENT_ARRAY_BUFFER)})
     builder.doc["materials"] = [_material(builder, materials[i], has_uv) for i in used_materials]
     builder.doc["meshes"] = [{"name": asset.name, "primitives": primitives}]
-    if asset.skin is not None and mesh.v_joints is not None:
+    if skinned:
         nodes = _skin(builder, asset)
-        nodes.append({"name": asset.name, "mesh": 0, "skin": 0})
-        roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0] + [len(nodes) - 1]
+        roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0]
+        home = asset.skin.mesh_node
+        if home is not None and home < len(asset.skin.nodes) and "children" not in nodes[home]:
+            nodes[home] = {"name": nodes[home]["name"], "mesh": 0, "skin": 0}
+        else:
+            nodes.append({"name": asset.name, "mesh": 0, "skin": 0})
+            roots.append(len(nodes) - 1)
     else:
         nodes, roots = [{"name": asset.name, "mesh": 0}], [0]
     builder.doc["nodes"] = nodes
