@@ -146,9 +146,16 @@ def test_vertex_colours_and_skin_weights_follow_the_surface():
     out = decimate(mesh, 200)
     expected = 0.5 + 0.5 * out.v_pos / out.v_pos.norm(dim=1, keepdim=True)
     assert (out.v_color[:, :3] - expected).abs().max() < 0.06
+    # Weights are blended at each vertex's closest point: all on one joint away from the cut at
+    # x = 0, shared by both where the closest triangle straddles it; 4 per vertex, summing to 1.
     far_from_cut = out.v_pos[:, 0].abs() > 0.2
     assert torch.equal(out.v_joints[far_from_cut, 0], (out.v_pos[far_from_cut, 0] > 0).long())
-    assert torch.equal(out.v_weights, weights[: out.num_vertices])
+    assert torch.allclose(out.v_weights[far_from_cut, 0], torch.ones(int(far_from_cut.sum())))
+    assert out.v_weights.shape == (out.num_vertices, 4) and (out.v_weights >= 0).all()
+    assert torch.allclose(out.v_weights.sum(1), torch.ones(out.num_vertices))
+    shared = (out.v_weights[:, :2] > 0.05).all(1)
+    assert shared.any() and (out.v_pos[shared, 0].abs() < 0.2).all()
+    assert (out.v_joints[shared, :2].sort(1).values == torch.tensor([0, 1])).all()
 
 
 def test_multi_part_input_keeps_every_part():

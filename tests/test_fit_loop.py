@@ -51,7 +51,7 @@ class ToyMesh(TexturedMesh):
 
     draw = staticmethod(toy_render)
 
-    def render(self, camera, light, resolution):
+    def render(self, camera, light, resolution, pose=None):
         return self.draw(self.as_asset(), camera, light)
 
 
@@ -337,7 +337,7 @@ def test_the_time_budget_fixes_the_iteration_count():
 class PositionTarget:
     """A fake reference renderer: each image is filled with its camera's position."""
 
-    def render(self, camera, light, resolution, spp, time=None):
+    def render(self, camera, light, resolution, spp, pose=None):
         image = torch.cat([camera.position, light.position[:, :1]], dim=-1)[:, None, None, :]
         return image.expand(-1, resolution, resolution, 4)
 
@@ -404,11 +404,11 @@ class FlatLatent(torch.nn.Module):
     def parameter_groups(self):
         return {"colour": [self.value]}
 
-    def render(self, camera, light, resolution):
+    def render(self, camera, light, resolution, pose=None):
         rgb = self.value.expand(camera.batch_size, resolution, resolution, 3)
         return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)
 
-    def coverage(self, camera, resolution):
+    def coverage(self, camera, resolution, pose=None):
         return None
 
     def clamp_(self):

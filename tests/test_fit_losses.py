@@ -114,11 +114,11 @@ class FlatLatent(torch.nn.Module):
     def parameter_groups(self):
         return {"all": [self.value]}
 
-    def render(self, camera, light, resolution):
+    def render(self, camera, light, resolution, pose=None):
         rgb = (self.value * self.alpha).expand(camera.batch_size, resolution, resolution, 3)
         return torch.cat([rgb, torch.full_like(rgb[..., :1], self.alpha)], dim=-1)
 
-    def coverage(self, camera, resolution):
+    def coverage(self, camera, resolution, pose=None):
         return torch.full((camera.batch_size, resolution, resolution), self.alpha, dtype=torch.float64)
 
     def clamp_(self):

@@ -168,7 +168,8 @@ def test_silhouettes_land_on_the_same_pixels(tmp_path):
     asset = Asset(mesh=Mesh(v_pos=v_pos, t_pos_idx=mesh.t_pos_idx),
                   materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]), ks=Texture.constant(LAMBERTIAN))])
     glb = _save(asset, tmp_path / "blob.glb")
-    camera, light = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(3), 3)
+    views = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(3), 3)
+    camera, light = views.camera, views.light
     cycles = render_in_cycles(glb, camera, light, 64, shadows=False, samples=4)
     ours = render(asset, camera, light, 64, spp=2)
     a, b = cycles[..., 3] > 0.5, ours[..., 3] > 0.5
@@ -186,7 +187,8 @@ def test_cycles_agrees_with_our_renderer_on_a_smooth_textured_sphere(tmp_path):
     kd[..., 3] = 1.0
     asset = Asset(mesh=uv_sphere(24, 48), materials=[Material(kd=Texture(kd), ks=Texture.constant([0.0, 0.6, 0.0]))])
     glb = _save(asset, tmp_path / "sphere.glb")
-    camera, light = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(5), 3)
+    views = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(5), 3)
+    camera, light = views.camera, views.light
     cycles = render_cycles_views(glb, camera, light, 64, samples=16)
     ours = render(io.load(glb), camera, light, 64, spp=4)
     for shadows in (True, False):                                             # a convex sphere shadows nothing

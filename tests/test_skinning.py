@@ -1,4 +1,4 @@
-"""Dense linear-blend skinning and glTF animation sampling."""
+"""Linear-blend skinning, strongest influences, poses and glTF animation sampling."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from lookalike.asset.skinning import (
     sample_channel,
     skin_vertices,
     slerp,
+    strongest_influences,
 )
 
 
@@ -43,24 +44,48 @@ def two_bone_skin() -> Skin:
     return Skin(nodes=nodes, joints=torch.tensor([0, 1]), inverse_bind=torch.linalg.inv(rest_world))
 
 
-def test_skin_vertices_matches_loop():
-    frames, joints, verts = 2, 3, 5
+def skin_vertices_loop(v_pos, joints, weights, mats):
+    """The obviously-correct twin: every frame, vertex and influence in turn."""
+    out = torch.zeros(mats.shape[0], v_pos.shape[0], 3, dtype=v_pos.dtype)
+    for f in range(mats.shape[0]):
+        for v in range(v_pos.shape[0]):
+            h = torch.cat([v_pos[v], torch.ones(1, dtype=v_pos.dtype)])
+            for k in range(joints.shape[1]):
+                out[f, v] += weights[v, k] * (mats[f, joints[v, k]] @ h)[:3]
+    return out
+
+
+def test_skin_vertices_matches_a_per_vertex_loop():
+    frames, num_joints, verts, influences = 2, 5, 7, 3
     v_pos = torch.randn(verts, 3, dtype=torch.float64)
-    weights = torch.rand(verts, joints, dtype=torch.float64)
-    mats = torch.randn(frames, joints, 4, 4, dtype=torch.float64)
-    got = skin_vertices(v_pos, weights, mats)
-    for f in range(frames):
-        for v in range(verts):
-            h = torch.cat([v_pos[v], torch.ones(1, dtype=torch.float64)])
-            expected = sum(weights[v, j] * (mats[f, j] @ h)[:3] for j in range(joints))
-            assert torch.allclose(got[f, v], expected)
+    joints = torch.randint(0, num_joints, (verts, influences))
+    joints[0] = torch.tensor([2, 2, 4])  # a repeated joint adds up
+    weights = torch.rand(verts, influences, dtype=torch.float64)
+    mats = torch.randn(frames, num_joints, 4, 4, dtype=torch.float64)
+    assert torch.allclose(skin_vertices(v_pos, joints, weights, mats), skin_vertices_loop(v_pos, joints, weights, mats))
+    # Dense weights are influences over every joint.
+    dense = torch.rand(verts, num_joints, dtype=torch.float64)
+    every = torch.arange(num_joints).expand(verts, -1)
+    assert torch.allclose(skin_vertices(v_pos, every, dense, mats), skin_vertices_loop(v_pos, every, dense, mats))
 
 
-def test_skin_vertices_gradient():
+def test_skin_vertices_gradients_match_finite_differences():
     v_pos = torch.randn(4, 3, dtype=torch.float64, requires_grad=True)
-    weights = torch.rand(4, 2, dtype=torch.float64, requires_grad=True)
+    joints = torch.tensor([[0, 1], [1, 0], [1, 1], [0, 1]])
+    logits = torch.randn(4, 2, dtype=torch.float64, requires_grad=True)
     mats = torch.randn(2, 2, 4, 4, dtype=torch.float64, requires_grad=True)
-    assert torch.autograd.gradcheck(skin_vertices, (v_pos, weights, mats))
+    assert torch.autograd.gradcheck(lambda v, w, m: skin_vertices(v, joints, torch.softmax(w, 1), m),
+                                    (v_pos, logits, mats))
+
+
+def test_strongest_influences_merge_repeats_keep_the_largest_and_renormalise():
+    joints = torch.tensor([[3, 1, 3, 0, 5, 2], [0, 0, 0, 0, 0, 0]])
+    weights = torch.tensor([[0.1, 0.3, 0.2, 0.05, 0.25, 0.1], [0.2, 0.2, 0.3, 0.3, 0.0, 0.0]])
+    top, share = strongest_influences(joints, weights, 4)
+    assert top[0].tolist() == [1, 3, 5, 2] and torch.allclose(share[0], torch.tensor([0.3, 0.3, 0.25, 0.1]) / 0.95)
+    # One joint only: it takes all the weight, the other slots are weight 0 on joint 0.
+    assert top[1].tolist() == [0, 0, 0, 0] and share[1].tolist() == [1.0, 0.0, 0.0, 0.0]
+    assert (share >= 0).all() and torch.allclose(share.sum(1), torch.ones(2))
 
 
 def test_dense_weights_scatter_and_sum_duplicates():
@@ -108,7 +133,7 @@ def test_animation_linear_and_step():
     # A vertex bound to the child at its origin follows the child's origin.
     mats = joint_matrices(skin, animation, times)
     vertex = torch.tensor([[1.0, 2.0, 0.0]])
-    moved = skin_vertices(vertex, torch.tensor([[0.0, 1.0]]), mats)
+    moved = skin_vertices(vertex, torch.tensor([[1]]), torch.tensor([[1.0]]), mats)
     assert torch.allclose(moved[:, 0], world[:, 1, :3, 3], atol=1e-6)
 
 
@@ -118,7 +143,7 @@ def test_mesh_to_world_is_undone():
     # Loaded positions are mesh_to_world @ local; rest-pose skinning maps local -> local.
     local = torch.tensor([[0.5, 0.5, 0.5]])
     loaded = 2.0 * local
-    skinned = skin_vertices(loaded, torch.tensor([[1.0, 0.0]]), joint_matrices(skin))
+    skinned = skin_vertices(loaded, torch.tensor([[0]]), torch.tensor([[1.0]]), joint_matrices(skin))
     assert torch.allclose(skinned[0], local, atol=1e-6)
 
 
@@ -129,15 +154,14 @@ def test_skins_the_shared_characters(shared_assets, relative):
 
     asset = io.load(shared_assets / relative)
     skin, mesh = asset.skin, asset.mesh
-    weights = dense_weights(mesh.v_joints, mesh.v_weights, skin.joints.shape[0])
     extent = (mesh.v_pos.max(0).values - mesh.v_pos.min(0).values).max()
     # The rest pose reproduces the loaded bind pose.
-    rest = skin_vertices(mesh.v_pos, weights, joint_matrices(skin))[0]
+    rest = skin_vertices(mesh.v_pos, mesh.v_joints, mesh.v_weights, joint_matrices(skin))[0]
     assert (rest - mesh.v_pos).abs().max() < 1e-4 * extent
     # Every clip moves the character without tearing it apart.
     for animation in asset.animations:
         times = torch.linspace(0, animation.duration, 5)
-        frames = skin_vertices(mesh.v_pos, weights, joint_matrices(skin, animation, times))
+        frames = skin_vertices(mesh.v_pos, mesh.v_joints, mesh.v_weights, joint_matrices(skin, animation, times))
         assert torch.isfinite(frames).all()
         assert (frames - mesh.v_pos).abs().max() > 0.01 * extent
         frame_extent = (frames.max(1).values - frames.min(1).values).max(-1).values

@@ -23,3 +23,7 @@ MAX_POOL_BYTES = 8 << 30
 
 MAX_WORKERS = 1024
 """Tasks at once, and CPUs per task, of a batch."""
+
+MAX_SKIN_CANDIDATES = 64
+"""Candidate joints per vertex of a skinned fit: its blended skinning matrices take
+``12 x candidates`` floats per vertex in every render."""

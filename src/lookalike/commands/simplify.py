@@ -15,6 +15,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_fit_arguments(parser)
     parser.add_argument("--init-mesh", metavar="LOD", help="start from this low-poly mesh (e.g. an existing LOD that "
                         "looks wrong) instead of our decimation; its UVs and textures are kept where they form an atlas")
+    pose = parser.add_mutually_exclusive_group()
+    pose.add_argument("--static", action="store_true", help="for a skinned, animated input: simplify its bind "
+                        "pose into a still model (without this, the model and its skinning weights are fitted over the "
+                        "animations and model.glb keeps the skeleton and clips)")
+    pose.add_argument("--compare-static", action="store_true", help="for a skinned, animated input: also run the "
+                        "bind-pose fit (--static, its own time budget) into OUTDIR/bind-pose-fit/ and score it, with "
+                        "the input's weights transferred, beside ours in the report (twice the time)")
     parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
     parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree, pinned "
@@ -44,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
         require_judge()
     result = simplify(args.input, args.output, init_mesh=args.init_mesh, resume=args.resume, force=args.force,
+                      static=True if args.static else None, compare_static=args.compare_static,
                       progress=not args.quiet, profile=args.profile, **fit_options(args))
     print(result.summary())
     if args.judge is not None and not result.interrupted:

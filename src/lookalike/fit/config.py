@@ -24,6 +24,7 @@ from ..errors import ConfigError
 from ..limits import (
     MAX_POOL_BYTES,
     MAX_RESOLUTION,
+    MAX_SKIN_CANDIDATES,
     MAX_SPP,
     MAX_TEXTURE_SIZE,
     MAX_VIEWS,
@@ -79,6 +80,12 @@ class LatentConfig:
         constant_colour: hold base colour and specular as one value each where the input's
             are one value (an untextured scan), so that the fit cannot paint shading into them;
             the normal map carries the relief.
+        static: for a skinned input with animations, simplify its bind pose alone and write a
+            static model, instead of fitting the model and its skinning weights over the
+            animations (``lookalike.fit.skinned_mesh``).
+        skin_candidates: joints per vertex whose weights a skinned fit trains (those that weigh
+            most on the input's surface nearby, ``lookalike.init.skin_weights``); the export
+            keeps the 4 largest.
     """
 
     DEFAULT_RATIO = 0.02
@@ -89,6 +96,8 @@ class LatentConfig:
     init: str = "bake"
     texture_scales: tuple[float, float, float, float] = (0.25, 0.25, 0.25, 0.25)
     constant_colour: bool = True
+    static: bool = False
+    skin_candidates: int = 8
 
 
 @dataclass
@@ -148,6 +157,9 @@ class ViewsConfig:
             scores are the run's convergence curve. 0 chooses by the training loss instead.
         validation_seed: seed of the validation views (not the held-out ones: the report's
             scores stay independent of the choice).
+        rest_share: for an animated input, the share of training views that show the rest
+            pose; the others show a random clip at a random time. Held-out and validation views
+            are spread over every clip (``lookalike.shading.view_sampling``).
     """
 
     batch_size: int = 1
@@ -159,6 +171,7 @@ class ViewsConfig:
     heldout_seed: int = 20_210_809
     validation: int = 4
     validation_seed: int = 20_211_021
+    rest_share: float = 0.125
 
 
 @dataclass
@@ -182,6 +195,8 @@ class OptimConfig:
         lr_emissive: Adam's lr_0 for the emission map (where the input emits), in units of the
             start's brightest emission (at least 1; see ``lookalike.fit.textured_mesh``);
             ``None`` takes the texels' rate.
+        lr_weights: Adam's lr_0 for the logits of the skinning weights of an animated input
+            (``lookalike.fit.skinned_mesh``).
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
             k = decades / iterations, with ``COLD_START``'s two decades (the paper's; its 0.0002
             is that for its 10k steps) or ``WARM_START``'s one, as for ``lr_positions`` (see
@@ -211,6 +226,7 @@ class OptimConfig:
     lr_positions: float | None = None
     lr_textures: float | None = None
     lr_emissive: float | None = None
+    lr_weights: float = 0.01
     lr_decay: float | None = None
     outline_views: int | None = None
     outline_weight: float = 1.0
@@ -282,12 +298,16 @@ class Config:
             (vw.refresh_triangles > 0, f"views.refresh_triangles must be positive, not {vw.refresh_triangles}"),
             (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
             (vw.validation >= 0, f"views.validation must not be negative, not {vw.validation}"),
+            (0 <= vw.rest_share <= 1, f"views.rest_share must lie in [0, 1], not {vw.rest_share}"),
+            (1 <= lat.skin_candidates <= MAX_SKIN_CANDIDATES,
+             f"latent.skin_candidates must lie in [1, {MAX_SKIN_CANDIDATES}], not {lat.skin_candidates}"),
             (opt.validate_every >= 1, f"optim.validate_every must be at least 1, not {opt.validate_every}"),
             (opt.time_budget > 0, f"optim.time_budget must be positive, not {opt.time_budget}"),
             (opt.iterations is None or opt.iterations >= 0,
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
-            (all(lr is None or lr >= 0 for lr in (opt.lr_positions, opt.lr_textures, opt.lr_emissive)),
+            (all(lr is None or lr >= 0 for lr in (opt.lr_positions, opt.lr_textures, opt.lr_emissive,
+                                                   opt.lr_weights)),
              "learning rates must not be negative"),
             (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
             (opt.outline_views is None or opt.outline_views >= 0, "optim.outline_views must not be negative"),
@@ -360,7 +380,7 @@ def outline_views(config: Config) -> int:
 
 def loop_settings(config: Config, outline: bool) -> LoopSettings:
     """The loop's settings for ``config``: learning rates of the ``"positions"``,
-    ``"textures"`` and ``"emissive"`` groups, and the outline views per step on top of the batch where
+    ``"textures"``, ``"emissive"`` and ``"weights"`` groups, and the outline views per step on top of the batch where
     ``outline`` (a latent whose coverage is geometry's alone), at most the pool's views besides
     the batch."""
     opt, views = config.optim, config.views
@@ -369,7 +389,8 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
     if views.pool_size:
         count = min(count, views.pool_size - views.batch_size)
     lr_emissive = lr_textures if opt.lr_emissive is None else opt.lr_emissive
-    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive},
+    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive,
+                                        "weights": opt.lr_weights},
                         views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
                         lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
                         validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,

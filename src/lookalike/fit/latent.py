@@ -3,8 +3,9 @@
 A latent model owns its trainable tensors, grouped so that each group gets its own learning
 rate; renders itself (colour, and coverage alone for outline views); projects its tensors back
 onto their valid ranges; states its regularisers; exports itself as an ``Asset``; and saves and
-restores its state. ``lookalike.fit.textured_mesh.TexturedMesh`` is the one implementation
-today; skinned meshes, cards with alpha and meshes with displacement follow the same protocol.
+restores its state. ``lookalike.fit.textured_mesh.TexturedMesh`` is the mesh with PBR textures,
+``lookalike.fit.skinned_mesh.SkinnedMesh`` the same with trainable skinning weights, drawn in
+the pose of each view; cards with alpha and meshes with displacement follow the same protocol.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Protocol
 import torch
 
 from ..asset import Asset
+from ..asset.pose import Poses
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 
@@ -30,14 +32,16 @@ class Latent(Protocol):
         """Every trainable tensor (as ``torch.nn.Module.parameters``)."""
         ...
 
-    def render(self, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+    def render(self, camera: Camera, light: PointLight, resolution: int, pose: Poses | None = None) -> torch.Tensor:
         """``[B, H, W, 4]`` linear RGB weighted by coverage, and coverage (H = W =
-        ``resolution``, row 0 at the top); differentiable."""
+        ``resolution``, row 0 at the top), in poses ``pose`` (batch B) where the model moves
+        (a skinned mesh); differentiable."""
         ...
 
-    def coverage(self, camera: Camera, resolution: int) -> torch.Tensor | None:
-        """``[B, H, W]`` antialiased coverage alone (differentiable in the geometry), or
-        ``None`` where coverage is not geometry's alone (alpha), so outline views do not apply."""
+    def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
+        """``[B, H, W]`` antialiased coverage alone (differentiable in the geometry; in poses
+        ``pose`` where the model moves), or ``None`` where coverage is not geometry's alone
+        (alpha), so outline views do not apply."""
         ...
 
     def clamp_(self) -> None:

@@ -68,9 +68,9 @@ class Objective:
         latent's coverage is not geometry's alone (``coverage`` gives ``None``)."""
         shaded, outline = batch.split(self.batch_size)
         resolution = shaded.target.shape[1]
-        pred = latent.render(shaded.camera, shaded.light, resolution)
+        pred = latent.render(shaded.camera, shaded.light, resolution, shaded.pose)
         loss = self.loss_fn(composite(pred, background), composite(shaded.target, background))
-        coverage = None if outline is None else latent.coverage(outline.camera, resolution)
+        coverage = None if outline is None else latent.coverage(outline.camera, resolution, outline.pose)
         if coverage is not None:
             loss = loss + self.outline_weight * (coverage - outline.target[..., 3]).abs().mean()
         return loss

@@ -1,8 +1,9 @@
 """References: what the latent model must look like (paper Sec. 4).
 
 The optimisation treats the reference renderer as a black box: a :class:`Reference` renders
-target images for given cameras and lights. :class:`MeshReference` is an input asset rendered
-by our own pipeline, supersampled. Future references (an animated mesh at a time t, a signed
+target images for given cameras, lights and, where it moves, poses. :class:`MeshReference` is
+an input asset rendered by our own pipeline, supersampled; :class:`SkinnedReference` is an
+animated one, posed by its skeleton at each view's clip and time. Future references (a signed
 distance field, a path tracer) implement the same protocol.
 """
 
@@ -10,9 +11,12 @@ from __future__ import annotations
 
 from typing import Protocol
 
+import numpy as np
 import torch
 
 from ..asset import Asset
+from ..asset.pose import REST, Poses
+from ..asset.skinning import posed
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import FixedAsset, render
@@ -21,20 +25,23 @@ from ..shading.relight import CapturedView, capture_view
 RENDER_CHUNK = 4
 """Views rendered together over a large batch (bounds the memory of supersampled renders)."""
 
+BOUNDS_TIMES = 16
+"""Times per clip at which an animated reference is posed to find the sphere that holds it."""
+
 
 class Reference(Protocol):
     """A reference renderer."""
 
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
-               time: torch.Tensor | None = None) -> torch.Tensor:
+               pose: Poses | None = None) -> torch.Tensor:
         """``[B, H, W, 4]`` float32 linear RGB (weighted by coverage) and coverage, row 0 at
         the top (H = W = ``resolution``), for B cameras and lights, with ``spp`` x ``spp``
-        samples per pixel, at times ``time [B]`` where the reference moves (an animation);
-        no gradients."""
+        samples per pixel, in poses ``pose`` (batch B) where the reference moves (an
+        animation); no gradients."""
         ...
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:
-        """``(centre [3], radius)`` of what it shows, in its own frame."""
+        """``(centre [3], radius)`` of what it shows (in every pose), in its own frame."""
         ...
 
 
@@ -48,14 +55,14 @@ class RelightableReference(Reference, Protocol):
 
 class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled (it does not move:
-    ``time`` is ignored); what its views share is computed once (``FixedAsset``)."""
+    ``pose`` is ignored); what its views share is computed once (``FixedAsset``)."""
 
     def __init__(self, asset: Asset):
         self.asset = FixedAsset.of(asset)
 
     @torch.no_grad()
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
-               time: torch.Tensor | None = None) -> torch.Tensor:
+               pose: Poses | None = None) -> torch.Tensor:
         return render(self.asset, camera, light, (resolution, resolution), spp=spp)
 
     def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
@@ -65,10 +72,45 @@ class MeshReference:
         return self.asset.mesh.bounding_sphere()
 
 
+class SkinnedReference:
+    """An animated asset (a skin, its influences and clips), rendered supersampled in the pose
+    of each view (``lookalike.asset.skinning.posed``: normals recomputed from the posed
+    positions); without poses, in the rest pose. The triangles' topology and the texture
+    pyramids are shared by every pose; normals, tangents and clip positions are computed per
+    pose, at a cost that grows with the input as a render's does."""
+
+    def __init__(self, asset: Asset):
+        self.fixed = FixedAsset.of(asset)
+
+    @property
+    def asset(self) -> Asset:
+        return self.fixed.asset
+
+    @torch.no_grad()
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               pose: Poses | None = None) -> torch.Tensor:
+        pose = Poses.rest(camera.batch_size) if pose is None else pose
+        return torch.cat([render(self.fixed.sharing(posed(self.asset, clip, time)), camera[views], light[views],
+                                 (resolution, resolution), spp=spp)
+                          for views, clip, time in pose.runs()])
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        """The sphere around the bounding box of the rest pose and of ``BOUNDS_TIMES`` times of
+        every clip (its radius reaches every vertex of those poses)."""
+        poses = [(REST, 0.0)] + [(clip, float(t)) for clip, animation in enumerate(self.asset.animations)
+                                 for t in np.linspace(0.0, animation.duration, BOUNDS_TIMES)]
+        used = self.asset.mesh.t_pos_idx.unique()
+        points = torch.cat([posed(self.asset, clip, time).mesh.v_pos[used] for clip, time in poses])
+        lo, hi = points.min(dim=0).values, points.max(dim=0).values
+        centre = 0.5 * (lo + hi)
+        return centre, float((points - centre).norm(dim=-1).max())
+
+
 def render_in_chunks(reference: Reference, camera: Camera, light: PointLight, resolution: int, spp: int,
-                     dtype=torch.float32) -> torch.Tensor:
-    """``reference.render`` over a large batch, ``RENDER_CHUNK`` views at a time, stored as
-    ``dtype``: ``[B, H, W, 4]``."""
+                     dtype=torch.float32, pose: Poses | None = None) -> torch.Tensor:
+    """``reference.render`` over a large batch (poses ``pose`` where given), ``RENDER_CHUNK``
+    views at a time, stored as ``dtype``: ``[B, H, W, 4]``."""
     n = camera.batch_size
-    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK], resolution, spp).to(dtype)
+    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK], resolution, spp,
+                                       None if pose is None else pose[i:i + RENDER_CHUNK]).to(dtype)
                       for i in range(0, n, RENDER_CHUNK)])

@@ -18,6 +18,8 @@ import torch
 
 from ..asset import Asset, Material, Mesh, Texture
 from ..asset.laplacian import UniformLaplacian
+from ..asset.pose import Poses
+from ..asset.skinning import posed
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render, render_coverage
@@ -182,11 +184,12 @@ class TexturedMesh(torch.nn.Module):
         """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
         return slopes_to_normal(self.normal())
 
-    def as_asset(self) -> Asset:
+    def as_asset(self, v_pos: torch.Tensor | None = None) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
-        parameters (``export`` gives a detached one)."""
-        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)],
-                    t_nrm_idx=self.t_nrm_idx)
+        parameters (``export`` gives a detached one); with ``v_pos [V, 3]``, at those positions
+        (a pose) instead of its own."""
+        mesh = Mesh(v_pos=self.world_positions() if v_pos is None else v_pos, t_pos_idx=self.t_pos_idx,
+                    uv=[(self.v_tex, self.t_tex_idx)], t_nrm_idx=self.t_nrm_idx)
         material = Material(
             name="lookalike",
             kd=Texture(self.base_color(), wrap=self.wrap),
@@ -203,19 +206,27 @@ class TexturedMesh(torch.nn.Module):
     def export(self) -> Asset:
         return self.as_asset()
 
-    def render(self, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+    def render(self, camera: Camera, light: PointLight, resolution: int, pose: Poses | None = None) -> torch.Tensor:
         """One shading sample per pixel, at a random one of its ``msaa`` x ``msaa``
         visibility samples (stochastic MSAA, ``lookalike.shading.pipeline``): ``[B, H, W, 4]``,
-        differentiable; in expectation, ``render_asset``'s image."""
-        return render(self.as_asset(), camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
+        differentiable; in expectation, ``render_asset``'s image. The mesh does not move:
+        ``pose`` is ignored."""
+        return self.render_at(self.world_positions(), camera, light, resolution)
 
-    def coverage(self, camera: Camera, resolution: int) -> torch.Tensor | None:
+    def render_at(self, v_pos: torch.Tensor, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+        """``render`` with the mesh at positions ``v_pos [V, 3]`` (world coordinates)."""
+        return render(self.as_asset(v_pos), camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
+
+    def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where
-        alpha is trained (coverage is then a texture's too)."""
+        alpha is trained (coverage is then a texture's too). ``pose`` is ignored."""
+        return self.coverage_at(self.world_positions(), camera, resolution)
+
+    def coverage_at(self, v_pos: torch.Tensor, camera: Camera, resolution: int) -> torch.Tensor | None:
+        """``coverage`` with the mesh at positions ``v_pos [V, 3]`` (world coordinates)."""
         if self.alpha_mode != "OPAQUE":
             return None
-        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx)
-        return render_coverage(mesh, camera, (resolution, resolution), self.msaa)
+        return render_coverage(Mesh(v_pos=v_pos, t_pos_idx=self.t_pos_idx), camera, (resolution, resolution), self.msaa)
 
     def regularizers(self) -> dict[str, torch.Tensor]:
         return {"laplacian": self.laplacian.loss(self.v_pos, self.rest_delta)}
@@ -259,11 +270,17 @@ def _emission_and_occlusion(material: Material, size) -> dict:
     return {"emissive": emissive, "occlusion": occlusion}
 
 
-def render_asset(asset: Asset, camera: Camera, light: PointLight, resolution: int, msaa: int) -> torch.Tensor:
+def render_asset(asset: Asset, camera: Camera, light: PointLight, pose: Poses | None = None, *, resolution: int,
+                 msaa: int) -> torch.Tensor:
     """How fitted models and the baselines they are compared with are scored: every one of
     ``msaa`` x ``msaa`` samples per pixel shaded, as the reference is, ``[B, H, W, 4]``,
-    differentiable (deterministic; what training's stochastic MSAA matches in expectation)."""
-    return render(asset, camera, light, (resolution, resolution), spp=msaa)
+    differentiable (deterministic; what training's stochastic MSAA matches in expectation).
+    A skinned asset is drawn in the poses ``pose`` (batch B) where given
+    (``lookalike.asset.skinning.posed``); else as it is stored."""
+    if pose is None or asset.skin is None:
+        return render(asset, camera, light, (resolution, resolution), spp=msaa)
+    return torch.cat([render(posed(asset, clip, time), camera[views], light[views], (resolution, resolution), spp=msaa)
+                      for views, clip, time in pose.runs()])
 
 
 def _facing_outwards(normal: torch.Tensor, limits: ClampConfig) -> torch.Tensor:

@@ -2,7 +2,8 @@
 
 A :class:`BatchSource` hands the loop a :class:`Batch` per step. :class:`ViewPool` keeps a
 rolling pool of rendered views (float16) and draws mini-batches from it; :class:`FreshViews`
-renders new random views at every step.
+renders new random views at every step. A view is a camera, its point light and, where the
+reference moves (an animated character), a pose (:class:`Views`).
 """
 
 from __future__ import annotations
@@ -14,33 +15,65 @@ from typing import Protocol
 import numpy as np
 import torch
 
+from ..asset.pose import Poses
 from ..phases import phase
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.view_sampling import random_lights, random_views
 from .reference import Reference, render_in_chunks
 
-ViewSampler = Callable[[np.random.Generator, int], tuple[Camera, PointLight]]
-"""Draws ``n`` random views: ``(camera, light)`` batches of ``n``."""
+
+@dataclass
+class Views:
+    """B views: ``camera`` and ``light`` (batch B) and, where the reference moves, the
+    ``pose`` each shows (batch B; ``None`` for a still reference)."""
+
+    camera: Camera
+    light: PointLight
+    pose: Poses | None = None
+
+    @property
+    def batch_size(self) -> int:
+        return self.camera.batch_size
+
+    def __getitem__(self, index) -> Views:
+        return Views(self.camera[index], self.light[index], None if self.pose is None else self.pose[index])
+
+    @staticmethod
+    def cat(views: list[Views]) -> Views:
+        poses = [v.pose for v in views]
+        return Views(Camera.cat([v.camera for v in views]), PointLight.cat([v.light for v in views]),
+                     None if poses[0] is None else Poses.cat(poses))
+
+
+ViewSampler = Callable[[np.random.Generator, int], Views]
+"""Draws ``n`` random views."""
 LightSampler = Callable[[np.random.Generator, Camera], PointLight]
 """Draws a random light for each of a batch of cameras."""
+PoseSampler = Callable[[np.random.Generator, int], Poses]
+"""Draws ``n`` poses (``lookalike.shading.view_sampling.random_poses``)."""
 
 
 @dataclass
 class Batch:
-    """Views of one step: ``camera`` and ``light`` (batch B) and the reference ``target``
-    ``[B, H, W, 4]`` float32 (linear RGB weighted by coverage, and coverage)."""
+    """Views of one step: ``camera`` and ``light`` (batch B), the reference ``target``
+    ``[B, H, W, 4]`` float32 (linear RGB weighted by coverage, and coverage), and the ``pose``
+    of each view where the reference moves (else ``None``)."""
 
     camera: Camera
     light: PointLight
     target: torch.Tensor
+    pose: Poses | None = None
 
     def split(self, n: int) -> tuple[Batch, Batch | None]:
         """The first ``n`` views and the rest (``None`` if there are none)."""
-        head = Batch(self.camera[:n], self.light[:n], self.target[:n])
+        def part(index: slice) -> Batch:
+            return Batch(self.camera[index], self.light[index], self.target[index],
+                         None if self.pose is None else self.pose[index])
+
         if self.target.shape[0] <= n:
-            return head, None
-        return head, Batch(self.camera[n:], self.light[n:], self.target[n:])
+            return part(slice(None, n)), None
+        return part(slice(None, n)), part(slice(n, None))
 
 
 class BatchSource(Protocol):
@@ -56,18 +89,20 @@ class BatchSource(Protocol):
         ...
 
 
-def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0) -> ViewSampler:
-    """``sample(rng, n) -> (Camera, PointLight)``: ``n`` random views of the sphere
-    (``centre [3]``, ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed
-    point light per view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then
-    each view's light tests the geometric horizon (``PointLight.horizon``) with that
-    probability."""
+def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0,
+                 poses: PoseSampler | None = None) -> ViewSampler:
+    """``sample(rng, n) -> Views``: ``n`` random views of the sphere (``centre [3]``,
+    ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed point light per
+    view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then each view's
+    light tests the geometric horizon (``PointLight.horizon``) with that probability; with
+    ``poses``, then a pose per view."""
 
     lights = light_sampler(centre, horizon_share)
 
-    def sample(rng: np.random.Generator, n: int) -> tuple[Camera, PointLight]:
+    def sample(rng: np.random.Generator, n: int) -> Views:
         camera = random_views(centre, radius, n, rng)
-        return camera, lights(rng, camera)
+        light = lights(rng, camera)
+        return Views(camera, light, None if poses is None else poses(rng, n))
 
     return sample
 
@@ -111,7 +146,8 @@ class ViewPool:
             drawn views (from the step's generator), or ``None`` to keep each view's own.
 
     Attributes:
-        camera, light: the pool's views (batch ``size``); slot ``j % size`` holds view ``j``.
+        camera, light, pose: the pool's views (batch ``size``; ``pose`` ``None`` for a still
+            reference); slot ``j % size`` holds view ``j``.
         images: ``[size, H, W, 4]`` float16 reference images (without ``relight``).
         captures: ``size`` ``CapturedView``s (with ``relight``).
     """
@@ -134,11 +170,11 @@ class ViewPool:
         self.rng = np.random.default_rng(self.seed)
         views = [self.sampler(self.rng, 1) for _ in range(drawn)][-self.size:]
         order = sorted(range(self.size), key=lambda k: (drawn - self.size + k) % self.size)
-        self.camera = Camera.cat([views[k][0] for k in order])
-        self.light = PointLight.cat([views[k][1] for k in order])
+        pool = Views.cat([views[k] for k in order])
+        self.camera, self.light, self.pose = pool.camera, pool.light, pool.pose
         if self.relight is None:
-            self.images = render_in_chunks(self.reference, self.camera, self.light, self.resolution, self.spp,
-                                           torch.float16)
+            self.images = render_in_chunks(self.reference, pool.camera, pool.light, self.resolution, self.spp,
+                                           torch.float16, pool.pose)
         else:
             self.captures = [self.reference.capture(self.camera[k], self.resolution, self.spp) for k in range(self.size)]
         self.drawn = drawn
@@ -152,14 +188,18 @@ class ViewPool:
 
     def _refresh(self) -> None:
         """Render one new view into the slot of the oldest."""
-        camera, light = self.sampler(self.rng, 1)
+        view = self.sampler(self.rng, 1)
+        camera, light = view.camera, view.light
         slot = self.drawn % self.size
         self.camera.mv[slot], self.camera.proj[slot], self.camera.position[slot] = camera.mv[0], camera.proj[0], camera.position[0]
         self.light.position[slot], self.light.intensity[slot] = light.position[0], light.intensity[0]
         if self.light.horizon is not None:
             self.light.horizon[slot] = light.horizon[0]
+        if self.pose is not None:
+            self.pose.clip[slot], self.pose.time[slot] = view.pose.clip[0], view.pose.time[0]
         if self.relight is None:
-            self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp)[0].to(torch.float16)
+            self.images[slot] = self.reference.render(camera, light, self.resolution, self.spp,
+                                                      view.pose)[0].to(torch.float16)
         else:
             self.captures[slot] = self.reference.capture(camera, self.resolution, self.spp)
         self.drawn += 1
@@ -170,8 +210,9 @@ class ViewPool:
                 self._refresh()
         self.samples += 1
         index = torch.from_numpy(rng.choice(self.size, size=batch_size, replace=False))
+        pose = None if self.pose is None else self.pose[index]
         if self.relight is None:
-            return Batch(self.camera[index], self.light[index], self.images[index].float())
+            return Batch(self.camera[index], self.light[index], self.images[index].float(), pose)
         camera = self.camera[index]
         light = self.relight(rng, camera)
         with phase("relight"):
@@ -198,8 +239,9 @@ class FreshViews:
         self.spp = spp
 
     def sample(self, rng: np.random.Generator, batch_size: int) -> Batch:
-        camera, light = self.sampler(rng, batch_size)
-        return Batch(camera, light, self.reference.render(camera, light, self.resolution, self.spp))
+        views = self.sampler(rng, batch_size)
+        return Batch(views.camera, views.light,
+                     self.reference.render(views.camera, views.light, self.resolution, self.spp, views.pose), views.pose)
 
     def state_dict(self) -> dict:
         return {}

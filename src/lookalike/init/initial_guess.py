@@ -76,11 +76,12 @@ class InitialGuess:
 
     @property
     def baked(self) -> Asset | None:
-        """The classic bake as an asset of its own (``start``'s mesh, the baked material), or
-        ``None``."""
+        """The classic bake as an asset of its own (``start``'s mesh and skin, the baked
+        material), or ``None``."""
         if self.bake is None:
             return None
-        return Asset(mesh=self.start.mesh, materials=[self.bake.material], source=self.start.source)
+        return Asset(mesh=self.start.mesh, materials=[self.bake.material], skin=self.start.skin,
+                     animations=self.start.animations, source=self.start.source)
 
 
 def target_triangle_count(triangles: int | None, ratio: float, input_triangles: int) -> int:

@@ -21,6 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from ..asset.index_tables import patch_labels
 from ..asset.mesh import Mesh
 from .closest_point import SurfaceQuery
+from .skin_weights import blend_influences
 from .weld import weld_tolerance, weld_vertices
 
 UV_SEAM_TOLERANCE = 1e-5           # UVs closer than this (in UV units) count as continuous
@@ -93,7 +94,8 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray,
         A ``Mesh`` on ``source``'s device: ``v_pos`` float32, ``t_pos_idx``, one UV set per UV
         set of ``source`` (set 0 decides the patches; the others are read at the same closest
         points), ``t_mat_idx``; ``v_color`` interpolated at each vertex's closest point;
-        ``v_joints``/``v_weights`` of the source vertex nearest to that point.
+        ``v_joints``/``v_weights`` blended at that point as many per vertex as the source has
+        (``lookalike.init.skin_weights.blend_influences``).
     """
     device = source.v_pos.device
     src_pos = source.v_pos.detach().cpu().numpy().astype(np.float64)
@@ -130,12 +132,13 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray,
         if source.v_color is not None:
             v_color = _interpolate(source.v_color.detach().cpu().numpy(), src_corner, nearest.barycentric)
         if source.v_joints is not None:
-            vertex = src_corner[np.arange(len(v_pos)), nearest.barycentric.argmax(axis=1)]
-            v_joints = source.v_joints.cpu().numpy()[vertex]
-            v_weights = source.v_weights.detach().cpu().numpy()[vertex]
+            v_joints, v_weights = blend_influences(source, nearest.triangle, nearest.barycentric,
+                                                   source.v_joints.shape[1])
 
     def tensor(x, dtype):
-        return None if x is None else torch.as_tensor(np.ascontiguousarray(x), dtype=dtype, device=device)
+        if x is None:
+            return None
+        return torch.as_tensor(x if torch.is_tensor(x) else np.ascontiguousarray(x), dtype=dtype, device=device)
 
     return Mesh(
         v_pos=tensor(v_pos, torch.float32),

@@ -6,6 +6,11 @@ user's own low-poly mesh, with a UV atlas and the classic bake) -> render the re
 ``TexturedMesh`` -> write ``model.glb`` (+ ``model.obj``), ``report.html``, ``metrics.json`` and
 ``config.toml`` into OUTDIR, each atomically.
 
+A skinned input with animations is fitted over its animations (paper Sec. 5.3,
+``lookalike.jobs.animated``): the views show it posed at random clips and times, the latent is a
+``SkinnedMesh`` whose skinning weights train too, and ``model.glb`` keeps the input's skeleton
+and clips; ``static`` (``--static``) simplifies its bind pose into a still model instead.
+
 The time budget covers the whole run: the optimisation gets what is left after the set-up,
 minus an estimate of the time the outputs take (measured on the decimation baseline). A resumed
 run takes its initial guess from the checkpoint instead of building it again.
@@ -17,10 +22,10 @@ import contextlib
 import dataclasses
 import logging
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 import torch
@@ -29,28 +34,57 @@ from .. import io
 from ..asset import Asset, Material
 from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
-from ..fit.config import Config, LatentConfig, loop_settings, objective, refresh_interval
+from ..fit.config import (
+    Config,
+    LatentConfig,
+    loop_settings,
+    objective,
+    refresh_interval,
+)
 from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
 from ..fit.loop import Fitter
-from ..fit.reference import MeshReference
+from ..fit.reference import MeshReference, SkinnedReference
+from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
 from ..init import decimate
-from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_guess_from_mesh, target_triangle_count,
-                                  uses_alpha)
+from ..init.initial_guess import (
+    InitialGuess,
+    Ranges,
+    initial_guess,
+    initial_guess_from_mesh,
+    target_triangle_count,
+    uses_alpha,
+)
+from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..phases import SEPARATOR, Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
 from ..threads import CoreShare
+from . import animated
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
-from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
+from .outputs import (
+    METRICS_NAME,
+    MODEL_NAME,
+    REPORT_NAME,
+    staged_outputs,
+    write_model,
+    write_record,
+)
 
 log = logging.getLogger(__name__)
 
 OUTDIR_SUFFIX = "-lookalike"
+BIND_POSE_FOLDER = "bind-pose-fit"
+"""Where ``compare_static`` runs the bind-pose fit, inside the output folder."""
+BIND_POSE_STAGE = "bind-pose fit (a run of its own)"
+"""The stage of the timings that holds it."""
+
 OUTPUT_TIME_FACTOR = 2.0
-"""The outputs are estimated to take this many times the baseline's held-out scoring."""
+"""The outputs are estimated to take this many times the baseline's held-out scoring (scoring
+ours, and the report's pictures), and once more for each further scoring after the fit (an
+animated run's moving picture, the bind-pose fit's)."""
 
 OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
@@ -115,7 +149,8 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
              time_budget: float | None = None, iterations: int | None = None, init: str | None = None,
              init_mesh: str | Path | None = None, seed: int | None = None, config: Config | str | Path | None = None,
              resume: bool = False, force: bool = False, material_override: Material | None = None,
-             export_obj: bool | None = None, progress: bool = True, profile: bool = False) -> SimplifyResult:
+             export_obj: bool | None = None, static: bool | None = None, compare_static: bool = False,
+             progress: bool = True, profile: bool = False) -> SimplifyResult:
     """Simplify the asset in ``input`` into ``outdir``.
 
     Args:
@@ -145,7 +180,14 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
         force: overwrite an existing ``outdir``.
         material_override: render the input with this material on every triangle (e.g. a
             colour for untextured scans).
-        export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures.
+        export_obj: also write ``model.obj`` with its ``.mtl`` and PNG textures (a skinned
+            model's bind pose).
+        static: for a skinned input with animations, simplify its bind pose into a still model
+            instead of fitting it, weights included, over its animations (``latent.static``).
+        compare_static: for an animated input, also run the bind-pose fit (``static``, the
+            same settings and a budget of its own) into ``outdir/bind-pose-fit/``, give its
+            model the input's weights (``transfer_skin``) and score it beside ours: what fitting
+            the animations gained. Twice the time.
         progress: show a progress bar.
         profile: record where the time goes (``lookalike.phases``: wall and CPU seconds of
             each phase, nested) into ``metrics.json`` as ``"profile"``.
@@ -163,16 +205,16 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
     check_outdir(outdir, force=force, resume=resume)
     options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
-               "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj}
+               "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj, "static": static}
     recorder = Profile() if profile else None
     with left_as_found(outdir), (recording(recorder) if recorder else contextlib.nullcontext()):
         return _simplify(input, given, outdir, options, time_budget, init_mesh, config, resume, force,
-                         material_override, progress, started, recorder)
+                         material_override, compare_static, progress, started, recorder)
 
 
 def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budget: float | None,
-              init_mesh, config, resume: bool, force: bool, material_override: Material | None, progress: bool,
-              started: float, recorder: Profile | None) -> SimplifyResult:
+              init_mesh, config, resume: bool, force: bool, material_override: Material | None, compare_static: bool,
+              progress: bool, started: float, recorder: Profile | None) -> SimplifyResult:
     """``simplify`` once its output folder is checked (see there)."""
     checkpoint = outdir / CHECKPOINT_NAME
     saved = read_checkpoint(checkpoint) if resume else None
@@ -192,7 +234,14 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
     with _stage(timings, "load and initial guess"):
         with phase("load"):
             loaded = given if given is not None else io.load(input)
-        asset, notes = prepare_input(loaded, material_override)
+        moving = animated.is_animated(loaded, cfg.latent.static)
+        asset, notes = prepare_input(loaded, material_override, moving)
+        if moving and cfg.views.relight:
+            raise ConfigError("views.relight keeps one G-buffer per camera, and an animated input's geometry changes "
+                              "with every view's pose: turn it off, or simplify the bind pose with --static")
+        if moving and cfg.io.export_obj:
+            notes.append(obj_note := "model.obj holds the bind pose: OBJ has no skeleton (model.glb has it)")
+            log.warning(obj_note)
         fingerprint = asset.fingerprint()
         if saved is not None:
             check_same_input(saved, checkpoint, fingerprint, str(input) if given is None else given.name)
@@ -201,24 +250,31 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             count = None if cfg.io.init_mesh else _triangle_target(cfg.latent, asset)
             prepare_outdir(outdir, force=force, resume=resume)
             guess = build_initial_guess(asset, cfg, count)
+            if moving:
+                with phase("skinning weights"):
+                    guess = animated.animated_guess(asset, guess, cfg.latent.skin_candidates)
         checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds, extra=lambda: {
             "config": config_to_dict(cfg), "initial_guess": guess, "input_fingerprint": fingerprint,
             "seconds_used": seconds_before + time.monotonic() - started})
         if saved is None:
             checkpointer.save({})
-        reference = MeshReference(asset)
+        reference = SkinnedReference(asset) if moving else MeshReference(asset)
         centre, radius = reference.bounding_sphere()
-        latent = TexturedMesh.from_asset(
-            guess.start, centre, radius, cfg.clamp, cfg.render.latent_msaa, train_alpha=uses_alpha(asset),
-            constant=constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
-            texture_scales=cfg.latent.texture_scales)
+        bind_centre, bind_radius = asset.mesh.bounding_sphere()
+        surface = {"centre": bind_centre, "radius": bind_radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
+                   "train_alpha": uses_alpha(asset),
+                   "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
+                   "texture_scales": cfg.latent.texture_scales}
+        latent = SkinnedMesh.from_asset(guess.start, **surface) if moving else \
+            TexturedMesh.from_asset(guess.start, **surface)
     with _stage(timings, "reference views"):
-        sampler = view_sampler(centre, radius)
+        sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None)
         size, spp = cfg.render.resolution, cfg.render.target_spp
         heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed, size, spp)
         validation = (HeldoutViews(reference, sampler, cfg.views.validation, cfg.views.validation_seed, size, spp)
                       if cfg.views.validation else None)
-        training = view_sampler(centre, radius, cfg.render.horizon_share)
+        training = view_sampler(centre, radius, cfg.render.horizon_share,
+                                poses=animated.training_poses(asset, cfg) if moving else None)
         relight = light_sampler(centre, cfg.render.horizon_share) if cfg.views.relight else None
         source = (ViewPool(reference, training, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
                            refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
@@ -238,13 +294,33 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
                     checkpointer=checkpointer, cores=CoreShare())
     if saved is not None and "latent" in saved:
         fitter.load_state_dict(saved)
-    output_time = OUTPUT_TIME_FACTOR * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
+    scorings = OUTPUT_TIME_FACTOR + moving + (moving and compare_static)
+    output_time = scorings * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
     available = max(budget - (time.monotonic() - started) - output_time, 0.0)
     with _stage(timings, "optimisation"):
         fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
     export = fit.best.export()
+    interrupted = fit.interrupted
+    if moving and compare_static and not interrupted:
+        with _stage(timings, BIND_POSE_STAGE):
+            bind_pose, interrupted = bind_pose_fit(given if given is not None else input, outdir, cfg,
+                                                   resume=saved is not None, material_override=material_override,
+                                                   progress=progress)
+        if bind_pose is not None:
+            with _stage(timings, "scoring the bind-pose fit"):
+                methods.append(heldout.score("bind_pose", "Bind-pose fit", transfer_skin(asset, bind_pose), draw,
+                                             cfg.latent.texture_size))
+            notes.append(f"bind-pose fit: the same run with --static (in {BIND_POSE_FOLDER}/), its model given the "
+                         "input's weights at the closest points of its surface")
     with _stage(timings, "scoring ours"):
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
+    motion = None
+    if moving:
+        with _stage(timings, "moving picture"):
+            small = cfg.render.resolution // 2
+            motion = animated.motion(reference, {"Ours": export}, heldout,
+                                     partial(render_asset, resolution=small, msaa=cfg.render.latent_msaa), small,
+                                     cfg.render.target_spp)
     record = RunRecord(
         asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
         methods=methods, input_triangles=asset.mesh.num_triangles, output_triangles=export.mesh.num_triangles,
@@ -252,9 +328,10 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         loss_history=np.asarray(fit.losses, dtype=np.float64),
         validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
         validation_views=cfg.views.validation, iterations=fit.iterations, rollbacks=fit.rollbacks,
-        interrupted=fit.interrupted, wall_time=seconds_before + time.monotonic() - started,
+        interrupted=interrupted, wall_time=seconds_before + time.monotonic() - started,
         seconds_per_iteration=fit.seconds / max(fit.iterations, 1), timings=timings,
         config=config_to_dict(cfg), notes=notes + guess.notes,
+        view_labels=animated.pose_labels(asset, heldout.pose) if moving else None, motion=motion,
     )
     with staged_outputs(outdir) as staging:
         with _stage(timings, "export"):
@@ -264,11 +341,31 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             record.profile = recorder.as_dict()
         with _stage(timings, "report"):
             metrics = write_record(staging, record, started - seconds_before)
-    if not fit.interrupted:
+    if not interrupted:
         checkpoint.unlink(missing_ok=True)
     baselines = {baseline_key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
     return SimplifyResult(outdir=outdir, model=outdir / MODEL_NAME, report=outdir / REPORT_NAME, metrics=metrics,
-                          interrupted=fit.interrupted, baselines=baselines)
+                          interrupted=interrupted, baselines=baselines)
+
+
+def bind_pose_fit(input, outdir: Path, cfg: Config, resume: bool, material_override: Material | None,
+                  progress: bool) -> tuple[Asset | None, bool]:
+    """The bind-pose fit of an animated run (``compare_static``): ``simplify`` of ``input`` with
+    ``cfg``'s settings and ``latent.static`` into ``outdir/BIND_POSE_FOLDER`` (its own time
+    budget, checkpoint and report), and its model. When the animated run is resumed, a finished
+    bind-pose fit is taken as it is and an interrupted one resumed; a fresh run makes it afresh.
+
+    Returns:
+        ``(model, interrupted)``: the still model (``None`` if it was interrupted) and whether
+        it was.
+    """
+    folder = outdir / BIND_POSE_FOLDER
+    if resume and (folder / METRICS_NAME).is_file() and not (folder / CHECKPOINT_NAME).exists():
+        return io.load(folder / MODEL_NAME), False
+    static = dataclasses.replace(cfg, latent=dataclasses.replace(cfg.latent, static=True))
+    result = simplify(input, folder, config=static, resume=resume and (folder / CHECKPOINT_NAME).is_file(),
+                      force=True, material_override=material_override, progress=progress)
+    return (None, True) if result.interrupted else (io.load(result.model), False)
 
 
 def resumed_config(saved: dict, checkpoint: Path, given: dict) -> Config:
@@ -293,7 +390,8 @@ def resumed_config(saved: dict, checkpoint: Path, given: dict) -> Config:
 
 
 _SECTION_OF = {"triangles": "latent", "ratio": "latent", "texture_size": "latent", "init": "latent",
-               "resolution": "render", "iterations": "optim", "seed": "optim", "export_obj": "io"}
+               "resolution": "render", "iterations": "optim", "seed": "optim", "export_obj": "io",
+               "static": "latent"}
 
 
 def check_same_input(saved: dict, checkpoint: Path, fingerprint: str, input_name) -> None:
@@ -337,9 +435,10 @@ def _stage(timings: dict[str, float], name: str) -> Iterator[None]:
     timings[name] = time.monotonic() - clock
 
 
-def prepare_input(asset: Asset, material_override: Material | None) -> tuple[Asset, list[str]]:
+def prepare_input(asset: Asset, material_override: Material | None, moving: bool = False) -> tuple[Asset, list[str]]:
     """``asset`` with ``material_override`` applied (a copy; the input is not modified), and
-    remarks about it for the report."""
+    remarks about it for the report; ``moving``: it is fitted over its animations
+    (``animated.is_animated``)."""
     notes = []
     if material_override is not None:
         mesh = dataclasses.replace(asset.mesh, t_mat_idx=torch.zeros_like(asset.mesh.t_mat_idx))
@@ -347,6 +446,12 @@ def prepare_input(asset: Asset, material_override: Material | None) -> tuple[Ass
         notes.append("every triangle of the input rendered with one given material")
     if not asset.mesh.uv:
         notes.append("the input has no UVs: plain decimation shows its constant materials")
-    if asset.skin is not None:
+    if moving:
+        clips = ", ".join(a.name for a in asset.animations)
+        notes.append(f"the input is skinned: it was simplified over its {len(asset.animations)} animation clip"
+                     f"{'s' if len(asset.animations) > 1 else ''} ({clips}) with its skinning weights; the output "
+                     f"keeps its skeleton ({len(asset.skin.joints)} joints) and clips, and held-out views show "
+                     "every clip")
+    elif asset.skin is not None:
         notes.append("the input is skinned: it was simplified in its bind pose, and the output is static")
     return asset, notes

@@ -4,12 +4,13 @@ and on which (another set of them) the optimisation validates its states (PSNR).
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import torch
 
 from ..asset import Asset
+from ..asset.pose import Poses
 from ..fit.losses import composite
 from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
 from ..fit.training_views import ViewSampler
@@ -22,8 +23,15 @@ from .record import MethodResult, score_method
 BACKGROUND = (0.2, 0.2, 0.2)
 """Linear grey that every held-out image is composited over (silhouette errors show against it)."""
 
-AssetRenderer = Callable[[Asset, Camera, PointLight], torch.Tensor]
-"""Draws an asset under B views: ``[B, H, W, 4]``."""
+AssetRenderer = Callable[[Asset, Camera, PointLight, Poses | None], torch.Tensor]
+"""Draws an asset under B views (in B poses, where given and the asset is skinned):
+``[B, H, W, 4]``."""
+
+
+def over_background(rgba: torch.Tensor) -> torch.Tensor:
+    """``[B, H, W, 3]`` float32: the renders ``rgba [B, H, W, 4]`` composited over ``BACKGROUND``."""
+    background = torch.tensor(BACKGROUND, dtype=torch.float32).expand(rgba.shape[0], 3)
+    return composite(rgba.float(), background)
 
 
 class HeldoutViews:
@@ -32,29 +40,27 @@ class HeldoutViews:
 
     Attributes:
         camera, light: the views (batch ``count``).
+        pose: the poses they show (batch ``count``), where the sampler draws poses, else ``None``.
         reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND``.
         silhouette: ``[count, H, W]`` bool, the pixels near the reference's outline
             (``lookalike.report.metrics.silhouette_band``).
     """
 
     def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int, resolution: int, spp: int):
-        self.camera, self.light = sampler(np.random.default_rng(seed), count)
-        rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp)
-        self.reference = self._composite(rgba)
+        views = sampler(np.random.default_rng(seed), count)
+        self.camera, self.light, self.pose = views.camera, views.light, views.pose
+        rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp, pose=self.pose)
+        self.reference = over_background(rgba)
         self.silhouette = silhouette_band(rgba[..., 3])
-
-    @staticmethod
-    def _composite(rgba: torch.Tensor) -> torch.Tensor:
-        background = torch.tensor(BACKGROUND, dtype=torch.float32).expand(rgba.shape[0], 3)
-        return composite(rgba.float(), background)
 
     @torch.no_grad()
     def images(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
         """``[count, H, W, 3]`` linear images of ``asset`` drawn by ``render``, over ``BACKGROUND``."""
         n = self.camera.batch_size
-        rgba = torch.cat([render(asset, self.camera[i:i + RENDER_CHUNK], self.light[i:i + RENDER_CHUNK])
-                          for i in range(0, n, RENDER_CHUNK)])
-        return self._composite(rgba)
+        chunks = [slice(i, i + RENDER_CHUNK) for i in range(0, n, RENDER_CHUNK)]
+        rgba = torch.cat([render(asset, self.camera[c], self.light[c], None if self.pose is None else self.pose[c])
+                          for c in chunks])
+        return over_background(rgba)
 
     def score(self, key: str, label: str, asset: Asset, render: AssetRenderer, texture_size: int | None) -> MethodResult:
         """Render ``asset`` on the held-out views and score it against the reference

@@ -15,11 +15,18 @@ from PIL import Image
 
 from ..io.atomic import write_text_atomic
 from ..version import __version__
+from .images import (
+    DIFFERENCE_FULL_SCALE,
+    animated_picture,
+    image_grid,
+    save_animation,
+    signed_difference,
+    to_srgb_uint8,
+)
 from .map_noise import CHANNELS as MAP_NOISE_CHANNELS
-from .record import MethodResult, RunRecord
 from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
-from .images import DIFFERENCE_FULL_SCALE, image_grid, signed_difference, to_srgb_uint8
 from .plot import plot_loss
+from .record import MethodResult, RunRecord
 
 FILES_DIR = "report_files"
 JUDGE_SLOT = ("<!-- judge -->", "<!-- /judge -->")
@@ -155,10 +162,23 @@ def _view_figure(data: RunRecord, i: int, paths: dict[str, str]) -> str:
     errors = [_cell(paths["difference"], f"{data.ours.label}: brighter / dimmer")] + [
         _cell(paths[m.key + "_flip"], f"FLIP, {m.label}", f"{m.flip_views[i]:.3f}") for m in data.methods]
     gain = data.ours.psnr_views[i] - data.baseline.psnr_views[i]
-    caption = (f"<b>View {i + 1}</b> · {_esc(data.ours.label)} {data.ours.psnr_views[i]:.2f} dB, "
+    pose = f" ({_esc(data.view_labels[i])})" if data.view_labels else ""
+    caption = (f"<b>View {i + 1}</b>{pose} · {_esc(data.ours.label)} {data.ours.psnr_views[i]:.2f} dB, "
                f"{_esc(data.baseline.label.lower())} {data.baseline.psnr_views[i]:.2f} dB ({_change(gain, 2, ' dB')})")
     return (f'<figure class="view"><figcaption>{caption}</figcaption>'
             f'<div class="grid" style="--cols:{len(data.methods) + 1}">{"".join(renders + errors)}</div></figure>')
+
+
+def _motion_section(data: RunRecord, files: Path) -> str:
+    """Write ``report_files/motion.gif`` and return its section; empty without ``data.motion``."""
+    motion = data.motion
+    if motion is None:
+        return ""
+    columns = [to_srgb_uint8(frames) for frames in motion.columns.values()]
+    save_animation(animated_picture(columns, list(motion.columns), motion.seconds_per_frame), files / "motion.gif")
+    return (f'<h2>In motion</h2><div class="plot"><img src="{FILES_DIR}/motion.gif" alt="the clip {_esc(motion.clip)}, '
+            f'side by side"></div><p class="notes">The clip {_esc(motion.clip)} in real time, from the first held-out '
+            f"camera and light: {', '.join(_esc(label) for label in motion.columns)}.</p>")
 
 
 def _summary_cards(data: RunRecord) -> str:
@@ -279,8 +299,9 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
     The page shows: the asset name; cards with triangles, PSNR and FLIP of ours with their
     change against plain decimation, and the run time; a table with every method's triangles,
     textures, PSNR, FLIP and PSNR gain; every held-out view as reference, each method's render
-    (PSNR under it), a red/blue difference of ours and each method's FLIP map; the loss curve
-    and stage timings; the configuration. Also writes ``report_files/comparison.png`` (the first
+    (PSNR under it), a red/blue difference of ours and each method's FLIP map; for an animated
+    input, each view's clip and time and a moving picture over a clip (``report_files/motion.gif``);
+    the loss curve and stage timings; the configuration. Also writes ``report_files/comparison.png`` (the first
     views in one picture) and ``report_files/loss.png``.
 
     Args:
@@ -331,6 +352,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
 </div>
 {views_div.format(''.join(shown))}
 {more}
+{_motion_section(data, files)}
 <h2>Training</h2>
 <div class="two">
   <div class="plot"><img src="{FILES_DIR}/loss.png" alt="loss curve"></div>

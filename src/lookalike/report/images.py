@@ -78,3 +78,25 @@ def image_grid(cells: list[list[np.ndarray]], column_labels: list[str], row_labe
         for c, picture in enumerate(row):
             canvas.paste(Image.fromarray(picture), (left + gap + c * (w + gap), y))
     return canvas
+
+
+def animated_picture(columns: list[np.ndarray], labels: list[str], seconds_per_frame: float) -> list[Image.Image]:
+    """The frames of an animated side-by-side comparison: frame ``f`` is the labelled row of
+    every column's picture ``f`` (``image_grid``).
+
+    Args:
+        columns: per column, ``[F, H, W, 3]`` uint8 pictures, all the same size.
+        labels: one caption per column.
+        seconds_per_frame: how long each frame shows (kept in each frame's ``info``).
+    """
+    frames = [image_grid([[column[f] for column in columns]], labels) for f in range(len(columns[0]))]
+    for frame in frames:
+        frame.info["duration"] = max(round(1000 * seconds_per_frame), 20)
+    return frames
+
+
+def save_animation(frames: list[Image.Image], path) -> None:
+    """Write ``frames`` (``animated_picture``) as a looping GIF, each with its own palette."""
+    durations = [frame.info["duration"] for frame in frames]
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=durations, loop=0, optimize=False,
+                   disposal=1)

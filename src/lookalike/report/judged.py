@@ -61,7 +61,8 @@ def heldout_views(asset: Asset, count: int, seed: int) -> tuple[Camera, PointLig
     ``view_sampler`` around the asset's bounding sphere, from ``default_rng(seed)``), in the
     asset's own frame, the frame of the glb files we write."""
     centre, radius = asset.mesh.bounding_sphere()
-    return view_sampler(centre, radius)(np.random.default_rng(seed), count)
+    views = view_sampler(centre, radius)(np.random.default_rng(seed), count)
+    return views.camera, views.light
 
 
 def composite_over_background(rgba: torch.Tensor) -> torch.Tensor:
@@ -92,8 +93,8 @@ def render_ours(reference: Asset, models: list[JudgedModel], camera: Camera, lig
     them (the input supersampled ``spp`` x ``spp``; the methods with ``render_asset``)."""
     images = {"reference": render_in_chunks(MeshReference(reference), camera, light, resolution, spp)}
     for model in models:
-        images[model.key] = torch.cat([render_asset(model.asset, camera[i:i + 4], light[i:i + 4], resolution, msaa)
-                                       for i in range(0, camera.batch_size, 4)])
+        images[model.key] = torch.cat([render_asset(model.asset, camera[i:i + 4], light[i:i + 4], resolution=resolution,
+                                                    msaa=msaa) for i in range(0, camera.batch_size, 4)])
     return images
 
 

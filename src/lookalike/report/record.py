@@ -70,6 +70,21 @@ def score_method(key: str, label: str, reference, images, triangles: int,
 
 
 @dataclass
+class Motion:
+    """An animated comparison over one clip of an animated input (the report's moving picture).
+
+    Attributes:
+        clip: the clip's name.
+        seconds_per_frame: real time between frames.
+        columns: ``{label: [F, H, W, C>=3] linear frames}``, in column order (the reference first).
+    """
+
+    clip: str
+    seconds_per_frame: float
+    columns: dict[str, Any]
+
+
+@dataclass
 class RunRecord:
     """Everything a run reports: the page shows it, ``metrics`` is ``metrics.json``.
 
@@ -96,6 +111,9 @@ class RunRecord:
         notes: remarks shown under the summary (e.g. "input had no UVs").
         profile: where the time went, by phase (``lookalike.phases.Profile.as_dict``), when
             the run was profiled; ``None`` otherwise.
+        view_labels: what each held-out view shows besides its camera (an animated input's
+            clip and time, e.g. ``"Walk at 0.42 s"``), or ``None``.
+        motion: the animated comparison of an animated input, or ``None``.
     """
 
     asset_name: str
@@ -119,6 +137,8 @@ class RunRecord:
     config: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     profile: dict | None = None
+    view_labels: list[str] | None = None
+    motion: Motion | None = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -130,7 +150,7 @@ class RunRecord:
 
     @property
     def num_views(self) -> int:
-        return int(len(self.baseline.psnr_views))
+        return len(self.baseline.psnr_views)
 
     def metrics(self) -> dict:
         """The content of ``metrics.json``: the figures of the record as plain values."""
@@ -153,6 +173,7 @@ class RunRecord:
             "heldout": {
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
+                **({"poses": self.view_labels} if self.view_labels is not None else {}),
                 **{m.key: {"label": m.label, "psnr": m.psnr, "flip": m.flip, "silhouette_error": m.silhouette_error,
                            "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},

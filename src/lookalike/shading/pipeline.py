@@ -339,6 +339,13 @@ class FixedAsset:
         shared = TextureSampler() if texel_bytes(asset.materials) <= SHARED_SAMPLER_TEXEL_BYTES else None
         return FixedAsset(asset, buffers, dr.antialias_construct_topology_hash(buffers.tri), shared)
 
+    @torch.no_grad()
+    def sharing(self, asset) -> FixedAsset:
+        """A ``FixedAsset`` of ``asset``, which has this one's triangles and materials but other
+        positions (a pose of it): its buffers are computed, the topology and the sampler shared."""
+        return FixedAsset(asset, MeshBuffers.without_camera(asset.mesh, tangent_uv_sets(asset)), self.topology,
+                          self.sampler)
+
     @property
     def mesh(self):
         return self.asset.mesh

@@ -2,7 +2,8 @@
 photo-goniometer (Sec. 3): cameras uniformly distributed over the directions around the
 object's bounding sphere, looking at its centre; one point light per view whose direction from
 the centre is cosine-distributed around the direction to the camera (mostly frontal light,
-sometimes grazing).
+sometimes grazing). An animated asset's views also draw poses: a clip and a time each
+(``random_poses``), or poses spread over every clip (``spread_poses``) for held-out views.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import math
 import numpy as np
 import torch
 
+from ..asset.pose import REST, Poses
 from .camera import Camera
 from .light import PointLight
 
@@ -81,3 +83,25 @@ def random_lights(camera: Camera, centre, generator: np.random.Generator, distan
     position = centre + distance * cosine_around(generator, offset / camera_distance)
     intensity = np.repeat(irradiance * distance ** 2, 3, axis=1)
     return PointLight(position=torch.from_numpy(position).float(), intensity=torch.from_numpy(intensity).float())
+
+
+def random_poses(durations: list[float], n: int, generator: np.random.Generator, rest_share: float = 0.0) -> Poses:
+    """``n`` poses of an animated asset whose clips last ``durations`` seconds: each the rest
+    pose with probability ``rest_share``, else a clip drawn uniformly and a time uniform over
+    it (three uniforms per pose, drawn whatever the outcome, so streams stay aligned)."""
+    u = generator.uniform(size=(n, 3))
+    clip = np.minimum((u[:, 1] * len(durations)).astype(np.int64), len(durations) - 1)
+    time = u[:, 2] * np.asarray(durations, dtype=np.float64)[clip]
+    rest = u[:, 0] < rest_share
+    return Poses.of(np.where(rest, REST, clip), np.where(rest, 0.0, time))
+
+
+def spread_poses(durations: list[float], n: int, generator: np.random.Generator) -> Poses:
+    """``n`` poses spread over every clip (clips lasting ``durations`` seconds): view ``i``
+    shows clip ``i mod C`` at a time stratified over it, ``duration * (j + u) / n_c`` for the
+    clip's ``j``-th of ``n_c`` views and ``u`` uniform."""
+    clips = np.arange(n) % len(durations)
+    stratum = np.arange(n) // len(durations)
+    per_clip = np.bincount(clips, minlength=len(durations))[clips]
+    time = np.asarray(durations, dtype=np.float64)[clips] * (stratum + generator.uniform(size=n)) / per_clip
+    return Poses.of(clips, time)

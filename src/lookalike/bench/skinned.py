@@ -1,0 +1,134 @@
+"""``lookalike bench skinned``: ``simplify`` of the rigged, animated benchmark characters of
+``../shared/assets`` with default settings, scored on held-out (camera, light, clip, time)
+views spread over every clip (issue 18).
+
+Per asset, ``simplify --compare-static``: two runs, ``simplify`` as a user runs it (fitted over
+the animations, weights included) and the bind-pose fit (``--static``, a still model, with its
+own budget), whose output gets the input's weights transferred from the closest point of its
+surface (``lookalike.init.skin_weights.transfer_skin``) and is scored on the same views. The
+table: plain decimation and the classic bake (weights transferred), the bind-pose fit, and ours.
+
+Bar: each run within 10 minutes on a 2-core machine; ours at least 3 dB PSNR above plain
+decimation and at least 0.5 dB above the bind-pose fit on every asset, with a lower FLIP than
+both.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+from ._table import aligned_table
+from .quality import (
+    SHARED_ASSETS,
+    TIME_BUDGET_S,
+    BenchAsset,
+    check_assets_dir,
+    output_root,
+)
+
+HELP = "simplify the animated characters over their clips; compare with decimation and the bind-pose fit"
+
+BAR_MINUTES = 10.0
+BAR_GAIN_OVER_DECIMATED_DB = 3.0
+BAR_GAIN_OVER_BIND_POSE_DB = 0.5
+
+ASSETS = (
+    BenchAsset("cesium-man", "cesium-man/CesiumMan.glb", 1000, False),
+    BenchAsset("soldier", "soldier/Soldier.glb", 2500, False),
+    BenchAsset("fox", "fox/Fox.glb", 300, False),
+)
+
+
+def run(repeats: int | None = None, out: str | Path | None = None, time_budget: float = TIME_BUDGET_S,
+        assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS, reuse: bool = False) -> dict:
+    """Simplify every character twice (module docstring) and score both on the animated run's
+    held-out views.
+
+    Args:
+        repeats: ignored (each run takes minutes).
+        out: keep the runs in ``out/<asset>`` (the bind-pose fit in its ``bind-pose-fit/``;
+            default: ``$LOOKALIKE_BENCH_OUT`` or a temporary folder removed afterwards).
+        time_budget: seconds per run (the default run's 600).
+        assets: which cases; assets_dir: where their files are.
+        reuse: take the runs already in ``out`` (those with a ``metrics.json``) instead of
+            running them again.
+
+    Returns:
+        ``{"time_budget_s", "bar", "runs": [row, ...], "all_meet_bar", "outputs"}``; a row holds
+        the asset, triangle counts, the minutes of both runs, iterations, PSNR and FLIP of
+        plain decimation, the bind-pose fit and ours, the gains of ours and whether it meets
+        the bar.
+    """
+    assets_dir = check_assets_dir(assets_dir)
+    with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
+        root = output_root(out, scratch)
+        rows = [_case(case, assets_dir, root, time_budget, reuse) for case in assets]
+        return {
+            "time_budget_s": time_budget,
+            "bar": {"minutes": BAR_MINUTES, "gain_over_decimated_db": BAR_GAIN_OVER_DECIMATED_DB,
+                    "gain_over_bind_pose_db": BAR_GAIN_OVER_BIND_POSE_DB},
+            "runs": rows,
+            "all_meet_bar": all(r["meets_bar"] for r in rows),
+            "outputs": None if root == Path(scratch) else str(root.resolve()),
+        }
+
+
+def _case(case: BenchAsset, assets_dir: Path, root: Path, time_budget: float, reuse: bool) -> dict:
+    """``simplify --compare-static`` of one character (both runs, the bind-pose fit scored
+    beside ours) and its table row."""
+    from ..jobs.simplify import BIND_POSE_FOLDER, BIND_POSE_STAGE, simplify
+
+    run_dir = root / case.name
+    if reuse and (run_dir / "metrics.json").is_file():
+        metrics = json.loads((run_dir / "metrics.json").read_text())
+    else:
+        metrics = simplify(assets_dir / case.path, run_dir, triangles=case.triangles, time_budget=time_budget,
+                           compare_static=True, force=True, progress=False).metrics
+    static = json.loads((run_dir / BIND_POSE_FOLDER / "metrics.json").read_text())
+    heldout, seconds = metrics["heldout"], metrics["seconds"]
+    row = {
+        "asset": case.name,
+        "input_triangles": metrics["triangles"]["input"],
+        "triangles": metrics["triangles"]["output"],
+        "minutes": (seconds["total"] - seconds[BIND_POSE_STAGE]) / 60,
+        "minutes_bind_pose": static["seconds"]["total"] / 60,
+        "iterations": metrics["iterations"],
+        "seconds_per_iteration": seconds["per_iteration"],
+        **{f"{metric}_{key}": heldout[key][metric] for key in ("decimated", "baked", "bind_pose", "ours")
+           for metric in ("psnr", "flip")},
+    }
+    row["gain_over_decimated_db"] = row["psnr_ours"] - row["psnr_decimated"]
+    row["gain_over_bind_pose_db"] = row["psnr_ours"] - row["psnr_bind_pose"]
+    row["meets_bar"] = (max(row["minutes"], row["minutes_bind_pose"]) <= BAR_MINUTES
+                        and row["gain_over_decimated_db"] >= BAR_GAIN_OVER_DECIMATED_DB
+                        and row["gain_over_bind_pose_db"] >= BAR_GAIN_OVER_BIND_POSE_DB
+                        and row["flip_ours"] < min(row["flip_decimated"], row["flip_bind_pose"]))
+    return row
+
+
+COLUMNS = (
+    ("asset", "asset", "{}"), ("triangles", "triangles", "{:,}"), ("minutes", "minutes", "{:.1f}"),
+    ("min. bind-pose", "minutes_bind_pose", "{:.1f}"), ("iters", "iterations", "{:,}"),
+    ("PSNR dec", "psnr_decimated", "{:.2f}"), ("PSNR bake", "psnr_baked", "{:.2f}"),
+    ("PSNR bind-pose", "psnr_bind_pose", "{:.2f}"), ("PSNR ours", "psnr_ours", "{:.2f}"),
+    ("ours-dec dB", "gain_over_decimated_db", "{:+.2f}"), ("ours-bind dB", "gain_over_bind_pose_db", "{:+.2f}"),
+    ("FLIP dec", "flip_decimated", "{:.4f}"), ("FLIP bake", "flip_baked", "{:.4f}"),
+    ("FLIP bind-pose", "flip_bind_pose", "{:.4f}"), ("FLIP ours", "flip_ours", "{:.4f}"),
+)
+
+
+def format_table(result: dict) -> str:
+    """The runs as an aligned text table, with the bar underneath."""
+    header = [name for name, _, _ in COLUMNS] + ["bar"]
+    cells = [[fmt.format(r[key]) for _, key, fmt in COLUMNS] + ["ok" if r["meets_bar"] else "MISSED"]
+             for r in result["runs"]]
+    bar = result["bar"]
+    lines = aligned_table(header, cells)
+    lines.append(f"bar: each run <= {bar['minutes']:g} min; ours >= plain decimation + {bar['gain_over_decimated_db']:g} "
+                 f"dB and >= the bind-pose fit + {bar['gain_over_bind_pose_db']:g} dB, with lower FLIP than both: "
+                 f"{'met' if result['all_meet_bar'] else 'NOT met'} (time budget {result['time_budget_s']:g} s per run)")
+    if result.get("outputs"):
+        lines.append(f"outputs: {result['outputs']}")
+    return "\n".join(lines)
