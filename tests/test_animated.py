@@ -164,7 +164,7 @@ def cylinder_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("animated")
     asset = bent_cylinder()
     io.save(asset, folder / "arm.glb")
-    result = simplify(folder / "arm.glb", folder / "out", triangles=100, iterations=150, config=config_from_dict(TINY),
+    result = simplify(folder / "arm.glb", folder / "arm", triangles=100, iterations=150, config=config_from_dict(TINY),
                       compare_static=True, export_obj=True, progress=False)
     return folder, result
 
@@ -233,3 +233,20 @@ def test_static_and_compare_static_exclude_each_other_on_the_command_line(tmp_pa
     with pytest.raises(SystemExit) as stop:
         main(["simplify", str(tmp_path / "arm.glb"), "--static", "--compare-static"])
     assert stop.value.code == 2 and "not allowed with" in capsys.readouterr().err
+
+
+def test_bench_skinned_tabulates_both_runs_of_a_character(cylinder_run):
+    from lookalike.bench import skinned
+    from lookalike.bench.quality import BenchAsset
+
+    folder, result = cylinder_run
+    table = skinned.run(out=folder, assets=(BenchAsset("arm", "arm.glb", 100, False),), assets_dir=folder, reuse=True)
+    (row,) = table["runs"]
+    heldout = result.metrics["heldout"]
+    assert row["psnr_bind_pose"] == heldout["bind_pose"]["psnr"] and row["flip_ours"] == heldout["ours"]["flip"]
+    assert row["gain_over_bind_pose_db"] == pytest.approx(heldout["ours"]["psnr"] - heldout["bind_pose"]["psnr"])
+    bind_pose = json.loads((folder / "arm" / BIND_POSE_FOLDER / "metrics.json").read_text())
+    assert row["minutes_bind_pose"] == pytest.approx(bind_pose["seconds"]["total"] / 60)
+    assert 0 < row["minutes"] < result.metrics["seconds"]["total"] / 60
+    # the run is scored against the bar (below 3 dB over decimation at 150 steps: MISSED)
+    assert row["meets_bar"] is (row["gain_over_decimated_db"] >= 3.0) and "bind-pose" in skinned.format_table(table)

@@ -685,3 +685,17 @@ def test_real_skinned_assets_keep_their_rig_byte_for_byte(shared_assets, tmp_pat
     for clip in range(len(asset.animations)):
         expected = _posed_corners(asset, times, clip)[:, _by_material(asset.mesh)]
         assert torch.allclose(_posed_corners(back, times, clip), expected, atol=1e-5)
+
+
+def test_influences_not_a_multiple_of_four_are_padded_with_zero_weights(tmp_path):
+    from skin_factory import bent_cylinder
+
+    asset = bent_cylinder()
+    mesh = asset.mesh
+    mesh.v_joints, mesh.v_weights = mesh.v_joints[:, :2].contiguous(), mesh.v_weights[:, :2].contiguous()
+    io.save(asset, tmp_path / "two.glb")
+    back = io.load(tmp_path / "two.glb")
+    assert back.mesh.v_joints.shape[1] == 4 and (back.mesh.v_weights[:, 2:] == 0).all()
+    dense = torch.zeros(back.mesh.num_vertices, 2).scatter_add(1, back.mesh.v_joints.clamp(max=1), back.mesh.v_weights)
+    assert torch.allclose(dense.sum(1), torch.ones(back.mesh.num_vertices))
+    assert validate(tmp_path / "two.glb")["issues"]["numErrors"] == 0

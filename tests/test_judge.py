@@ -4,6 +4,7 @@ our renderer, Blender's classic pipeline. The tests that run Blender skip where 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,7 +13,8 @@ import torch
 
 from io_factory import gradient_texture, plane, uv_sphere
 from lookalike import io
-from lookalike.asset import Asset, Material, Mesh, Texture
+from lookalike.asset import Animation, Asset, Channel, Material, Mesh, Texture
+from lookalike.asset.pose import REST, Poses
 from lookalike.errors import ConfigError
 from lookalike.judge import INSTALL_HINT, judge_available, require_judge
 from lookalike.judge.conversion import GLTF_TO_BLENDER, blender_cameras, blender_point_lights, projection_parameters
@@ -20,6 +22,7 @@ from lookalike.shading.camera import Camera, perspective
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render, render_coverage
 from mesh_factory import icosphere
+from skin_factory import bent_cylinder, z_rotation
 
 needs_blender = pytest.mark.skipif(not judge_available(), reason='needs bpy: pip install -e ".[judge]"')
 
@@ -37,6 +40,16 @@ def _camera(eye, target, fovy_deg: float, aspect: float = 1.0) -> Camera:
 def _save(asset: Asset, path) -> str:
     io.save(asset, path)
     return str(path)
+
+
+def _swaying_cylinder() -> Asset:
+    """``bent_cylinder`` (clip 0: the elbow bends 100 degrees over 1 s) with a second clip,
+    "sway": the shoulder turns by -90 degrees about z within one frame at 24 fps, the elbow not
+    animated (it keeps its rest pose, straight)."""
+    asset = bent_cylinder()
+    sway = Animation("sway", [Channel(0, "rotation", torch.tensor([0.0, 1 / 24]),
+                                      torch.tensor([z_rotation(0.0), z_rotation(math.radians(-90))]))])
+    return dataclasses.replace(asset, animations=[*asset.animations, sway])
 
 
 # --- conversions (no Blender needed) -------------------------------------------------------
@@ -111,9 +124,26 @@ def test_judged_views_are_the_reports_heldout_views():
     asset = Asset(mesh=icosphere(1, center=(0.3, -0.2, 5.0), radius=2.0))
     reference = MeshReference(asset)
     heldout = HeldoutViews(reference, view_sampler(*reference.bounding_sphere()), 3, 1234, 8, 1)
-    camera, light = heldout_views(asset, 3, 1234)
-    assert torch.equal(camera.mv, heldout.camera.mv) and torch.equal(camera.proj, heldout.camera.proj)
-    assert torch.equal(light.position, heldout.light.position)
+    views = heldout_views(reference, 3, 1234)
+    assert torch.equal(views.camera.mv, heldout.camera.mv) and torch.equal(views.camera.proj, heldout.camera.proj)
+    assert torch.equal(views.light.position, heldout.light.position) and views.pose is None
+
+
+def test_judged_views_of_an_animated_run_carry_its_poses():
+    from lookalike.fit.reference import SkinnedReference
+    from lookalike.fit.training_views import view_sampler
+    from lookalike.jobs.animated import heldout_poses
+    from lookalike.report.heldout import HeldoutViews
+    from lookalike.report.judged import heldout_views
+
+    asset = _swaying_cylinder()
+    reference = SkinnedReference(asset)
+    sampler = view_sampler(*reference.bounding_sphere(), poses=heldout_poses(asset))   # as simplify draws them
+    heldout = HeldoutViews(reference, sampler, 4, 99, 8, 1)
+    views = heldout_views(reference, 4, 99, heldout_poses(asset))
+    assert torch.equal(views.camera.mv, heldout.camera.mv) and torch.equal(views.light.position, heldout.light.position)
+    assert torch.equal(views.pose.clip, heldout.pose.clip) and torch.equal(views.pose.time, heldout.pose.time)
+    assert set(views.pose.clip.tolist()) == {0, 1}                           # every clip shown
 
 
 # --- Cycles --------------------------------------------------------------------------------
@@ -219,6 +249,30 @@ def test_shadows_off_lights_what_the_occluder_shades(tmp_path):
     np.testing.assert_allclose(lit, ours[shadowed][:, :3], rtol=0.05)         # ours never shadows
 
 
+@needs_blender
+def test_cycles_poses_a_skinned_glb_as_our_skinning_does(tmp_path):
+    from lookalike.fit.reference import SkinnedReference
+    from lookalike.judge.cycles import render_in_cycles
+    from lookalike.report.judged import score_renders
+
+    glb = _save(_swaying_cylinder(), tmp_path / "character.glb")
+    reference = SkinnedReference(io.load(glb))
+    camera = _camera([[0.4, 0.9, 6.0]] * 4, [[0.4, 0.9, 0.0]], 40.0)          # facing the plane the joints turn in
+    light = PointLight(position=torch.tensor([[2.0, 3.0, 5.0]] * 4), intensity=torch.full((4, 3), 30.0))
+    # halfway through the bend (where Blender's normalised lerp of the rotation keys meets the
+    # slerp), its end, half a frame into the sway (a subframe; the elbow back at rest), the rest pose
+    pose = Poses.of([0, 0, 1, REST], [0.5, 1.0, 0.5 / 24, 0.0])
+    cycles = render_in_cycles(glb, camera, light, 48, shadows=False, samples=16, pose=pose)
+    ours = reference.render(camera, light, 48, 4, pose)
+    a, b = cycles[..., 3] > 0.5, ours[..., 3] > 0.5
+    iou = (a & b).sum(dim=(1, 2)) / (a | b).sum(dim=(1, 2))
+    assert iou.min() > 0.97, iou
+    rest = b[3:]
+    iou_with_rest = (a & rest).sum(dim=(1, 2)) / (a | rest).sum(dim=(1, 2))
+    assert iou_with_rest[:3].max() < 0.7, iou_with_rest                      # the poses are not the rest pose
+    assert score_renders(cycles, ours)["psnr"] > 32.0                         # both shade the posed normals
+
+
 # --- Blender's classic pipeline ------------------------------------------------------------
 
 
@@ -284,3 +338,38 @@ def test_judge_run_scores_every_method_in_every_renderer(tmp_path):
     assert {"reference.glb", "decimated.glb", "baked.glb", "blender.glb", "judge.json", "views.png"} <= names
     metrics = json.loads((outdir / "metrics.json").read_text())
     assert metrics["judge"]["scores"]["cycles"]["ours"]["psnr"] == pytest.approx(judged["scores"]["cycles"]["ours"]["psnr"])
+
+
+@needs_blender
+@pytest.mark.slow
+def test_judge_run_judges_an_animated_run_in_motion(tmp_path):
+    import json
+
+    from lookalike.fit.config_file import config_from_dict
+    from lookalike.jobs.judge import judge_run, reference_of_run
+    from lookalike.jobs.simplify import simplify
+
+    glb = _save(bent_cylinder(), tmp_path / "character.glb")
+    cfg = config_from_dict({"views": {"pool_size": 8, "heldout": 3, "validation": 0}, "render": {"resolution": 48},
+                            "latent": {"texture_size": 64}, "optim": {"checkpoint_seconds": 1e9}})
+    outdir = tmp_path / "run"
+    result = simplify(glb, outdir, triangles=100, iterations=5, config=cfg, compare_static=True, progress=False)
+    judged = judge_run(outdir, reference_of_run(outdir), result.baselines, resolution=48)
+    methods = {"decimated", "baked", "bind_pose", "ours"}
+    for renderer in ("ours", "cycles", "cycles_no_shadows"):
+        assert set(judged["scores"][renderer]) == methods
+        assert all(10 < s["psnr"] < 60 and 0 < s["flip"] < 0.5 for s in judged["scores"][renderer].values())
+    assert "skipped" in judged["blender_bake"]                                # a still-model pipeline
+    assert judged["poses"] == result.metrics["heldout"]["poses"]              # the run's views, in its poses
+    heldout = result.metrics["heldout"]
+    for key in methods:                                                       # at the run's resolution: its report's
+        assert judged["scores"]["ours"][key]["flip"] == pytest.approx(heldout[key]["flip"], rel=0.05, abs=0.002)
+    coverage = judged["reference_coverage"]
+    assert coverage["cycles"] == pytest.approx(coverage["ours"], rel=0.05)   # posed alike in both renderers
+    assert judged["agreement"]["reference"]["psnr"] > 25                     # the same file, posed alike, in both
+    judge = outdir / "judge"
+    assert {"reference.glb", "decimated.glb", "baked.glb", "bind_pose.glb", "judge.json", "views.png"} <= {
+        p.name for p in judge.iterdir()} and not (judge / "blender.glb").exists()
+    assert all(io.load(judge / f"{key}.glb").animations for key in ("reference", "decimated", "baked", "bind_pose"))
+    metrics = json.loads((outdir / "metrics.json").read_text())
+    assert set(metrics["judge"]["scores"]["cycles"]) == methods

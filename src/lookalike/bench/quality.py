@@ -58,14 +58,14 @@ ASSETS = (
 )
 
 
-def select_assets(names: list[str]) -> tuple[BenchAsset, ...]:
-    """The cases of ``ASSETS`` named in ``names``, in ``ASSETS`` order; an unknown name is a
+def select_assets(names: list[str], cases: tuple[BenchAsset, ...] = ASSETS) -> tuple[BenchAsset, ...]:
+    """The ``cases`` named in ``names``, in ``cases`` order; an unknown name is a
     ``ConfigError`` listing the known ones."""
-    known = {case.name for case in ASSETS}
+    known = {case.name for case in cases}
     unknown = [name for name in names if name not in known]
     if unknown:
         raise ConfigError(f"unknown benchmark asset {', '.join(unknown)}; the assets are {', '.join(sorted(known))}")
-    return tuple(case for case in ASSETS if case.name in names)
+    return tuple(case for case in cases if case.name in names)
 
 
 def scan_material():

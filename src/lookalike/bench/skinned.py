@@ -11,6 +11,11 @@ table: plain decimation and the classic bake (weights transferred), the bind-pos
 Bar: each run within 10 minutes on a 2-core machine; ours at least 3 dB PSNR above plain
 decimation and at least 0.5 dB above the bind-pose fit on every asset, with a lower FLIP than
 both.
+
+``--judge blender`` also judges every run in Blender Cycles (``lookalike.jobs.judge``): the
+input, plain decimation, the classic bake, the bind-pose fit and ours, each posed by Blender's
+own glTF importer at every held-out view's clip and time, scored against Cycles' picture of the
+input (with shadows and without) as well as in our renderer.
 """
 
 from __future__ import annotations
@@ -20,13 +25,7 @@ import tempfile
 from pathlib import Path
 
 from ._table import aligned_table
-from .quality import (
-    SHARED_ASSETS,
-    TIME_BUDGET_S,
-    BenchAsset,
-    check_assets_dir,
-    output_root,
-)
+from .quality import SHARED_ASSETS, TIME_BUDGET_S, BenchAsset, check_assets_dir, check_judge, output_root
 
 HELP = "simplify the animated characters over their clips; compare with decimation and the bind-pose fit"
 
@@ -42,7 +41,8 @@ ASSETS = (
 
 
 def run(repeats: int | None = None, out: str | Path | None = None, time_budget: float = TIME_BUDGET_S,
-        assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS, reuse: bool = False) -> dict:
+        assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS, reuse: bool = False,
+        judge: str | None = None) -> dict:
     """Simplify every character twice (module docstring) and score both on the animated run's
     held-out views.
 
@@ -54,17 +54,21 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         assets: which cases; assets_dir: where their files are.
         reuse: take the runs already in ``out`` (those with a ``metrics.json``) instead of
             running them again.
+        judge: ``"blender"``: also judge every run in Cycles (module docstring; needs the
+            ``judge`` extra).
 
     Returns:
         ``{"time_budget_s", "bar", "runs": [row, ...], "all_meet_bar", "outputs"}``; a row holds
         the asset, triangle counts, the minutes of both runs, iterations, PSNR and FLIP of
         plain decimation, the bind-pose fit and ours, the gains of ours and whether it meets
-        the bar.
+        the bar; judged rows also hold ``"judge"``: ``{renderer: {method: {"psnr", "flip"}}}``.
     """
     assets_dir = check_assets_dir(assets_dir)
+    if judge is not None:
+        check_judge(judge)
     with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
         root = output_root(out, scratch)
-        rows = [_case(case, assets_dir, root, time_budget, reuse) for case in assets]
+        rows = [_case(case, assets_dir, root, time_budget, reuse, judge is not None) for case in assets]
         return {
             "time_budget_s": time_budget,
             "bar": {"minutes": BAR_MINUTES, "gain_over_decimated_db": BAR_GAIN_OVER_DECIMATED_DB,
@@ -75,17 +79,20 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         }
 
 
-def _case(case: BenchAsset, assets_dir: Path, root: Path, time_budget: float, reuse: bool) -> dict:
+def _case(case: BenchAsset, assets_dir: Path, root: Path, time_budget: float, reuse: bool, judged: bool) -> dict:
     """``simplify --compare-static`` of one character (both runs, the bind-pose fit scored
-    beside ours) and its table row."""
+    beside ours), judged in Cycles where ``judged``, and its table row."""
+    from ..jobs.judge import judge_run, mean_scores, reference_of_run
     from ..jobs.simplify import BIND_POSE_FOLDER, BIND_POSE_STAGE, simplify
 
     run_dir = root / case.name
+    baselines = None
     if reuse and (run_dir / "metrics.json").is_file():
         metrics = json.loads((run_dir / "metrics.json").read_text())
     else:
-        metrics = simplify(assets_dir / case.path, run_dir, triangles=case.triangles, time_budget=time_budget,
-                           compare_static=True, force=True, progress=False).metrics
+        result = simplify(assets_dir / case.path, run_dir, triangles=case.triangles, time_budget=time_budget,
+                          compare_static=True, force=True, progress=False)
+        metrics, baselines = result.metrics, result.baselines
     static = json.loads((run_dir / BIND_POSE_FOLDER / "metrics.json").read_text())
     heldout, seconds = metrics["heldout"], metrics["seconds"]
     row = {
@@ -105,6 +112,9 @@ def _case(case: BenchAsset, assets_dir: Path, root: Path, time_budget: float, re
                         and row["gain_over_decimated_db"] >= BAR_GAIN_OVER_DECIMATED_DB
                         and row["gain_over_bind_pose_db"] >= BAR_GAIN_OVER_BIND_POSE_DB
                         and row["flip_ours"] < min(row["flip_decimated"], row["flip_bind_pose"]))
+    if judged:
+        reference = reference_of_run(run_dir, input_path=assets_dir / case.path)
+        row["judge"] = mean_scores(judge_run(run_dir, reference, baselines))
     return row
 
 
@@ -131,4 +141,30 @@ def format_table(result: dict) -> str:
                  f"{'met' if result['all_meet_bar'] else 'NOT met'} (time budget {result['time_budget_s']:g} s per run)")
     if result.get("outputs"):
         lines.append(f"outputs: {result['outputs']}")
+    if any("judge" in r for r in result["runs"]):
+        lines += [""] + judge_table(result["runs"])
     return "\n".join(lines)
+
+
+JUDGED = (("dec", "decimated"), ("bake", "baked"), ("bind-pose", "bind_pose"), ("ours", "ours"))
+"""(column name, method key) of the judged methods, in table order."""
+
+
+def judge_table(rows: list[dict]) -> list[str]:
+    """Lines of the judge's table: per asset, one row per renderer (Cycles with and without
+    shadows, ours) with PSNR and FLIP of each method and the gains of ours."""
+    from ..report.judged import RENDERERS
+
+    header = (["asset", "renderer"] + [f"PSNR {name}" for name, _ in JUDGED] + ["ours-dec dB", "ours-bind dB"]
+              + [f"FLIP {name}" for name, _ in JUDGED])
+    cells = []
+    for row in (r for r in rows if "judge" in r):
+        for i, renderer in enumerate(("cycles", "cycles_no_shadows", "ours")):
+            scores = row["judge"][renderer]
+            cells.append([row["asset"] if i == 0 else "", RENDERERS[renderer]]
+                         + [f"{scores[key]['psnr']:.2f}" for _, key in JUDGED]
+                         + [f"{scores['ours']['psnr'] - scores[key]['psnr']:+.2f}" for key in ("decimated", "bind_pose")]
+                         + [f"{scores[key]['flip']:.4f}" for _, key in JUDGED])
+    return (["judge: Blender Cycles (32 samples, direct light, each model posed by Blender's glTF importer) and our "
+             "renderer on the held-out views; PSNR over the pixels either picture covers, FLIP over the whole "
+             "picture"] + aligned_table(header, cells))

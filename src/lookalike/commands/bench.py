@@ -10,6 +10,7 @@ import json
 
 from ..bench import benchmark_modules
 from ..bench.quality import ASSETS, JUDGES, select_assets
+from ..bench.skinned import ASSETS as SKINNED_ASSETS
 from ..errors import ConfigError
 
 HELP = "run a benchmark and print its figures"
@@ -21,16 +22,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=int, default=None, help="timed repetitions (default: the benchmark's own)")
     parser.add_argument("--out", default=None, help="keep the outputs of benchmarks that write files in this folder")
     parser.add_argument("--asset", action="append", default=None, metavar="NAME",
-                        help="run only this benchmark asset (repeatable; quality and warmstart): "
-                             + ", ".join(case.name for case in ASSETS))
+                        help="run only this benchmark asset (repeatable; quality and warmstart: "
+                             + ", ".join(case.name for case in ASSETS) + "; skinned: "
+                             + ", ".join(case.name for case in SKINNED_ASSETS) + ")")
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
                         help="folder holding the benchmark assets (quality, warmstart, repair and contention; default: "
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
-                        help="quality: also render every method in Blender Cycles (shadows on and off) and run "
+                        help="quality and skinned: also render every method in Blender Cycles (shadows on and off) and run "
                              "Blender's own decimate + bake; needs pip install -e \".[judge]\"")
     parser.add_argument("--reuse", action="store_true",
-                        help="quality: take the runs already in --out instead of simplifying again (with --judge: "
+                        help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
                              "judge earlier runs)")
 
 
@@ -39,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     kwargs = {} if args.repeats is None else {"repeats": args.repeats}
     if args.out is not None:
         kwargs["out"] = args.out
-    asset_options = {"--asset": ("assets", select_assets(args.asset) if args.asset else None),
+    cases = getattr(module, "ASSETS", ASSETS)
+    asset_options = {"--asset": ("assets", select_assets(args.asset, cases) if args.asset else None),
                      "--assets-dir": ("assets_dir", args.assets_dir), "--judge": ("judge", args.judge),
                      "--reuse": ("reuse", True if args.reuse else None)}
     for flag, (parameter, value) in asset_options.items():

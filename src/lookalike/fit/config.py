@@ -226,7 +226,7 @@ class OptimConfig:
     lr_positions: float | None = None
     lr_textures: float | None = None
     lr_emissive: float | None = None
-    lr_weights: float = 0.01
+    lr_weights: float = 0.1
     lr_decay: float | None = None
     outline_views: int | None = None
     outline_weight: float = 1.0

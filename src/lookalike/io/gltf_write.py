@@ -30,7 +30,8 @@ inverse bind matrices expect: ``inv(mesh_to_world)`` applied to the positions, n
 tangents transformed to match (tangents are MikkTSpace of the asset-frame data, computed
 before), on the node that held the skinned mesh in the file read (``Skin.mesh_node``, where it is
 a leaf; else a new root node), with no transform (glTF ignores a skinned mesh node's transform).
-Weights whose rows sum to 1 to float32 rounding are written as given, others renormalised.
+Weights whose rows sum to 1 to float32 rounding are written as given, others renormalised;
+influences are written in sets of 4 (JOINTS_k / WEIGHTS_k), the last padded with weight 0.
 """
 
 from __future__ import annotations
@@ -345,8 +346,9 @@ def write_glb(asset: Asset, path: Path) -> None:
         color = np.clip(mesh.v_color.float().numpy()[corner_vertex], 0, 1)
         attributes["COLOR_0"] = builder.accessor(color, _FLOAT, _ARRAY_BUFFER)
     if skinned:
-        joints = mesh.v_joints.numpy()[corner_vertex]
-        weights = _normalized_weights(mesh.v_weights.float().numpy()[corner_vertex])
+        pad = (0, -mesh.v_joints.shape[1] % 4)  # glTF holds influences in sets of 4: pad with weight 0
+        joints = np.pad(mesh.v_joints.numpy()[corner_vertex], ((0, 0), pad))
+        weights = np.pad(_normalized_weights(mesh.v_weights.float().numpy()[corner_vertex]), ((0, 0), pad))
         for s in range(joints.shape[1] // 4):
             attributes[f"JOINTS_{s}"] = builder.accessor(joints[:, 4 * s:4 * s + 4], _UNSIGNED_SHORT, _ARRAY_BUFFER)
             attributes[f"WEIGHTS_{s}"] = builder.accessor(weights[:, 4 * s:4 * s + 4], _FLOAT, _ARRAY_BUFFER)

@@ -9,7 +9,7 @@ writes into ``RUN/judge/``:
   from the simplify result where given, else read back from an earlier judging, else built
   again from the run's settings and seed with the current code);
 - ``blender.glb``: Blender's own pipeline (``lookalike.judge.blender_bake``) with the run's
-  triangle target and texture size;
+  triangle target and texture size (not in an animated run, below);
 - ``judge.json``: the scores (``lookalike.report.judged.judge_models``), the noise of each
   textured model's maps as written (``lookalike.report.map_noise``) and timings;
 - ``views.png``: the first views of every model in every renderer;
@@ -17,8 +17,17 @@ writes into ``RUN/judge/``:
 and adds the mean scores to the run's ``metrics.json`` as ``"judge"`` and a table of them to its
 ``report.html`` (``lookalike.report.html.judge_section``).
 
-Every model is scored on the run's own held-out views (same sampler, seed and count), in our
-renderer and in Cycles with and without shadows, at ``JUDGE_RESOLUTION``.
+Every model is scored on the run's own held-out views (same sphere, sampler, seed and count), in
+our renderer and in Cycles with and without shadows, at ``JUDGE_RESOLUTION``.
+
+An animated run (a skinned input with clips, not ``--static``: ``lookalike.jobs.animated.
+is_animated`` on the input and the run's config) is judged in motion: the held-out views carry
+the run's poses, ``reference.glb`` is the skinned input with its clips, the baselines are the
+skinned ones the run scored, and ``bind_pose.glb`` is the run's bind-pose fit
+(``--compare-static``: ``bind-pose-fit/model.glb`` given the input's weights by
+``transfer_skin``, as the run scored it), where the run has one. Blender's decimate + bake makes
+a still model (its steps know no skeleton), so it is left out there (``"blender_bake"`` says so
+in ``judge.json``).
 """
 
 from __future__ import annotations
@@ -29,28 +38,42 @@ from pathlib import Path
 
 from .. import io
 from ..asset import Asset
-from ..fit.config import LatentConfig
+from ..fit.config import Config, LatentConfig
 from ..fit.config_file import load_config
+from ..fit.reference import MeshReference, SkinnedReference
 from ..init.initial_guess import target_triangle_count
+from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..judge import require_judge
 from ..judge.blender_bake import blender_classic_bake
 from ..report.html import add_judge_section, judge_section
-from ..report.judged import JUDGE_RESOLUTION, RENDERERS, JudgedModel, heldout_views, judge_models
+from ..report.judged import (
+    JUDGE_RESOLUTION,
+    RENDERERS,
+    JudgedModel,
+    heldout_views,
+    judge_models,
+)
 from ..report.map_noise import map_noise
-from .outputs import METRICS_NAME, REPORT_NAME
-from .simplify import build_initial_guess, prepare_input
+from . import animated
+from .outputs import METRICS_NAME, MODEL_NAME, REPORT_NAME
+from .simplify import BIND_POSE_FOLDER, build_initial_guess, prepare_input
 
 JUDGE_FOLDER = "judge"
 RESULT_NAME = "judge.json"
 LABELS = {"decimated": "Plain decimation", "baked": "Our classic bake", "blender": "Blender's decimate + bake",
-          "ours": "Ours"}
+          "bind_pose": "Bind-pose fit", "ours": "Ours"}
 """The judged methods, in table order."""
+
+BLENDER_BAKE_SKIPPED = ("not run: an animated run's models keep the input's skeleton and clips, and Blender's bake "
+                        "makes a still model")
+"""``judge.json``'s ``"blender_bake"`` in an animated run."""
 
 
 def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asset] | None = None,
               resolution: int = JUDGE_RESOLUTION, views: int | None = None) -> dict:
-    """Judge the simplify run in ``run_dir`` in Blender (module docstring).
+    """Judge the simplify run in ``run_dir`` in Blender (module docstring; an animated run in
+    motion, without Blender's bake).
 
     Args:
         run_dir: the run's OUTDIR.
@@ -61,42 +84,50 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
 
     Returns:
         The content of ``judge.json``: ``lookalike.report.judged.judge_models``' result plus
-        ``"blender_bake"`` (triangles, seconds per step) and ``"seconds"`` per stage.
+        ``"blender_bake"`` (triangles, seconds per step; or why it was not run), ``"poses"``
+        (an animated run's: what each view shows) and ``"seconds"`` per stage.
     """
     require_judge()
     run_dir = Path(run_dir)
     folder = run_dir / JUDGE_FOLDER
     folder.mkdir(exist_ok=True)
     cfg = load_config(run_dir / "config.toml")
+    moving = animated.is_animated(input_asset, cfg.latent.static)
     seconds = {}
     started = time.monotonic()
     reference_glb = folder / "reference.glb"
     io.save(input_asset, reference_glb)
-    assets = {"decimated": None, "baked": None, **(baselines or {})}
     ratio = cfg.latent.ratio if cfg.latent.ratio is not None else LatentConfig.DEFAULT_RATIO
     count = target_triangle_count(cfg.latent.triangles, ratio, input_asset.mesh.num_triangles)
-    missing = [k for k in ("decimated", "baked") if assets[k] is None and not (folder / f"{k}.glb").exists()]
-    if missing:
-        guess = build_initial_guess(input_asset, cfg, None if cfg.io.init_mesh else count)
-        assets.update({"decimated": guess.baseline, "baked": guess.baked})
-    for key in ("decimated", "baked"):
-        if assets[key] is not None:
-            io.save(assets[key], folder / f"{key}.glb")
+    paths = write_baselines(folder, input_asset, cfg, count, moving, baselines or {})
+    bind_pose = run_dir / BIND_POSE_FOLDER / MODEL_NAME
+    if moving and bind_pose.is_file():
+        io.save(transfer_skin(input_asset, io.load(bind_pose)), folder / "bind_pose.glb")
+        paths["bind_pose"] = folder / "bind_pose.glb"
     seconds["baselines"] = time.monotonic() - started
-    bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, cfg.latent.texture_size)
-    seconds["blender_bake"] = bake.seconds["total"]
-    paths = {"decimated": folder / "decimated.glb", "baked": folder / "baked.glb", "blender": bake.path,
-             "ours": run_dir / "model.glb"}
-    models = [JudgedModel(key, LABELS[key], path, io.load(path)) for key, path in paths.items() if path.exists()]
-    camera, light = heldout_views(input_asset, cfg.views.heldout, cfg.views.heldout_seed)
+    if moving:
+        blender_bake = {"skipped": BLENDER_BAKE_SKIPPED}
+    else:
+        bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, cfg.latent.texture_size)
+        seconds["blender_bake"] = bake.seconds["total"]
+        paths["blender"] = bake.path
+        blender_bake = {"input_triangles": bake.input_triangles, "triangles": bake.triangles,
+                        "texture_size": cfg.latent.texture_size, "seconds": bake.seconds}
+    paths["ours"] = run_dir / MODEL_NAME
+    models = [JudgedModel(key, LABELS[key], paths[key], io.load(paths[key])) for key in LABELS
+              if key in paths and paths[key].exists()]
+    reference = SkinnedReference(input_asset) if moving else MeshReference(input_asset)
+    heldout = heldout_views(reference, cfg.views.heldout, cfg.views.heldout_seed,
+                            animated.heldout_poses(input_asset) if moving else None)
     if views is not None:
-        camera, light = camera[:views], light[:views]
+        heldout = heldout[:views]
     started = time.monotonic()
-    result = judge_models(input_asset, reference_glb, models, camera, light, resolution, cfg.render.target_spp,
+    result = judge_models(reference, reference_glb, models, heldout, resolution, cfg.render.target_spp,
                           cfg.render.latent_msaa, contact_sheet_path=folder / "views.png")
     seconds["judging"] = time.monotonic() - started
-    result["blender_bake"] = {"input_triangles": bake.input_triangles, "triangles": bake.triangles,
-                              "texture_size": cfg.latent.texture_size, "seconds": bake.seconds}
+    result["blender_bake"] = blender_bake
+    if moving:
+        result["poses"] = animated.pose_labels(input_asset, heldout.pose)
     result["triangles"] = {m.key: m.asset.mesh.num_triangles for m in models}
     result["map_noise"] = {m.key: map_noise(m.asset) for m in models if m.key != "decimated"}
     result["seconds"] = {**result["seconds"], **seconds}
@@ -104,6 +135,24 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     add_to_metrics(run_dir / METRICS_NAME, result)
     add_judge_section(run_dir / REPORT_NAME, judge_section(result, RENDERERS, f"{JUDGE_FOLDER}/views.png"))
     return result
+
+
+def write_baselines(folder: Path, input_asset: Asset, cfg: Config, count: int, moving: bool,
+                    baselines: dict[str, Asset]) -> dict[str, Path]:
+    """Write the run's plain decimation and classic bake into ``folder`` (``decimated.glb``,
+    ``baked.glb``): ``baselines`` where given, else those of an earlier judging, else built
+    again from the run's settings and seed (``count`` triangles; skinned as the run's where
+    ``moving``). Returns ``{key: path}``."""
+    assets = {"decimated": None, "baked": None, **baselines}
+    if any(assets[k] is None and not (folder / f"{k}.glb").exists() for k in ("decimated", "baked")):
+        guess = build_initial_guess(input_asset, cfg, None if cfg.io.init_mesh else count)
+        if moving:
+            guess = animated.animated_guess(input_asset, guess, cfg.latent.skin_candidates)
+        assets.update({"decimated": guess.baseline, "baked": guess.baked})
+    for key in ("decimated", "baked"):
+        if assets[key] is not None:
+            io.save(assets[key], folder / f"{key}.glb")
+    return {key: folder / f"{key}.glb" for key in ("decimated", "baked")}
 
 
 def mean_scores(result: dict) -> dict:

@@ -1,6 +1,7 @@
 """Blender's classic LOD pipeline as a baseline: decimate, unwrap, bake selected-to-active
 (``blender_classic_bake``). What users compare us with ("Blender's decimate + bake"); the
-steps and their settings are in ``lookalike.judge.blender_bake_worker``.
+steps and their settings are in ``lookalike.judge.blender_bake_worker``. It makes a still model
+(its steps know no skeleton), so the judge leaves it out of animated runs.
 """
 
 from __future__ import annotations

@@ -17,6 +17,11 @@ Point lights. Ours gives a surface facing it at distance ``d`` the irradiance ``
 ``a I / (pi d^2)``. Cycles renders a point light of power ``P`` watts (radius 0, no soft
 falloff) on that surface as ``a P / (4 pi^2 d^2)``; equal radiance needs ``P = 4 pi I``. A
 coloured intensity ``I = (r, g, b)`` becomes colour ``I / max(I)`` and power ``4 pi max(I)``.
+
+Poses. A view of an animated model shows clip ``c`` (an index into the glb's animations, the
+order ``lookalike.io`` writes ``Asset.animations`` in) at ``t`` seconds; the worker plays the
+importer's action of that animation at frame ``t * fps`` (``lookalike.judge.cycles_worker``).
+The rest pose (clip ``REST``) is no animation playing.
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from ..asset.pose import REST
 
 GLTF_TO_BLENDER = np.array([
     [1.0, 0.0, 0.0, 0.0],
@@ -98,3 +105,16 @@ def blender_point_lights(light, count: int) -> list[dict]:
         location = (GLTF_TO_BLENDER[:3, :3] @ p).tolist()
         lights.append({"location": location, "color": colour, "energy": 4.0 * math.pi * max(peak, 0.0)})
     return lights
+
+
+def blender_poses(pose, count: int) -> list[dict | None]:
+    """The poses of ``count`` views (a ``lookalike.asset.pose.Poses``, or ``None``: every view
+    in the rest pose).
+
+    Returns:
+        One entry per view: ``{"clip": index, "time": seconds}``, or ``None`` for the rest pose.
+    """
+    if pose is None:
+        return [None] * count
+    return [None if clip == REST else {"clip": clip, "time": time}
+            for clip, time in zip(pose.clip.tolist(), pose.time.tolist())]

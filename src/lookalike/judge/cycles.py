@@ -5,7 +5,9 @@ the glb is imported once, then the camera and the light are moved from view to v
 conversion of our views is exact (``lookalike.judge.conversion``); the images come back in our
 renderer's conventions: ``[B, H, W, 4]`` float32 linear RGB over black (premultiplied by
 coverage, like ``lookalike.shading.pipeline.render`` without a background) and alpha =
-coverage, row 0 at the top.
+coverage, row 0 at the top. An animated glb (a skin and animations, as ``lookalike.io`` writes
+an animated run's models) is posed per view, at the view's clip and time (``Poses``), by
+Blender's own armature (``lookalike.judge.cycles_worker``).
 """
 
 from __future__ import annotations
@@ -18,10 +20,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..asset.pose import Poses
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..threads import thread_count
-from .conversion import blender_cameras, blender_point_lights
+from .conversion import blender_cameras, blender_point_lights, blender_poses
 from .process import run_worker
 
 SAMPLES = 32
@@ -56,7 +59,7 @@ def _size(resolution) -> tuple[int, int]:
 
 def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight, resolution,
                         shadows: tuple[bool, ...] = (True, False), samples: int = SAMPLES,
-                        threads: int | None = None) -> CyclesRender:
+                        threads: int | None = None, pose: Poses | None = None) -> CyclesRender:
     """Render the glb at ``glb_path`` in Cycles from B cameras, each lit by its point light, once
     for each setting in ``shadows`` (True: the model casts shadows; False: no object does).
 
@@ -66,13 +69,17 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
         light: B point lights (or 1, shared).
         resolution: ``H`` or ``(H, W)``.
         samples: Cycles samples per pixel; threads: CPU threads (default: ours).
+        pose: B poses of an animated glb (clip indices into its animations, times in seconds);
+            ``None``: the rest pose (a still glb shows itself as it is).
     Raises:
-        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed.
+        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed (e.g. a pose names an
+            animation the glb lacks).
     """
     height, width = _size(resolution)
     count = camera.batch_size
-    views = [{"camera": c, "light": l} for c, l in zip(blender_cameras(camera, width, height),
-                                                       blender_point_lights(light, count))]
+    views = [{"camera": c, "light": l, "pose": p}
+             for c, l, p in zip(blender_cameras(camera, width, height), blender_point_lights(light, count),
+                                blender_poses(pose, count))]
     with tempfile.TemporaryDirectory(prefix="lookalike-cycles-") as scratch:
         output, stats = Path(scratch) / "images.npy", Path(scratch) / "stats.json"
         job = {"glb": str(Path(glb_path).resolve()), "output": str(output), "stats": str(stats), "scratch": scratch,
@@ -86,8 +93,9 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
 
 
 def render_in_cycles(glb_path: str | Path, camera: Camera, light: PointLight, resolution, shadows: bool = True,
-                     samples: int = SAMPLES) -> torch.Tensor:
-    """``[B, H, W, 4]`` float32 Cycles images of the glb under B views: linear RGB over black
-    (premultiplied by coverage) and alpha = coverage, row 0 at the top; with or without the
-    model's shadows (``render_cycles_views`` for both in one process)."""
-    return render_cycles_views(glb_path, camera, light, resolution, (bool(shadows),), samples).images[bool(shadows)]
+                     samples: int = SAMPLES, pose: Poses | None = None) -> torch.Tensor:
+    """``[B, H, W, 4]`` float32 Cycles images of the glb under B views (in B poses, where given):
+    linear RGB over black (premultiplied by coverage) and alpha = coverage, row 0 at the top;
+    with or without the model's shadows (``render_cycles_views`` for both in one process)."""
+    return render_cycles_views(glb_path, camera, light, resolution, (bool(shadows),), samples,
+                               pose=pose).images[bool(shadows)]

@@ -7,7 +7,8 @@ imports only ``bpy``, NumPy and the standard library. The job (JSON) holds:
   write timings (``.json``); ``scratch``: a folder for the EXR frames;
 - ``width``, ``height``, ``samples``, ``threads``, ``seed``;
 - ``views``: per view a camera (``matrix_world`` in Blender axes, ``angle_y``, ``clip_start``,
-  ``clip_end``) and a light (``location``, ``color``, ``energy`` in W), from
+  ``clip_end``), a light (``location``, ``color``, ``energy`` in W) and a ``pose`` (``clip``: an
+  index into the glb's animations, ``time`` in seconds; ``None`` or absent: the rest pose), from
   ``lookalike.judge.conversion``;
 - ``shadows``: a list of booleans, one pass over every view for each.
 
@@ -21,13 +22,33 @@ transparent bounces stay, so blended materials show what lies behind them), a bo
 1 pixel wide (ours averages its supersamples in the pixel), Standard view transform, no world
 light, transparent film, a point light of radius 0 without soft falloff, the light threshold
 at 0 (no light is culled as too faint).
+
+Poses (an animated glb: a skin and animations). Blender's glTF importer turns each glTF
+animation into one action (one slot per object it moves: the armature for its joints), stashes
+it on a muted NLA track named after the animation (``Anim_<i>`` where it has no name, ``.001``
+where the name is taken) and keys a sample at ``t`` seconds on frame ``t * fps`` (its fps: the
+scene's ``fps * fps_base``, 24 in an empty scene); it then plays the first animation. Before
+that, a user extension of the importer (``ImportRecorder``) records every node's transform as
+the file sets it (the rest pose) and the track name of each animation. Each view then puts every
+node back in its rest pose, makes its clip's actions (with their slots) the active actions of
+the objects they move and clears every other object's, keeps every NLA track muted, and sets
+the scene to frame ``time * fps`` (the fraction as the subframe, which the render evaluates):
+channels the clip does not animate keep the rest pose, as glTF says. The armature modifier then
+deforms the mesh and Blender recomputes its normals from the posed positions. Blender interpolates
+the samples as it keys them: STEP, and LINEAR translations and scales, as glTF does; LINEAR
+rotations component by component, normalised (not glTF's slerp: the two part where keys lie far
+apart); CUBICSPLINE as Bezier curves through the values (the importer drops the file's tangents).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
+import types
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import bpy
@@ -40,11 +61,108 @@ def reset_scene() -> bpy.types.Scene:
     return bpy.context.scene
 
 
-def import_glb(path: str) -> list:
+IMPORT_HOOK = "lookalike_judge_import_hook"
+"""The add-on name under which ``import_glb`` hands the glTF importer its ``ImportRecorder``."""
+
+
+@dataclass
+class Imported:
+    """What the glTF importer made of one glb.
+
+    Attributes:
+        meshes: the mesh objects.
+        rest: ``{(object name, pose bone name or ""): (location, rotation_quaternion, scale)}``:
+            every imported object's and pose bone's transform as the importer set it from the
+            file's nodes, before any animation played (the rest pose).
+        clips: the importer's NLA track (and action) name of each glTF animation, in the file's order.
+        fps: frames per second of the importer's keys (a sample at ``t`` s is keyed on frame ``t * fps``).
+    """
+
+    meshes: list = field(default_factory=list)
+    rest: dict = field(default_factory=dict)
+    clips: list[str] = field(default_factory=list)
+    fps: float = 0.0
+
+
+class ImportRecorder:
+    """A user extension of Blender's glTF importer (it calls the hooks of the
+    ``glTF2ImportUserExtension`` of every enabled add-on): once the importer has made the nodes
+    and before it makes the animations, it records the rest pose, the animations' track names
+    and the fps into ``imported`` (module docstring)."""
+
+    def __init__(self):
+        self.imported: Imported | None = None
+
+    def gather_import_scene_after_nodes_hook(self, gltf_scene, blender_scene, gltf) -> None:
+        rest = {}
+        for obj in blender_scene.objects:
+            for name, node in [("", obj)] + [(bone.name, bone) for bone in (obj.pose.bones if obj.pose else [])]:
+                rest[obj.name, name] = (tuple(node.location), tuple(node.rotation_quaternion), tuple(node.scale))
+        render = blender_scene.render
+        self.imported = Imported(rest=rest, clips=[a.track_name for a in gltf.data.animations or []],
+                                 fps=render.fps * render.fps_base)
+
+
+@contextmanager
+def importer_extension(extension):
+    """While in the block, the glTF importer calls ``extension``'s hooks: an enabled add-on
+    entry named ``IMPORT_HOOK`` whose module offers it as ``glTF2ImportUserExtension``."""
+    addon = bpy.context.preferences.addons.new()
+    addon.module = IMPORT_HOOK
+    sys.modules[IMPORT_HOOK] = types.SimpleNamespace(glTF2ImportUserExtension=lambda: extension)
+    try:
+        yield
+    finally:
+        del sys.modules[IMPORT_HOOK]
+        bpy.context.preferences.addons.remove(addon)
+
+
+def import_glb(path: str) -> Imported:
     """Import a glb with Blender's glTF importer (its defaults: the file's normals, y-up turned
-    to z-up); returns the mesh objects."""
-    bpy.ops.import_scene.gltf(filepath=path)
-    return [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    to z-up, bind pose guessed from the inverse bind matrices; no custom shapes drawn for
+    bones), recording its rest pose and animations (``ImportRecorder``)."""
+    recorder = ImportRecorder()
+    with importer_extension(recorder):
+        bpy.ops.import_scene.gltf(filepath=path, disable_bone_shape=True)
+    if recorder.imported is None:
+        raise RuntimeError(f"{path}: the glTF importer did not call the judge's hook ({IMPORT_HOOK})")
+    recorder.imported.meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    return recorder.imported
+
+
+def restore_rest(imported: Imported) -> None:
+    """Every imported object and pose bone back to its rest transform (``Imported.rest``)."""
+    for (object_name, bone_name), (location, rotation, scale) in imported.rest.items():
+        obj = bpy.data.objects[object_name]
+        node = obj.pose.bones[bone_name] if bone_name else obj
+        node.location, node.rotation_quaternion, node.scale = location, rotation, scale
+
+
+def play(animation_data, track: str | None) -> None:
+    """Make the action stashed on the NLA track named ``track`` (with its slot) the active
+    action of ``animation_data``; none where it has no such track or ``track`` is ``None``.
+    Every NLA track stays muted."""
+    strips = [t.strips[0] for t in animation_data.nla_tracks if t.name == track and len(t.strips) > 0]
+    for t in animation_data.nla_tracks:
+        t.mute = True
+    animation_data.action = strips[0].action if strips else None
+    if strips:
+        animation_data.action_slot = strips[0].action_slot
+
+
+def pose_scene(scene: bpy.types.Scene, imported: Imported, pose: dict | None) -> None:
+    """Pose the imported glb for one view (module docstring): the rest pose where ``pose`` is
+    ``None``, else clip ``pose["clip"]`` at ``pose["time"]`` seconds."""
+    if pose is not None and not 0 <= int(pose["clip"]) < len(imported.clips):
+        raise ValueError(f"a view asks for animation {pose['clip']}; the glb has {len(imported.clips)}")
+    restore_rest(imported)
+    track = None if pose is None else imported.clips[int(pose["clip"])]
+    for obj in scene.objects:
+        if obj.animation_data is not None:
+            play(obj.animation_data, track)
+    frame = 0.0 if pose is None else float(pose["time"]) * imported.fps
+    whole = math.floor(frame)
+    scene.frame_set(whole, subframe=frame - whole)
 
 
 def configure_cycles(scene: bpy.types.Scene, job: dict) -> None:
@@ -149,13 +267,13 @@ def _triangles(obj) -> int:
 
 
 def main(job_path: str) -> None:
-    """Run the job in ``job_path`` (module docstring): import, then every view once per shadow
-    setting; write the pixels and the timings."""
+    """Run the job in ``job_path`` (module docstring): import, then every view (posed, where the
+    glb has animations) once per shadow setting; write the pixels and the timings."""
     job = json.loads(Path(job_path).read_text())
     scene = reset_scene()
     started = time.monotonic()
-    objects = import_glb(job["glb"])
-    imported = time.monotonic() - started
+    imported = import_glb(job["glb"])
+    import_seconds = time.monotonic() - started
     configure_cycles(scene, job)
     camera, light = add_camera(scene), add_point_light(scene)
     scratch = Path(job["scratch"])
@@ -163,17 +281,19 @@ def main(job_path: str) -> None:
     out = np.zeros((len(job["shadows"]), len(views), int(job["height"]), int(job["width"]), 4), dtype=np.float32)
     started = time.monotonic()
     for s, shadows in enumerate(job["shadows"]):
-        for obj in objects:
+        for obj in imported.meshes:
             obj.visible_shadow = bool(shadows)
         for b, view in enumerate(views):
+            if imported.clips:
+                pose_scene(scene, imported, view.get("pose"))
             place_view(camera, light, view)
             out[s, b] = render_frame(scene, scratch / f"view-{s}-{b}.exr")
     rendering = time.monotonic() - started
     np.save(job["output"], out)
     frames = max(len(views) * len(job["shadows"]), 1)
-    Path(job["stats"]).write_text(json.dumps({"import_s": imported, "render_s": rendering,
+    Path(job["stats"]).write_text(json.dumps({"import_s": import_seconds, "render_s": rendering,
                                               "seconds_per_view": rendering / frames,
-                                              "triangles": sum(_triangles(o) for o in objects)}))
+                                              "triangles": sum(_triangles(o) for o in imported.meshes)}))
 
 
 if __name__ == "__main__":

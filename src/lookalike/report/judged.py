@@ -13,6 +13,12 @@ Renderers (the keys of ``judge_models``' result): ``"ours"`` (the report's setti
 supersampled ``spp`` x ``spp``, the methods with ``render_asset``: ``msaa`` x ``msaa`` samples,
 each shaded),
 ``"cycles"`` (shadows on) and ``"cycles_no_shadows"``.
+
+Animated runs (a skinned input fitted over its clips): the held-out views carry poses (a clip
+and a time each, ``heldout_views``), and every renderer draws every skinned model in the pose of
+each view: ours poses the input with ``SkinnedReference`` and the models with ``render_asset``
+(``lookalike.asset.skinning.posed``), Cycles plays the clip of the glb at that time with
+Blender's armature (``lookalike.judge.cycles_worker``).
 """
 
 from __future__ import annotations
@@ -25,12 +31,10 @@ import numpy as np
 import torch
 
 from ..asset import Asset
-from ..fit.reference import MeshReference, render_in_chunks
+from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
 from ..fit.textured_mesh import render_asset
-from ..fit.training_views import view_sampler
+from ..fit.training_views import PoseSampler, Views, view_sampler
 from ..judge.cycles import render_cycles_views
-from ..shading.camera import Camera
-from ..shading.light import PointLight
 from .heldout import BACKGROUND
 from .images import image_grid, to_srgb_uint8
 from .metrics import coverage_union, flip_views, masked_psnr_views
@@ -47,8 +51,9 @@ CONTACT_VIEWS = 3
 
 @dataclass
 class JudgedModel:
-    """One method to judge: ``key`` (``"decimated"``, ``"baked"``, ``"blender"``, ``"ours"``),
-    ``label``, its glb (for Cycles) and the same model as an ``Asset`` (for our renderer)."""
+    """One method to judge: ``key`` (``"decimated"``, ``"baked"``, ``"blender"``, ``"bind_pose"``,
+    ``"ours"``), ``label``, its glb (for Cycles) and the same model as an ``Asset`` (for our
+    renderer); skinned, with the input's skeleton and clips, in an animated run."""
 
     key: str
     label: str
@@ -56,13 +61,13 @@ class JudgedModel:
     asset: Asset
 
 
-def heldout_views(asset: Asset, count: int, seed: int) -> tuple[Camera, PointLight]:
-    """The held-out cameras and lights of a run on ``asset`` (as ``HeldoutViews`` draws them:
-    ``view_sampler`` around the asset's bounding sphere, from ``default_rng(seed)``), in the
-    asset's own frame, the frame of the glb files we write."""
-    centre, radius = asset.mesh.bounding_sphere()
-    views = view_sampler(centre, radius)(np.random.default_rng(seed), count)
-    return views.camera, views.light
+def heldout_views(reference: Reference, count: int, seed: int, poses: PoseSampler | None = None) -> Views:
+    """The held-out views of a run on ``reference`` (as ``HeldoutViews`` draws them:
+    ``view_sampler`` around ``reference.bounding_sphere()``, with a pose per view from ``poses``
+    in an animated run, from ``default_rng(seed)``): cameras, lights and poses (``None`` in a
+    still run), in the input's own frame, the frame of the glb files we write."""
+    centre, radius = reference.bounding_sphere()
+    return view_sampler(centre, radius, poses=poses)(np.random.default_rng(seed), count)
 
 
 def composite_over_background(rgba: torch.Tensor) -> torch.Tensor:
@@ -87,26 +92,29 @@ def score_renders(reference_rgba: torch.Tensor, rgba: torch.Tensor) -> dict:
 
 
 @torch.no_grad()
-def render_ours(reference: Asset, models: list[JudgedModel], camera: Camera, light: PointLight, resolution: int,
-                spp: int, msaa: int) -> dict[str, torch.Tensor]:
+def render_ours(reference: Reference, models: list[JudgedModel], views: Views, resolution: int, spp: int,
+                msaa: int) -> dict[str, torch.Tensor]:
     """``{"reference" | model key: [B, H, W, 4]}`` drawn by our pipeline as the report draws
-    them (the input supersampled ``spp`` x ``spp``; the methods with ``render_asset``)."""
-    images = {"reference": render_in_chunks(MeshReference(reference), camera, light, resolution, spp)}
+    them on ``views`` (in their poses, where they have them): the input by ``reference``,
+    supersampled ``spp`` x ``spp``; the methods with ``render_asset``."""
+    images = {"reference": render_in_chunks(reference, views.camera, views.light, resolution, spp, pose=views.pose)}
+    chunks = [views[i:i + RENDER_CHUNK] for i in range(0, views.batch_size, RENDER_CHUNK)]
     for model in models:
-        images[model.key] = torch.cat([render_asset(model.asset, camera[i:i + 4], light[i:i + 4], resolution=resolution,
-                                                    msaa=msaa) for i in range(0, camera.batch_size, 4)])
+        images[model.key] = torch.cat([render_asset(model.asset, chunk.camera, chunk.light, chunk.pose,
+                                                    resolution=resolution, msaa=msaa) for chunk in chunks])
     return images
 
 
-def judge_models(reference: Asset, reference_glb: Path, models: list[JudgedModel], camera: Camera,
-                 light: PointLight, resolution: int = JUDGE_RESOLUTION, spp: int = 2, msaa: int = 2,
+def judge_models(reference: Reference, reference_glb: Path, models: list[JudgedModel], views: Views,
+                 resolution: int = JUDGE_RESOLUTION, spp: int = 2, msaa: int = 2,
                  contact_sheet_path: Path | None = None) -> dict:
-    """Render the input and every model in our pipeline and in Cycles (shadows on, off) on the
-    views ``camera``/``light`` and score them (module docstring).
+    """Render the input and every model in our pipeline and in Cycles (shadows on, off) on
+    ``views`` (in their poses, where they have them) and score them (module docstring).
 
     Args:
-        reference: the input as the run saw it; reference_glb: the same written as a glb.
-        models: the methods; camera, light: the held-out views (``heldout_views``).
+        reference: the input as the run saw it (a ``MeshReference``, or a ``SkinnedReference``
+            in an animated run); reference_glb: the same input written as a glb.
+        models: the methods; views: the held-out views (``heldout_views``).
         resolution: side of the pictures; spp, msaa: our renderer's samples (the report's).
         contact_sheet_path: also write a PNG of the first ``CONTACT_VIEWS`` views of every
             model in every renderer there (``contact_sheet``).
@@ -121,13 +129,14 @@ def judge_models(reference: Asset, reference_glb: Path, models: list[JudgedModel
     """
     seconds = {}
     started = time.monotonic()
-    ours = render_ours(reference, models, camera, light, resolution, spp, msaa)
+    ours = render_ours(reference, models, views, resolution, spp, msaa)
     seconds["ours"] = time.monotonic() - started
     started = time.monotonic()
     cycles_images = {True: {}, False: {}}
     per_view = []
     for key, glb in [("reference", reference_glb)] + [(m.key, m.glb) for m in models]:
-        rendered = render_cycles_views(glb, camera, light, resolution, shadows=(True, False))
+        rendered = render_cycles_views(glb, views.camera, views.light, resolution, shadows=(True, False),
+                                       pose=views.pose)
         per_view.append(rendered.seconds_per_view)
         for shadows, images in rendered.images.items():
             cycles_images[shadows][key] = images
@@ -140,7 +149,7 @@ def judge_models(reference: Asset, reference_glb: Path, models: list[JudgedModel
         contact_sheet(renders, models, contact_sheet_path)
     coverage = {renderer: float(images["reference"][..., 3].mean()) for renderer, images in renders.items()}
     agreement = {key: score_renders(cycles_images[False][key], ours[key]) for key in ["reference"] + [m.key for m in models]}
-    return {"resolution": resolution, "views": camera.batch_size, "scores": scores,
+    return {"resolution": resolution, "views": views.batch_size, "scores": scores,
             "labels": {m.key: m.label for m in models}, "reference_coverage": coverage,
             "agreement": {key: {"psnr": a["psnr"], "flip": a["flip"]} for key, a in agreement.items()},
             "seconds": seconds}
