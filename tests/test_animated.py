@@ -3,6 +3,7 @@ latent, and ``simplify`` over a clip (issue 18)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -125,7 +126,8 @@ def test_latent_export_keeps_the_rig_and_four_weights_per_vertex_summing_to_one(
     assert (exported.mesh.v_weights >= 0).all()
     assert torch.allclose(exported.mesh.v_weights.sum(1), torch.ones(len(exported.mesh.v_weights)))
     # The export is posed as the latent is (two joints: nothing was cut away).
-    assert torch.allclose(posed(exported, 0, 0.7).mesh.v_pos, latent.posed_positions(0, 0.7), atol=1e-5)
+    with torch.no_grad():
+        assert torch.allclose(posed(exported, 0, 0.7).mesh.v_pos, posed(latent.skinned(), 0, 0.7).mesh.v_pos, atol=1e-5)
 
 
 def test_latent_render_gradients_to_weights_and_positions_match_finite_differences():
@@ -250,3 +252,58 @@ def test_bench_skinned_tabulates_both_runs_of_a_character(cylinder_run):
     assert 0 < row["minutes"] < result.metrics["seconds"]["total"] / 60
     # the run is scored against the bar (below 3 dB over decimation at 150 steps: MISSED)
     assert row["meets_bar"] is (row["gain_over_decimated_db"] >= 3.0) and "bind-pose" in skinned.format_table(table)
+
+
+def test_an_animated_run_and_its_bind_pose_fit_resume_where_ctrl_c_stopped_them(tmp_path, monkeypatch):
+    from lookalike.fit.loop import Fitter
+    from lookalike.fit.textured_mesh import TexturedMesh
+
+    config = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 2}, "render": {"resolution": 48}})
+    settings = {"triangles": 100, "iterations": 6, "config": config, "compare_static": True, "progress": False}
+    whole = simplify(bent_cylinder(), tmp_path / "whole", **settings)
+    step = Fitter.step
+
+    def stop_at(latent_type, iteration):
+        def interrupted_step(self):
+            if isinstance(self.latent, latent_type) and self.progress.iteration == iteration:
+                raise KeyboardInterrupt
+            return step(self)
+        return interrupted_step
+
+    outdir = tmp_path / "out"
+    # Ctrl-C in our fit, then Ctrl-C in the bind-pose fit: each resume continues the part that stopped.
+    monkeypatch.setattr(Fitter, "step", stop_at(SkinnedMesh, 3))
+    first = simplify(bent_cylinder(), outdir, **settings)
+    assert first.interrupted and first.metrics["iterations"] == 3 and not (outdir / BIND_POSE_FOLDER).exists()
+    monkeypatch.setattr(Fitter, "step", stop_at(TexturedMesh, 2))
+    second = simplify(bent_cylinder(), outdir, resume=True, compare_static=True, progress=False)
+    assert second.interrupted and (outdir / BIND_POSE_FOLDER / "checkpoint.pt").exists()
+    assert "bind_pose" not in second.metrics["heldout"] and (outdir / "checkpoint.pt").exists()
+    monkeypatch.setattr(Fitter, "step", step)
+    third = simplify(bent_cylinder(), outdir, resume=True, compare_static=True, progress=False)
+    assert not third.interrupted and not (outdir / "checkpoint.pt").exists()
+    for key in ("bind_pose", "ours"):
+        assert third.metrics["heldout"][key]["psnr"] == whole.metrics["heldout"][key]["psnr"]
+    assert torch.equal(io.load(third.model).mesh.v_weights, io.load(whole.model).mesh.v_weights)
+
+
+def test_posed_normals_are_the_bind_pose_normals_turned_with_the_bones():
+    asset = bent_cylinder()
+    angle = math.radians(100)
+    turn = torch.tensor([[math.cos(angle), -math.sin(angle), 0], [math.sin(angle), math.cos(angle), 0], [0, 0, 1.0]])
+    v_nrm, t_nrm_idx = asset.mesh.normals()
+    computed = posed(asset, 0, 1.0).mesh
+    authored = Asset(mesh=dataclasses.replace(asset.mesh, v_nrm=v_nrm + 0.1, t_nrm_idx=t_nrm_idx),
+                     materials=asset.materials, skin=asset.skin, animations=asset.animations)
+    skinned = posed(authored, 0, 1.0).mesh
+    # The upper arm (y > 1.2, all on the elbow joint) turns rigidly: its normals by the bone's rotation,
+    # the file's (here tilted) normals as they are, the computed ones those of the bind pose.
+    upper = (asset.mesh.v_pos[t_nrm_idx.reshape(-1), 1] > 1.2).reshape(-1, 3).all(1)
+    slots = t_nrm_idx[upper].unique()
+    tilted = torch.nn.functional.normalize(v_nrm + 0.1, dim=-1)
+    assert torch.allclose(skinned.v_nrm[slots], tilted[slots] @ turn.T, atol=1e-5)
+    assert torch.allclose(computed.v_nrm[slots], v_nrm[slots] @ turn.T, atol=1e-5)
+    # The lower arm (on the shoulder joint, which the clip does not move) keeps its normals.
+    lower = (asset.mesh.v_pos[t_nrm_idx.reshape(-1), 1] < 0.8).reshape(-1, 3).all(1)
+    assert torch.allclose(computed.v_nrm[t_nrm_idx[lower].unique()], v_nrm[t_nrm_idx[lower].unique()], atol=1e-6)
+    assert torch.allclose(skinned.v_nrm.norm(dim=-1), torch.ones(len(v_nrm)), atol=1e-5)

@@ -699,3 +699,31 @@ def test_influences_not_a_multiple_of_four_are_padded_with_zero_weights(tmp_path
     dense = torch.zeros(back.mesh.num_vertices, 2).scatter_add(1, back.mesh.v_joints.clamp(max=1), back.mesh.v_weights)
     assert torch.allclose(dense.sum(1), torch.ones(back.mesh.num_vertices))
     assert validate(tmp_path / "two.glb")["issues"]["numErrors"] == 0
+
+
+def test_an_unskinned_prop_on_a_bone_moves_with_it(tmp_path):
+    """A skinned quad and an unskinned quad placed by a child node of the tip joint: the prop is
+    bound rigidly to its node, so the tip's animation carries it."""
+    doc = _skinned_quad_doc()
+    prop = {"attributes": {"POSITION": doc.accessor(QUAD + np.float32([0, 0, 5]))},
+            "indices": doc.accessor([0, 1, 2, 0, 2, 3], 5123)}
+    doc.json["meshes"].append({"primitives": [prop]})
+    doc.json["nodes"].append({"name": "prop", "mesh": len(doc.json["meshes"]) - 1, "translation": [0, 3, 0]})
+    doc.json["nodes"][1]["children"] = [len(doc.json["nodes"]) - 1]
+    quarter = [0, 0, math.sin(math.pi / 4), math.cos(math.pi / 4)]
+    doc.json["animations"] = [{"name": "turn", "samplers": [
+        {"input": doc.accessor(np.float32([0, 1])), "output": doc.accessor(np.float32([[0, 0, 0, 1], quarter]))}],
+        "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}]}]
+    asset = io.load(doc.write(tmp_path / "prop.gltf"))
+    prop_tris = asset.mesh.v_pos[asset.mesh.t_pos_idx][..., 2].mean(-1) > 4  # the prop's, at z = 5 in its node
+    assert prop_tris.sum() == 2
+    prop_node = next(i for i, n in enumerate(asset.skin.nodes) if n.name == "prop")
+    local = torch.cat([torch.from_numpy(QUAD).double() + torch.tensor([0.0, 0, 5]), torch.ones(4, 1, dtype=torch.float64)], 1)
+    for time in (0.0, 0.5, 1.0):  # the tip's rotation animated: the prop, 3 up its y axis, is carried round
+        world = node_world_matrices(asset.skin, asset.animations[0], torch.tensor([time], dtype=torch.float64))[0]
+        expected = (world[prop_node].double() @ local.T).T[:, :3]
+        turned = _posed_corners(asset, [time])[0][prop_tris]
+        gap = torch.cdist(turned.reshape(-1, 3), expected)
+        assert gap.min(1).values.max() < 1e-5 and gap.min(0).values.max() < 1e-5
+    io.save(asset, tmp_path / "prop.glb")
+    assert torch.allclose(_posed_corners(io.load(tmp_path / "prop.glb"), [1.0])[0][prop_tris], turned, atol=1e-5)

@@ -22,24 +22,29 @@ from .pose import REST
 from .skin import Animation, Channel, Skin
 
 
-def skin_vertices(v_pos: torch.Tensor, joints: torch.Tensor, weights: torch.Tensor,
-                  joint_matrices: torch.Tensor) -> torch.Tensor:
-    """Linear-blend skinning of bind-pose positions for F frames.
+def blended_matrices(joints: torch.Tensor, weights: torch.Tensor, joint_matrices: torch.Tensor) -> torch.Tensor:
+    """Each vertex's skinning matrix for F frames: ``[F, V, 3, 4]``, the top three rows of
+    ``sum_k weights[v, k] * M_(joints[v, k])``.
 
     Args:
-        v_pos: ``[V, 3]`` float bind-pose positions.
         joints: ``[V, K]`` int64 joint index of each influence (``arange(J)`` in every row for
             dense weights).
         weights: ``[V, K]`` float weight of each influence (rows normally sum to 1).
         joint_matrices: ``[F, J, 4, 4]`` float skinning matrices ``M_j`` per frame.
-    Returns:
-        ``[F, V, 3]``: ``sum_k weights[v, k] * (M_(joints[v, k]) @ (v, 1))[:3]``, through the
-        blended matrix ``sum_k weights[v, k] * M_(joints[v, k])``. Differentiable in
-        ``v_pos``, ``weights`` and ``joint_matrices``. Cost: ``O(F V K)`` time and one
-        ``[F, V, 3, 4]`` blended matrix of memory (48 MB per frame at a million vertices).
+    Differentiable in ``weights`` and ``joint_matrices``. Cost: ``O(F V K)`` time, and the
+    ``[F, V, 3, 4]`` result of memory (48 MB per frame at a million vertices).
     """
     rows = joint_matrices[:, :, :3, :]  # [F, J, 3, 4]
-    blended = sum(weights[:, k, None, None] * rows[:, joints[:, k]] for k in range(joints.shape[1]))
+    return sum(weights[:, k, None, None] * rows[:, joints[:, k]] for k in range(joints.shape[1]))
+
+
+def skin_vertices(v_pos: torch.Tensor, joints: torch.Tensor, weights: torch.Tensor,
+                  joint_matrices: torch.Tensor) -> torch.Tensor:
+    """Linear-blend skinning of bind-pose positions ``v_pos [V, 3]`` for F frames: ``[F, V, 3]``,
+    ``sum_k weights[v, k] * (M_(joints[v, k]) @ (v, 1))[:3]`` through the blended matrix
+    (``blended_matrices``, which says the arguments and the cost). Differentiable in ``v_pos``,
+    ``weights`` and ``joint_matrices``."""
+    blended = blended_matrices(joints, weights, joint_matrices)
     return (blended[..., :3] @ v_pos.unsqueeze(-1)).squeeze(-1) + blended[..., 3]
 
 
@@ -164,12 +169,20 @@ def pose_matrices(skin: Skin, animations: list[Animation], clip: int, time: floa
 
 def posed(asset: Asset, clip: int, time: float) -> Asset:
     """``asset`` in one pose (see ``pose_matrices``): its mesh skinned by its own influences
-    (``Mesh.v_joints``, ``v_weights``), normals recomputed from the posed positions within its
-    normal slots (``Mesh.with_positions``), as Blender does; everything else shared."""
+    (``Mesh.v_joints``, ``v_weights``), its bind-pose normals (``Mesh.normals``: the file's, or
+    split normals of the bind-pose positions) skinned too, by the linear part of each vertex's
+    blended matrix and renormalised, as real-time engines and web viewers skin a glTF's NORMAL
+    (Blender turns its custom normals with the faces, much the same); everything else shared.
+    Differentiable in the positions and the weights."""
     mesh = asset.mesh
+    v_nrm, t_nrm_idx = mesh.normals()
     matrices = pose_matrices(asset.skin, asset.animations, clip, time).to(mesh.v_pos)
-    v_pos = skin_vertices(mesh.v_pos, mesh.v_joints, mesh.v_weights, matrices[None])[0]
-    return replace(asset, mesh=mesh.with_positions(v_pos))
+    blended = blended_matrices(mesh.v_joints, mesh.v_weights, matrices[None])[0]  # [V, 3, 4]
+    v_pos = (blended[:, :, :3] @ mesh.v_pos.unsqueeze(-1)).squeeze(-1) + blended[:, :, 3]
+    slot_position = torch.zeros(v_nrm.shape[0], dtype=torch.int64, device=v_pos.device)
+    slot_position.scatter_(0, t_nrm_idx.reshape(-1), mesh.t_pos_idx.reshape(-1))
+    v_nrm = torch.nn.functional.normalize((blended[slot_position, :, :3] @ v_nrm.unsqueeze(-1)).squeeze(-1), dim=-1)
+    return replace(asset, mesh=replace(mesh, v_pos=v_pos, v_nrm=v_nrm, t_nrm_idx=t_nrm_idx))
 
 
 def strongest_influences(joints: torch.Tensor, weights: torch.Tensor, count: int = 4) -> tuple[torch.Tensor, torch.Tensor]:

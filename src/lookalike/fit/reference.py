@@ -74,8 +74,8 @@ class MeshReference:
 
 class SkinnedReference:
     """An animated asset (a skin, its influences and clips), rendered supersampled in the pose
-    of each view (``lookalike.asset.skinning.posed``: normals recomputed from the posed
-    positions); without poses, in the rest pose. The triangles' topology and the texture
+    of each view (``lookalike.asset.skinning.posed``: its file's normals skinned with it, as
+    engines and viewers show it); without poses, in the rest pose. The triangles' topology and the texture
     pyramids are shared by every pose; normals, tangents and clip positions are computed per
     pose, at a cost that grows with the input as a render's does."""
 

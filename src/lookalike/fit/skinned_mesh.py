@@ -5,10 +5,11 @@ Each vertex ``i`` has ``K`` candidate joints ``j_ik`` (fixed: the joints that we
 input's surface near it, ``lookalike.init.skin_weights``) and trainable logits ``l_ik``; its
 weights are ``w_ik = softmax_k(l_ik)``, so they stay positive and sum to one. A pose's
 positions are the linear-blend skinning ``v_i^s = sum_k w_ik M_(j_ik) v_i`` of the bind-pose
-positions (``lookalike.asset.skinning``), with the bone transforms ``M`` of the input's
-skeleton at the view's clip and time (known, not trained). Normals and tangent frames are
-computed from the posed positions at every render (paper Sec. 6.1), so the normal map is right
-in every pose; the Laplacian acts in the bind pose. The export keeps each vertex's
+positions (``lookalike.asset.skinning.posed``), with the bone transforms ``M`` of the input's
+skeleton at the view's clip and time (known, not trained). Its normals are the bind-pose split
+normals skinned with it, as engines and viewers skin the NORMAL of the written glTF (and as the
+reference's are), and tangent frames are computed on the posed mesh at every render (paper
+Sec. 6.1), so the normal map is right in every pose; the Laplacian acts in the bind pose. The export keeps each vertex's
 ``EXPORT_INFLUENCES`` largest weights, renormalised (glTF's JOINTS_0 / WEIGHTS_0).
 """
 
@@ -20,7 +21,7 @@ import torch
 
 from ..asset import Animation, Asset, Skin
 from ..asset.pose import Poses
-from ..asset.skinning import pose_matrices, skin_vertices, strongest_influences
+from ..asset.skinning import posed, strongest_influences
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from .textured_mesh import TexturedMesh
@@ -72,26 +73,28 @@ class SkinnedMesh(torch.nn.Module):
         """``[V, K]`` weights of the candidates: ``softmax`` of the logits over each row."""
         return torch.softmax(self.weight_logits, dim=1)
 
-    def posed_positions(self, clip: int, time: float) -> torch.Tensor:
-        """``[V, 3]`` world positions in one pose (``lookalike.asset.skinning.pose_matrices``),
-        differentiable in the bind-pose positions and the logits."""
-        v_pos = self.surface.world_positions()
-        matrices = pose_matrices(self.skin, self.animations, clip, time).to(v_pos)
-        return skin_vertices(v_pos, self.candidates, self.weights(), matrices[None])[0]
+    def skinned(self) -> Asset:
+        """The model in its bind pose with its candidate joints and their weights as influences,
+        and the input's skeleton and clips (differentiable; ``posed`` poses it)."""
+        surface = self.surface.as_asset()
+        mesh = replace(surface.mesh, v_joints=self.candidates, v_weights=self.weights())
+        return Asset(mesh=mesh, materials=surface.materials, skin=self.skin, animations=self.animations)
 
     def render(self, camera: Camera, light: PointLight, resolution: int, pose: Poses | None = None) -> torch.Tensor:
         """``TexturedMesh.render`` in the pose of each view (one render per run of views that
         share a pose); in the bind pose where ``pose`` is ``None``."""
         if pose is None:
             return self.surface.render(camera, light, resolution)
-        return torch.cat([self.surface.render_at(self.posed_positions(clip, time), camera[views], light[views],
-                                                 resolution) for views, clip, time in pose.runs()])
+        model = self.skinned()
+        return torch.cat([self.surface.draw(posed(model, clip, time), camera[views], light[views], resolution)
+                          for views, clip, time in pose.runs()])
 
     def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``TexturedMesh.coverage`` in the pose of each view (bind pose without ``pose``)."""
         if pose is None:
             return self.surface.coverage(camera, resolution)
-        covered = [self.surface.coverage_at(self.posed_positions(clip, time), camera[views], resolution)
+        model = self.skinned()
+        covered = [self.surface.coverage_at(posed(model, clip, time).mesh.v_pos, camera[views], resolution)
                    for views, clip, time in pose.runs()]
         return None if covered[0] is None else torch.cat(covered)
 

@@ -184,12 +184,11 @@ class TexturedMesh(torch.nn.Module):
         """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
         return slopes_to_normal(self.normal())
 
-    def as_asset(self, v_pos: torch.Tensor | None = None) -> Asset:
+    def as_asset(self) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
-        parameters (``export`` gives a detached one); with ``v_pos [V, 3]``, at those positions
-        (a pose) instead of its own."""
-        mesh = Mesh(v_pos=self.world_positions() if v_pos is None else v_pos, t_pos_idx=self.t_pos_idx,
-                    uv=[(self.v_tex, self.t_tex_idx)], t_nrm_idx=self.t_nrm_idx)
+        parameters (``export`` gives a detached one)."""
+        mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)],
+                    t_nrm_idx=self.t_nrm_idx)
         material = Material(
             name="lookalike",
             kd=Texture(self.base_color(), wrap=self.wrap),
@@ -211,11 +210,12 @@ class TexturedMesh(torch.nn.Module):
         visibility samples (stochastic MSAA, ``lookalike.shading.pipeline``): ``[B, H, W, 4]``,
         differentiable; in expectation, ``render_asset``'s image. The mesh does not move:
         ``pose`` is ignored."""
-        return self.render_at(self.world_positions(), camera, light, resolution)
+        return self.draw(self.as_asset(), camera, light, resolution)
 
-    def render_at(self, v_pos: torch.Tensor, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
-        """``render`` with the mesh at positions ``v_pos [V, 3]`` (world coordinates)."""
-        return render(self.as_asset(v_pos), camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
+    def draw(self, asset: Asset, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
+        """``render`` of ``asset``, this model as ``as_asset`` gives it or in another shape (a
+        pose of it): ``[B, H, W, 4]``, differentiable."""
+        return render(asset, camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
 
     def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where

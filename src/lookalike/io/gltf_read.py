@@ -24,7 +24,8 @@ matrix as it applies to the loaded positions), each primitive's JOINTS remapped 
 before welding. ``mesh_to_world`` is the world matrix ``W_0`` of the first skinned mesh node; a
 skinned node with another world matrix ``W_n`` has ``inv(W_n) @ W_0`` folded into its inverse
 bind matrices (glTF ignores a skinned mesh node's transform), so where all skinned nodes share
-``W_0`` the matrices are the file's float32 values. Name and skeleton root are the first skin's;
+``W_0`` the matrices are the file's float32 values. A mesh without a skin in a skinned scene (a
+prop on a bone) is bound rigidly to its node. Name and skeleton root are the first skin's;
 animations of TRS properties are kept with the skin (other paths are skipped with a warning).
 """
 
@@ -413,14 +414,21 @@ def _join_skins(data: GltfData, parts: list[_Primitive], world: np.ndarray) -> t
     ``world(joint) @ IBM' @ inv(W_0)`` maps its loaded positions ``W_n p`` as glTF's
     ``world(joint) @ IBM_j`` maps ``p``; the others keep the file's float32 matrices. A slot is a
     (joint node, such matrix) pair: skins sharing a skeleton share its slots; a joint of zero
-    weight becomes slot 0. Returns joint node indices ``[J]`` int64 and inverse bind matrices
+    weight becomes slot 0. A part without a skin (a prop on a node of the skeleton's scene) is
+    bound rigidly to its node, so it moves with it. Returns joint node indices ``[J]`` int64 and inverse bind matrices
     ``[J, 4, 4]`` float32 (``world`` is ``[N, 4, 4]``)."""
     mesh_world = world[next(p.node for p in parts if p.skin is not None)]
     slots: list[tuple[int, np.ndarray]] = []
     by_node: dict[int, list[int]] = {}
     remaps: dict[tuple[int, int], np.ndarray] = {}
     for part in parts:
-        if part.skin is None:
+        if part.skin is None:  # rigidly bound to its own node: weight 1 on a slot (node, inv(W_n) @ W_0)
+            if np.linalg.det(world[part.node]) == 0:
+                raise AssetError(data.path, f"node {part.node} has a singular world matrix")
+            ibm = (np.linalg.inv(world[part.node]) @ mesh_world).astype(np.float32)
+            slot = _slot(slots, by_node, part.node, ibm)
+            part.joints = np.tile(np.array([[slot, 0, 0, 0]], np.int64), (len(part.positions), 1))
+            part.weights = np.tile(np.array([[1.0, 0, 0, 0]], np.float32), (len(part.positions), 1))
             continue
         key = (part.skin, part.node)
         if key not in remaps:

@@ -306,6 +306,8 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             bind_pose, interrupted = bind_pose_fit(given if given is not None else input, outdir, cfg,
                                                    resume=saved is not None, material_override=material_override,
                                                    progress=progress)
+        if interrupted:  # our fit is done: a resume goes straight on to the bind-pose fit
+            checkpointer.save(fitter.state_dict())
         if bind_pose is not None:
             with _stage(timings, "scoring the bind-pose fit"):
                 methods.append(heldout.score("bind_pose", "Bind-pose fit", transfer_skin(asset, bind_pose), draw,
