@@ -22,10 +22,10 @@ import contextlib
 import dataclasses
 import logging
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import torch
@@ -34,13 +34,7 @@ from .. import io
 from ..asset import Asset, Material
 from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
-from ..fit.config import (
-    Config,
-    LatentConfig,
-    loop_settings,
-    objective,
-    refresh_interval,
-)
+from ..fit.config import Config, LatentConfig, loop_settings, objective, refresh_interval
 from ..fit.config_file import config_from_dict, config_to_dict, to_toml, with_overrides
 from ..fit.loop import Fitter
 from ..fit.reference import MeshReference, SkinnedReference
@@ -48,14 +42,8 @@ from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
 from ..init import decimate
-from ..init.initial_guess import (
-    InitialGuess,
-    Ranges,
-    initial_guess,
-    initial_guess_from_mesh,
-    target_triangle_count,
-    uses_alpha,
-)
+from ..init.initial_guess import (InitialGuess, Ranges, initial_guess, initial_guess_from_mesh, target_triangle_count,
+                                  uses_alpha)
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..phases import SEPARATOR, Profile, phase, recording
@@ -64,14 +52,7 @@ from ..report.record import RunRecord
 from ..threads import CoreShare
 from . import animated
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
-from .outputs import (
-    METRICS_NAME,
-    MODEL_NAME,
-    REPORT_NAME,
-    staged_outputs,
-    write_model,
-    write_record,
-)
+from .outputs import METRICS_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 
 log = logging.getLogger(__name__)
 

@@ -15,18 +15,12 @@ from PIL import Image
 
 from ..io.atomic import write_text_atomic
 from ..version import __version__
-from .images import (
-    DIFFERENCE_FULL_SCALE,
-    animated_picture,
-    image_grid,
-    save_animation,
-    signed_difference,
-    to_srgb_uint8,
-)
 from .map_noise import CHANNELS as MAP_NOISE_CHANNELS
-from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
-from .plot import plot_loss
 from .record import MethodResult, RunRecord
+from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
+from .images import (DIFFERENCE_FULL_SCALE, animated_picture, image_grid, save_animation, signed_difference,
+                     to_srgb_uint8)
+from .plot import plot_loss
 
 FILES_DIR = "report_files"
 JUDGE_SLOT = ("<!-- judge -->", "<!-- /judge -->")
