@@ -12,7 +12,7 @@ from scipy.sparse.csgraph import connected_components
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.init import decimate
-from lookalike.init.decimate import clean_triangles, clean_triangles_python
+from lookalike.init.decimate import clean_triangles, clean_triangles_python, largest_parts
 from lookalike.init.transfer import surface_patches, surface_patches_python
 from lookalike.init.weld import weld_vertices
 
@@ -247,3 +247,22 @@ def test_real_textured_asset(shared_assets):
     assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
     lo, hi = asset.mesh.v_tex.min(dim=0).values, asset.mesh.v_tex.max(dim=0).values
     assert len(out.uv) == 1 and torch.all(out.v_tex >= lo - 1e-6) and torch.all(out.v_tex <= hi + 1e-6)
+
+
+def test_many_small_parts_are_cut_to_the_budget_by_dropping_the_smallest():
+    """Quadric decimation cannot take a small part below a triangle or two: at a budget under
+    the parts' count, the smallest parts go and the largest stay whole."""
+    rng = np.random.default_rng(1)
+    count = 60
+    sizes = rng.uniform(0.01, 0.05, count)
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    v_pos = (rng.uniform(-1, 1, (count, 1, 3)) + sizes[:, None, None] * square).reshape(-1, 3)
+    quads = np.arange(count)[:, None] * 4
+    t_pos_idx = np.concatenate([quads + [0, 1, 2], quads + [0, 2, 3]])
+    kept_pos, kept_idx = largest_parts(v_pos, t_pos_idx, 41)
+    assert len(kept_idx) == 40 and len(kept_pos) == 80      # 20 whole quads, their vertices only
+    corners = kept_pos[kept_idx]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
+    assert area == pytest.approx(float(np.sort(sizes ** 2)[::-1][:20].sum()), rel=1e-9)
+    mesh = Mesh(v_pos=torch.from_numpy(v_pos).float(), t_pos_idx=torch.from_numpy(t_pos_idx).long())
+    assert decimate(mesh, 30).num_triangles <= 30 + 2

@@ -10,9 +10,9 @@ never import each other, ``jobs`` composes them):
 
 - ``lookalike.commands`` the ``lookalike`` command, one module per subcommand
 - ``lookalike.bench``   benchmarks
-- ``lookalike.jobs``    applications: ``simplify``, ``bake``, ``demo``
+- ``lookalike.jobs``    applications: ``simplify``, ``cards``, ``bake``, ``demo``
 - ``lookalike.report``  the run's record, held-out scores, pictures and the HTML report
-- ``lookalike.init``    initial guesses (decimation, UV atlas, material atlas, bake)
+- ``lookalike.init``    initial guesses (decimation, UV atlas, material atlas, bake, billboard cloud)
 - ``lookalike.fit``     references, latent models, the objective, the loop, checkpoints
 - ``lookalike.shading`` BSDF, cameras, lights and the deferred rendering pipeline
 - ``lookalike.io``      file formats (glTF, OBJ, PLY), registered by extension; atomic writes

@@ -15,6 +15,9 @@ MAX_RESOLUTION = 2048
 MAX_SPP = 8
 """Samples per pixel per axis of supersampled or multisampled images."""
 
+MAX_LAYERS = 16
+"""Depth-peeled layers at most (each is a full-resolution pass)."""
+
 MAX_VIEWS = 1024
 """Views in a pool, a held-out or validation set, or a batch of pictures."""
 

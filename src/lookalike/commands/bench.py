@@ -10,6 +10,7 @@ import json
 
 from ..bench import benchmark_modules
 from ..bench.quality import ASSETS, JUDGES, select_assets
+from ..bench.cards import ASSETS as CARDS_ASSETS
 from ..bench.skinned import ASSETS as SKINNED_ASSETS
 from ..errors import ConfigError
 
@@ -24,7 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--asset", action="append", default=None, metavar="NAME",
                         help="run only this benchmark asset (repeatable; quality and warmstart: "
                              + ", ".join(case.name for case in ASSETS) + "; skinned: "
-                             + ", ".join(case.name for case in SKINNED_ASSETS) + ")")
+                             + ", ".join(case.name for case in SKINNED_ASSETS) + "; cards: "
+                             + ", ".join(case.name for case in CARDS_ASSETS) + ")")
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
                         help="folder holding the benchmark assets (quality, warmstart, repair and contention; default: "
                              "../shared/assets beside the source checkout)")

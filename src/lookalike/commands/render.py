@@ -13,15 +13,12 @@ import math
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..limits import MAX_RESOLUTION, MAX_SPP, MAX_VIEWS
+from ..limits import MAX_LAYERS, MAX_RESOLUTION, MAX_SPP, MAX_VIEWS
 
 HELP = "render PNG pictures of an asset from random views with a point light"
 
 SHEET_BACKGROUND = 0.5
 """Grey (sRGB-encoded value) behind the views on the contact sheet."""
-
-MAX_LAYERS = 16
-"""Depth-peeled layers at most (each is a full-resolution pass)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..limits import MAX_WORKERS
-from ._options import add_fit_arguments, add_job_arguments, fit_options
+from ._options import add_fit_arguments, add_job_arguments, add_run_arguments, apply_threads, fit_options
 
 HELP = "simplify an asset: a low-poly model with textures that renders like the input"
 
@@ -22,14 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     pose.add_argument("--compare-static", action="store_true", help="for a skinned, animated input: also run the "
                         "bind-pose fit (--static, its own time budget) into OUTDIR/bind-pose-fit/ and score it, with "
                         "the input's weights transferred, beside ours in the report (twice the time)")
-    parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
-    parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
-    parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree, pinned "
-                        "(default: the cores this process may use, less those other busy programs keep using while it "
-                        "optimises)")
-    parser.add_argument("--profile", action="store_true", help="record where the time goes: wall and CPU seconds of "
-                        "each phase (load, decimation, bake, views, forward, backward, ...) in metrics.json, "
-                        "\"profile\"")
+    add_run_arguments(parser)
     parser.add_argument("--judge", choices=("blender",), default=None,
                         help="afterwards, also render the input, plain decimation, our classic bake, Blender's own "
                              "decimate + bake and ours in Blender Cycles on the held-out views and score them "
@@ -38,14 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import ConfigError
     from ..jobs.simplify import simplify
-    from ..threads import set_threads
 
-    if args.threads is not None:
-        if not 1 <= args.threads <= MAX_WORKERS:
-            raise ConfigError(f"--threads must lie in [1, {MAX_WORKERS}], not {args.threads}")
-        set_threads(args.threads)
+    apply_threads(args)
     if args.judge is not None:
         from ..judge import require_judge
 

@@ -22,6 +22,7 @@ from typing import NamedTuple
 
 from ..errors import ConfigError
 from ..limits import (
+    MAX_LAYERS,
     MAX_POOL_BYTES,
     MAX_RESOLUTION,
     MAX_SKIN_CANDIDATES,
@@ -36,6 +37,7 @@ from .objective import Objective
 LOSSES = tuple(IMAGE_LOSSES)
 INITS = ("bake", "source", "average", "random")
 WARM_INITS = ("bake", "source")
+ALPHA_EXPORTS = ("auto", "mask", "blend")
 
 
 @dataclass
@@ -86,6 +88,12 @@ class LatentConfig:
         skin_candidates: joints per vertex whose weights a skinned fit trains (those that weigh
             most on the input's surface nearby, ``lookalike.init.skin_weights``); the export
             keeps the 4 largest.
+        alpha_mode: how a model with trained alpha is written: ``"auto"`` as the input's
+            materials do (``BLEND`` if one blends, else ``MASK``), ``"mask"`` (alpha-tested at a
+            cutoff the fit chooses on its validation views: engines draw it without sorting) or
+            ``"blend"``. ``"auto"`` trains the mode it writes; ``"mask"`` and ``"blend"`` train
+            soft (blended) alpha, which moves coverage where a straight-through mask does not
+            (``lookalike.jobs.alpha_export``).
     """
 
     DEFAULT_RATIO = 0.02
@@ -98,6 +106,7 @@ class LatentConfig:
     constant_colour: bool = True
     static: bool = False
     skin_candidates: int = 8
+    alpha_mode: str = "auto"
 
 
 @dataclass
@@ -118,12 +127,16 @@ class RenderConfig:
             surface faces away from it, as Cycles and most offline renderers shade, while the
             other views light by the shading normal alone, as real-time engines do. Fitting
             against both keeps the normal map right in both kinds of renderer.
+        layers: depth-peeled layers composited in every render of the reference and of the
+            models (``lookalike.shading.pipeline``): 1 shows the nearest surface only; alpha-
+            textured foliage needs several (the paper peels 8).
     """
 
     resolution: int = 512
     target_spp: int = 2
     latent_msaa: int = 2
     horizon_share: float = 0.5
+    layers: int = 1
 
 
 @dataclass
@@ -286,6 +299,11 @@ class Config:
             (1 <= ren.target_spp <= MAX_SPP, f"render.target_spp must lie in [1, {MAX_SPP}], not {ren.target_spp}"),
             (1 <= ren.latent_msaa <= MAX_SPP, f"render.latent_msaa must lie in [1, {MAX_SPP}], not {ren.latent_msaa}"),
             (0 <= ren.horizon_share <= 1, f"render.horizon_share must lie in [0, 1], not {ren.horizon_share}"),
+            (1 <= ren.layers <= MAX_LAYERS, f"render.layers must lie in [1, {MAX_LAYERS}], not {ren.layers}"),
+            (ren.layers == 1 or not vw.relight,
+             "views.relight keeps the nearest surface's G-buffer only: it needs render.layers = 1"),
+            (lat.alpha_mode in ALPHA_EXPORTS,
+             f"latent.alpha_mode must be one of {', '.join(ALPHA_EXPORTS)}, not {lat.alpha_mode!r}"),
             (1 <= vw.batch_size <= MAX_VIEWS, f"views.batch_size must lie in [1, {MAX_VIEWS}], not {vw.batch_size}"),
             (vw.pool_size == 0 or vw.batch_size <= vw.pool_size <= MAX_VIEWS,
              f"views.pool_size must be 0 or lie in [views.batch_size, {MAX_VIEWS}], not {vw.pool_size}"),
@@ -399,11 +417,13 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
 
 def refresh_interval(config: Config, input_triangles: int) -> int:
     """Steps between refreshes of the view pool for an input of ``input_triangles``:
-    ``refresh_every * max(1, input_triangles / refresh_triangles)``, rounded up (0: no
-    refresh). A refresh renders the input once, at a cost about proportional to its triangles,
-    so the cost per step stays that of an input of ``refresh_triangles``."""
+    ``refresh_every * max(1, input_triangles * render.layers / refresh_triangles)``, rounded
+    up (0: no refresh). A refresh renders the input once, at a cost about proportional to its
+    triangles times the layers peeled, so the cost per step stays that of a single-layer input
+    of ``refresh_triangles``."""
     every = config.views.refresh_every
-    return math.ceil(every * max(1.0, input_triangles / config.views.refresh_triangles)) if every else 0
+    drawn = input_triangles * config.render.layers
+    return math.ceil(every * max(1.0, drawn / config.views.refresh_triangles)) if every else 0
 
 
 def objective(config: Config) -> Objective:

@@ -106,8 +106,9 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def load_config(path: str | Path) -> Config:
-    """Read a run's TOML file (missing settings keep their defaults)."""
+def load_config(path: str | Path, defaults: Config | None = None) -> Config:
+    """Read a run's TOML file; missing settings keep those of ``defaults`` (default: ``Config()``).
+    A file that sets ``latent.triangles`` clears the defaults' ``ratio`` and vice versa."""
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -115,23 +116,33 @@ def load_config(path: str | Path) -> Config:
         raise ConfigError(f"{path}: no such configuration file") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ConfigError(f"{path}: not a valid TOML file: {e}") from None
-    return config_from_dict(data, origin=str(path))
+    base = defaults or Config()
+    latent = data.get("latent")
+    if isinstance(latent, dict):
+        base = _one_count(base, latent)
+    return config_from_dict(data, base=base, origin=str(path))
 
 
-def with_overrides(base: Config | str | Path | None, **overrides: Any) -> Config:
-    """``base`` (a ``Config``, a TOML file, or ``None`` for the defaults) with the non-``None``
+def _one_count(config: Config, latent: dict[str, Any]) -> Config:
+    """``config`` with ``latent.ratio`` cleared where ``latent`` (settings about to be applied)
+    sets ``triangles``, and ``latent.triangles`` cleared where it sets ``ratio``."""
+    cleared = {other: None for key, other in (("triangles", "ratio"), ("ratio", "triangles"))
+               if latent.get(key) is not None}
+    return dataclasses.replace(config, latent=dataclasses.replace(config.latent, **cleared)) if cleared else config
+
+
+def with_overrides(base: Config | str | Path | None, defaults: Config | None = None, **overrides: Any) -> Config:
+    """``base`` (a ``Config``, a TOML file, or ``None`` for ``defaults``, themselves by default
+    ``Config()``; a file's missing settings keep those of ``defaults``) with the non-``None``
     ``overrides`` applied, each named after a field of one section (``triangles`` sets
     ``latent.triangles``; command-line options and keyword arguments map this way). Setting
     ``triangles`` clears a configured ``ratio`` and vice versa. Validated."""
-    config = load_config(base) if isinstance(base, (str, Path)) else dataclasses.replace(base or Config())
+    config = load_config(base, defaults) if isinstance(base, (str, Path)) \
+        else dataclasses.replace(base or defaults or Config())
     section_of = {key.name: section.name for section in dataclasses.fields(config)
                   for key in dataclasses.fields(getattr(config, section.name))}
     changes: dict[str, dict[str, Any]] = {}
     for key, value in overrides.items():
         if value is not None:
             changes.setdefault(section_of[key], {})[key] = value
-    if "triangles" in changes.get("latent", {}):
-        config.latent = dataclasses.replace(config.latent, ratio=None)
-    if "ratio" in changes.get("latent", {}):
-        config.latent = dataclasses.replace(config.latent, triangles=None)
-    return config_from_dict(changes, base=config, origin="options")
+    return config_from_dict(changes, base=_one_count(config, changes.get("latent", {})), origin="options")

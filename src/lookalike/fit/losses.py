@@ -27,6 +27,11 @@ def l2(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return ((pred - target) ** 2).mean()
 
 
+def l2_tonemapped(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """mean (tonemap(pred) - tonemap(target))^2 (the paper's loss for aggregate geometry, Sec. 5.4)."""
+    return ((tonemap(pred) - tonemap(target)) ** 2).mean()
+
+
 def smape(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     """Symmetric mean absolute percentage error: mean |pred - target| / (|pred| + |target| + eps),
     eps = 1e-2."""
@@ -41,6 +46,7 @@ def relative_l2(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 IMAGE_LOSSES: dict[str, Callable[[torch.Tensor, torch.Tensor], torch.Tensor]] = {
     "l1-tonemapped": l1_tonemapped,
+    "l2-tonemapped": l2_tonemapped,
     "l2": l2,
     "smape": smape,
     "relative-l2": relative_l2,

@@ -54,16 +54,18 @@ class RelightableReference(Reference, Protocol):
 
 
 class MeshReference:
-    """A static asset rendered by ``lookalike.shading.render``, supersampled (it does not move:
-    ``pose`` is ignored); what its views share is computed once (``FixedAsset``)."""
+    """A static asset rendered by ``lookalike.shading.render``, supersampled, with ``layers``
+    depth-peeled layers (it does not move: ``pose`` is ignored); what its views share is
+    computed once (``FixedAsset``)."""
 
-    def __init__(self, asset: Asset):
+    def __init__(self, asset: Asset, layers: int = 1):
         self.asset = FixedAsset.of(asset)
+        self.layers = layers
 
     @torch.no_grad()
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
                pose: Poses | None = None) -> torch.Tensor:
-        return render(self.asset, camera, light, (resolution, resolution), spp=spp)
+        return render(self.asset, camera, light, (resolution, resolution), spp=spp, layers=self.layers)
 
     def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
         return capture_view(self.asset, camera, resolution, spp)

@@ -71,13 +71,14 @@ class TexturedMesh(torch.nn.Module):
             (``lookalike.fit.texture_pyramid``).
         emissive: initial ``[S, S, 3]`` linear emission, or ``None`` (no emission).
         occlusion: ``[S, S, 1]`` (or ``[1, 1, 1]``) ambient occlusion to carry, or ``None``.
+        layers: depth-peeled layers its renders composite (``lookalike.shading.pipeline``).
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
                  centre: torch.Tensor, radius: float | torch.Tensor, limits: ClampConfig = ClampConfig(),
                  msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp",
                  texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
-                 occlusion: torch.Tensor | None = None):
+                 occlusion: torch.Tensor | None = None, layers: int = 1):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -98,6 +99,7 @@ class TexturedMesh(torch.nn.Module):
         self.alpha_mode = alpha_mode
         self.double_sided = double_sided
         self.wrap = wrap
+        self.layers = layers
         self.emissive_scale = 1.0 if emissive is None else max(float(emissive.detach().max()), 1.0)
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
@@ -119,13 +121,13 @@ class TexturedMesh(torch.nn.Module):
     @classmethod
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
-                   texture_scales: tuple[float, ...] = (1.0,)) -> TexturedMesh:
+                   texture_scales: tuple[float, ...] = (1.0,), layers: int = 1) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
         are held as one value, the mean of the start's texels. Normals are lifted to face out
         by at least ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind),
-        and every texel is clamped into ``limits``."""
+        and every texel is clamped into ``limits``. ``layers``: see the class."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
         ks = material.ks.data
@@ -139,18 +141,19 @@ class TexturedMesh(torch.nn.Module):
         latent = cls(mesh, kd, ks, _facing_outwards(normal, limits), centre, radius, limits=limits,
                      msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
-                     **_emission_and_occlusion(material, size))
+                     layers=layers, **_emission_and_occlusion(material, size))
         return latent
 
     def get_extra_state(self) -> dict:
         return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided, "wrap": self.wrap,
-                "msaa": self.msaa, "limits": dataclasses.asdict(self.limits)}
+                "msaa": self.msaa, "layers": self.layers, "limits": dataclasses.asdict(self.limits)}
 
     def set_extra_state(self, state: dict) -> None:
         self.alpha_mode = state["alpha_mode"]
         self.double_sided = state["double_sided"]
         self.wrap = state["wrap"]
         self.msaa = state["msaa"]
+        self.layers = state.get("layers", 1)
         self.limits = ClampConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in state["limits"].items()})
         self._bound_textures()
 
@@ -215,7 +218,8 @@ class TexturedMesh(torch.nn.Module):
     def draw(self, asset: Asset, camera: Camera, light: PointLight, resolution: int) -> torch.Tensor:
         """``render`` of ``asset``, this model as ``as_asset`` gives it or in another shape (a
         pose of it): ``[B, H, W, 4]``, differentiable."""
-        return render(asset, camera, light, (resolution, resolution), spp=self.msaa, msaa=self.msaa > 1)
+        return render(asset, camera, light, (resolution, resolution), spp=self.msaa, layers=self.layers,
+                      msaa=self.msaa > 1)
 
     def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where
@@ -271,15 +275,17 @@ def _emission_and_occlusion(material: Material, size) -> dict:
 
 
 def render_asset(asset: Asset, camera: Camera, light: PointLight, pose: Poses | None = None, *, resolution: int,
-                 msaa: int) -> torch.Tensor:
+                 msaa: int, layers: int = 1) -> torch.Tensor:
     """How fitted models and the baselines they are compared with are scored: every one of
-    ``msaa`` x ``msaa`` samples per pixel shaded, as the reference is, ``[B, H, W, 4]``,
+    ``msaa`` x ``msaa`` samples per pixel shaded, as the reference is, over ``layers``
+    depth-peeled layers, ``[B, H, W, 4]``,
     differentiable (deterministic; what training's stochastic MSAA matches in expectation).
     A skinned asset is drawn in the poses ``pose`` (batch B) where given
     (``lookalike.asset.skinning.posed``); else as it is stored."""
+    size = (resolution, resolution)
     if pose is None or asset.skin is None:
-        return render(asset, camera, light, (resolution, resolution), spp=msaa)
-    return torch.cat([render(posed(asset, clip, time), camera[views], light[views], (resolution, resolution), spp=msaa)
+        return render(asset, camera, light, size, spp=msaa, layers=layers)
+    return torch.cat([render(posed(asset, clip, time), camera[views], light[views], size, spp=msaa, layers=layers)
                       for views, clip, time in pose.runs()])
 
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..asset.index_tables import triple_copies
 from ..asset.mesh import Mesh
+from ..asset.parts import triangle_parts
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
 from .transfer import transfer_attributes
@@ -161,6 +162,25 @@ def _coarse_pass(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int):
     return out_pos * scale + centre, out_idx
 
 
+def largest_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int) -> tuple[np.ndarray, np.ndarray]:
+    """The disjoint parts of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` (``lookalike.asset.parts``)
+    kept by area, largest first, each while it still fits in ``triangles``; the others dropped,
+    with their vertices. What is left of many small parts that quadric decimation cannot
+    reduce further (a leaf is still a few triangles): at the budget, the smallest vanish."""
+    parts = triangle_parts(v_pos, t_pos_idx)
+    area = np.bincount(parts, weights=triangle_areas(v_pos, t_pos_idx))
+    size = np.bincount(parts)
+    kept = np.zeros(len(size), bool)
+    room = triangles
+    for part in np.argsort(-area, kind="stable"):
+        if size[part] <= room:
+            kept[part] = True
+            room -= size[part]
+    tri = t_pos_idx[kept[parts]]
+    used, compact = np.unique(tri, return_inverse=True)
+    return v_pos[used], compact.reshape(-1, 3)
+
+
 def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_ANGLE) -> Mesh:
     """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes.
 
@@ -169,7 +189,9 @@ def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_AN
             ``1e-5`` of the bounding-box diagonal).
         triangles: the target count, ``0 < triangles < mesh.num_triangles``. The result has
             exactly this many triangles unless fins or degenerate triangles had to be removed
-            after the last correction run (then within ``_NEARLY`` = 2).
+            after the last correction run (then within ``_NEARLY`` = 2), or unless the input is
+            many disjoint parts that cannot be reduced to it: then its smallest parts are
+            dropped until it fits (``largest_parts``), and it may have a few fewer.
         crease_angle: dihedral angle in degrees above which an edge of the result is hard
             (``lookalike.asset.normals.crease_normal_index``).
 
@@ -191,5 +213,7 @@ def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_AN
         w_pos, w_idx = _coarse_pass(w_pos, w_idx, coarse)
     if len(w_idx) > triangles:
         w_pos, w_idx = _simplify_to_count(w_pos, w_idx, triangles)
+    if len(w_idx) > triangles + _NEARLY:
+        w_pos, w_idx = largest_parts(w_pos, w_idx, triangles)
     low = transfer_attributes(mesh, w_pos, w_idx, welded_idx)
     return replace(low, t_nrm_idx=crease_normal_index(low.v_pos, low.t_pos_idx, crease_angle))

@@ -20,12 +20,16 @@ import torch
 
 from .. import io
 from ..asset import Asset, Material, Mesh, Texture
+from .cards import cards
+from .shrub import shrub
 from .simplify import SimplifyResult, simplify
 
 DEMO_TRIANGLES = 2000
 DEMO_TEXTURE_SIZE = 512
 DEMO_RESOLUTION = 256
 DEMO_TIME_BUDGET_S = 240.0
+DEMO_CARDS_SHARE = 0.005
+"""``demo --cards`` keeps this share of the generated shrub's triangles as cards."""
 
 TUBE = 0.45
 BUMP = 0.08
@@ -116,3 +120,17 @@ def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_B
         io.save(demo_asset(), source)
         return simplify(source, outdir, triangles=DEMO_TRIANGLES, texture_size=DEMO_TEXTURE_SIZE,
                         resolution=DEMO_RESOLUTION, time_budget=time_budget, force=force, progress=progress)
+
+
+def demo_cards(outdir: str | Path = "lookalike-cards-demo", time_budget: float = DEMO_TIME_BUDGET_S,
+               force: bool = False, progress: bool = True) -> SimplifyResult:
+    """``cards`` of the generated shrub (``lookalike.jobs.shrub``, written to a temporary glTF
+    first) to ``DEMO_CARDS_SHARE`` of its triangles, with ``DEMO_TEXTURE_SIZE`` textures and
+    ``DEMO_RESOLUTION`` views, within ``time_budget`` seconds, into ``outdir``."""
+    with tempfile.TemporaryDirectory(prefix="lookalike-demo-") as folder:
+        source = Path(folder) / "shrub.glb"
+        asset = shrub()
+        io.save(asset, source)
+        return cards(source, outdir, triangles=max(2, round(DEMO_CARDS_SHARE * asset.mesh.num_triangles)),
+                     texture_size=DEMO_TEXTURE_SIZE, resolution=DEMO_RESOLUTION, time_budget=time_budget,
+                     force=force, progress=progress)

@@ -116,14 +116,14 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     paths["ours"] = run_dir / MODEL_NAME
     models = [JudgedModel(key, LABELS[key], paths[key], io.load(paths[key])) for key in LABELS
               if key in paths and paths[key].exists()]
-    reference = SkinnedReference(input_asset) if moving else MeshReference(input_asset)
+    reference = SkinnedReference(input_asset) if moving else MeshReference(input_asset, cfg.render.layers)
     heldout = heldout_views(reference, cfg.views.heldout, cfg.views.heldout_seed,
                             animated.heldout_poses(input_asset) if moving else None)
     if views is not None:
         heldout = heldout[:views]
     started = time.monotonic()
     result = judge_models(reference, reference_glb, models, heldout, resolution, cfg.render.target_spp,
-                          cfg.render.latent_msaa, contact_sheet_path=folder / "views.png")
+                          cfg.render.latent_msaa, contact_sheet_path=folder / "views.png", layers=cfg.render.layers)
     seconds["judging"] = time.monotonic() - started
     result["blender_bake"] = blender_bake
     if moving:

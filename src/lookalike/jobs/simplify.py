@@ -22,6 +22,7 @@ import contextlib
 import dataclasses
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -32,6 +33,7 @@ import torch
 
 from .. import io
 from ..asset import Asset, Material
+from ..asset.parts import aggregate_traits
 from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.config import Config, LatentConfig, loop_settings, objective, refresh_interval
@@ -51,6 +53,7 @@ from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
 from ..threads import CoreShare
 from . import animated
+from .alpha_export import finished_alpha, training_start
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import METRICS_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 
@@ -69,6 +72,9 @@ animated run's moving picture, the bind-pose fit's)."""
 
 OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
+
+CHECKPOINT_APPLICATION = "application"
+"""The checkpoint's entry naming the command that started the run (a run resumes by the same)."""
 
 POOL_STREAM, TEXTURE_STREAM = 1, 2
 """Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
@@ -97,6 +103,7 @@ class SimplifyResult:
     metrics: dict
     interrupted: bool = False
     baselines: dict[str, Asset] = field(default_factory=dict)
+    command: str = "simplify"
 
     def summary(self) -> str:
         """A few lines for the terminal: where to look, and how much we gained."""
@@ -111,17 +118,17 @@ class SimplifyResult:
             f"held-out PSNR: {label} {base['psnr']:.2f} dB, ours {ours['psnr']:.2f} dB "
             f"({ours['psnr'] - base['psnr']:+.2f} dB); FLIP {base['flip']:.4f} -> {ours['flip']:.4f}",
         ]
-        if "baked" in heldout:
-            baked = heldout["baked"]
-            lines.append(f"classic bake: PSNR {baked['psnr']:.2f} dB (ours {ours['psnr'] - baked['psnr']:+.2f} dB), "
-                         f"FLIP {baked['flip']:.4f}")
+        for key in m["methods"][1:-1]:
+            other = heldout[key]
+            lines.append(f"{other['label'][0].lower() + other['label'][1:]}: PSNR {other['psnr']:.2f} dB "
+                         f"(ours {ours['psnr'] - other['psnr']:+.2f} dB), FLIP {other['flip']:.4f}")
         if "profile" in m:
             lines.append("where the time went (wall s, CPU/wall; nested phases indented):")
             lines += [f"  {'  ' * path.count(SEPARATOR)}{path.split(SEPARATOR)[-1]:<{40 - 2 * path.count(SEPARATOR)}} "
                       f"{t['wall_s']:8.1f}  {t['cpu_per_wall']:4.2f}" for path, t in m["profile"].items()]
         lines += [f"model:  {self.model}", f"report: {self.report}"]
         if self.interrupted:
-            lines.append(f"continue with: lookalike simplify {m['input']} -o {self.outdir} --resume")
+            lines.append(f"continue with: lookalike {self.command} {m['input']} -o {self.outdir} --resume")
         return "\n".join(lines)
 
 
@@ -180,32 +187,68 @@ def simplify(input: str | Path | Asset, outdir: str | Path | None = None, *, tri
     Raises:
         ConfigError, AssetError: with a message naming the problem.
     """
+    options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
+               "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj, "static": static}
+    return run(SIMPLIFY, input, outdir, options, time_budget=time_budget, init_mesh=init_mesh, config=config,
+               resume=resume, force=force, material_override=material_override, compare_static=compare_static,
+               progress=progress, profile=profile)
+
+
+@dataclass(frozen=True)
+class Application:
+    """What one application of the fit brings to the run every application shares (``run``):
+    ``simplify`` here, ``cards`` (``lookalike.jobs.cards``).
+
+    Attributes:
+        command: its ``lookalike`` subcommand; a checkpoint resumes under the same one.
+        outdir_suffix: the default output folder is the input's name + this.
+        initial_guess: ``(input, cfg, count) -> InitialGuess``, ``count`` the target triangle
+            count (``None`` where ``cfg.io.init_mesh`` gives the mesh).
+        start_label: the label its start is scored under beside the baselines, or ``None``
+            (then a start that is a classic bake is scored as "Classic bake").
+        defaults: the settings a run starts from, before a settings file and the options.
+        remarks: ``input -> [str]``, what to say about the input (logged, and in the report).
+    """
+
+    command: str
+    outdir_suffix: str
+    initial_guess: Callable[[Asset, Config, int | None], InitialGuess]
+    start_label: str | None = None
+    defaults: Config = field(default_factory=Config)
+    remarks: Callable[[Asset], list[str]] = lambda asset: []
+
+
+def run(app: Application, input: str | Path | Asset, outdir: str | Path | None, options: dict, *,
+        time_budget: float | None = None, init_mesh: str | Path | None = None, config: Config | str | Path | None = None,
+        resume: bool = False, force: bool = False, material_override: Material | None = None,
+        compare_static: bool = False, progress: bool = True, profile: bool = False) -> SimplifyResult:
+    """The run of ``app`` on ``input`` into ``outdir`` (``simplify`` documents the arguments;
+    ``options`` holds the settings given as keyword arguments, ``None`` where not given)."""
     started = time.monotonic()
     given = input if isinstance(input, Asset) else None
     name = given.name if given is not None else Path(input).stem
-    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{OUTDIR_SUFFIX}"
+    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{app.outdir_suffix}"
     check_outdir(outdir, force=force, resume=resume)
-    options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
-               "iterations": iterations, "init": init, "seed": seed, "export_obj": export_obj, "static": static}
     recorder = Profile() if profile else None
     with left_as_found(outdir), (recording(recorder) if recorder else contextlib.nullcontext()):
-        return _simplify(input, given, outdir, options, time_budget, init_mesh, config, resume, force,
-                         material_override, compare_static, progress, started, recorder)
+        return _run(app, input, given, outdir, options, time_budget, init_mesh, config, resume, force,
+                    material_override, compare_static, progress, started, recorder)
 
 
-def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budget: float | None,
-              init_mesh, config, resume: bool, force: bool, material_override: Material | None, compare_static: bool,
-              progress: bool, started: float, recorder: Profile | None) -> SimplifyResult:
-    """``simplify`` once its output folder is checked (see there)."""
+def _run(app: Application, input, given: Asset | None, outdir: Path, options: dict, time_budget: float | None,
+         init_mesh, config, resume: bool, force: bool, material_override: Material | None, compare_static: bool,
+         progress: bool, started: float, recorder: Profile | None) -> SimplifyResult:
+    """``run`` once its output folder is checked (see there)."""
     checkpoint = outdir / CHECKPOINT_NAME
     saved = read_checkpoint(checkpoint) if resume else None
     if saved is not None:
+        check_same_command(saved, checkpoint, app.command)
         cfg = resumed_config(saved, checkpoint, {**options, "time_budget": time_budget, "config": config,
                                                  "init_mesh": init_mesh})
         seconds_before = saved["seconds_used"]
         budget = time_budget if time_budget is not None else cfg.optim.time_budget - seconds_before
     else:
-        cfg = with_overrides(config, time_budget=time_budget, **options)
+        cfg = with_overrides(config, defaults=app.defaults, time_budget=time_budget, **options)
         input_name = str(input) if given is None else str(given.source or given.name)
         cfg.io = dataclasses.replace(cfg.io, input=input_name, init_mesh="" if init_mesh is None else str(init_mesh),
                                      outdir=str(outdir))
@@ -217,6 +260,9 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
             loaded = given if given is not None else io.load(input)
         moving = animated.is_animated(loaded, cfg.latent.static)
         asset, notes = prepare_input(loaded, material_override, moving)
+        for remark in app.remarks(asset):
+            log.warning("%s: %s", cfg.io.input or asset.name, remark)
+            notes.append(remark)
         if moving and cfg.views.relight:
             raise ConfigError("views.relight keeps one G-buffer per camera, and an animated input's geometry changes "
                               "with every view's pose: turn it off, or simplify the bind pose with --static")
@@ -230,24 +276,26 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         else:
             count = None if cfg.io.init_mesh else _triangle_target(cfg.latent, asset)
             prepare_outdir(outdir, force=force, resume=resume)
-            guess = build_initial_guess(asset, cfg, count)
+            guess = app.initial_guess(asset, cfg, count)
             if moving:
                 with phase("skinning weights"):
                     guess = animated.animated_guess(asset, guess, cfg.latent.skin_candidates)
         checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds, extra=lambda: {
             "config": config_to_dict(cfg), "initial_guess": guess, "input_fingerprint": fingerprint,
+            CHECKPOINT_APPLICATION: app.command,
             "seconds_used": seconds_before + time.monotonic() - started})
         if saved is None:
             checkpointer.save({})
-        reference = SkinnedReference(asset) if moving else MeshReference(asset)
+        reference = SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.layers)
         centre, radius = reference.bounding_sphere()
         bind_centre, bind_radius = asset.mesh.bounding_sphere()
+        start = training_start(guess.start, cfg.latent.alpha_mode)
+        train_alpha = uses_alpha(start)
         surface = {"centre": bind_centre, "radius": bind_radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
-                   "train_alpha": uses_alpha(asset),
+                   "train_alpha": train_alpha, "layers": cfg.render.layers,
                    "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
                    "texture_scales": cfg.latent.texture_scales}
-        latent = SkinnedMesh.from_asset(guess.start, **surface) if moving else \
-            TexturedMesh.from_asset(guess.start, **surface)
+        latent = SkinnedMesh.from_asset(start, **surface) if moving else TexturedMesh.from_asset(start, **surface)
     with _stage(timings, "reference views"):
         sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None)
         size, spp = cfg.render.resolution, cfg.render.target_spp
@@ -260,17 +308,21 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
         source = (ViewPool(reference, training, cfg.views.pool_size, (cfg.optim.seed, POOL_STREAM),
                            refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
                   if cfg.views.pool_size else FreshViews(reference, training, size, spp))
-    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
+                   layers=cfg.render.layers)
     baseline_key, baseline_label = ("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh \
         else ("decimated", "Plain decimation")
     with _stage(timings, "scoring plain decimation"):
         baseline = heldout.score(baseline_key, baseline_label, guess.baseline, draw, None)
     methods = [baseline]
-    if guess.baked is not None:
+    if app.start_label is not None:
+        with _stage(timings, "scoring the start"):
+            methods.append(heldout.score("start", app.start_label, start, draw, cfg.latent.texture_size))
+    elif guess.baked is not None:
         with _stage(timings, "scoring the classic bake"):
             methods.append(heldout.score("baked", "Classic bake", guess.baked, draw, cfg.latent.texture_size))
 
-    fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(asset)),
+    fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not train_alpha),
                     validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
                     checkpointer=checkpointer, cores=CoreShare())
     if saved is not None and "latent" in saved:
@@ -280,7 +332,9 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
     available = max(budget - (time.monotonic() - started) - output_time, 0.0)
     with _stage(timings, "optimisation"):
         fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
-    export = fit.best.export()
+    with _stage(timings, "alpha cutoff"):
+        export = finished_alpha(fit.best.export(), cfg.latent.alpha_mode,
+                                None if validation is None else partial(validation.psnr, render=draw))
     interrupted = fit.interrupted
     if moving and compare_static and not interrupted:
         with _stage(timings, BIND_POSE_STAGE):
@@ -327,8 +381,10 @@ def _simplify(input, given: Asset | None, outdir: Path, options: dict, time_budg
     if not interrupted:
         checkpoint.unlink(missing_ok=True)
     baselines = {baseline_key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
+    if app.start_label is not None:
+        baselines["start"] = start
     return SimplifyResult(outdir=outdir, model=outdir / MODEL_NAME, report=outdir / REPORT_NAME, metrics=metrics,
-                          interrupted=interrupted, baselines=baselines)
+                          interrupted=interrupted, baselines=baselines, command=app.command)
 
 
 def bind_pose_fit(input, outdir: Path, cfg: Config, resume: bool, material_override: Material | None,
@@ -374,7 +430,16 @@ def resumed_config(saved: dict, checkpoint: Path, given: dict) -> Config:
 
 _SECTION_OF = {"triangles": "latent", "ratio": "latent", "texture_size": "latent", "init": "latent",
                "resolution": "render", "iterations": "optim", "seed": "optim", "export_obj": "io",
-               "static": "latent"}
+               "static": "latent", "alpha_mode": "latent"}
+
+
+def check_same_command(saved: dict, checkpoint: Path, command: str) -> None:
+    """``ConfigError`` unless the checkpoint's run was started by ``command`` (runs from before
+    the checkpoint named its command were ``simplify``'s)."""
+    started_by = saved.get(CHECKPOINT_APPLICATION, "simplify")
+    if started_by != command:
+        raise ConfigError(f"{checkpoint}: this run was started by lookalike {started_by}; resume it with "
+                          f"lookalike {started_by} ... --resume, or start afresh with --force")
 
 
 def check_same_input(saved: dict, checkpoint: Path, fingerprint: str, input_name) -> None:
@@ -438,3 +503,19 @@ def prepare_input(asset: Asset, material_override: Material | None, moving: bool
     elif asset.skin is not None:
         notes.append("the input is skinned: it was simplified in its bind pose, and the output is static")
     return asset, notes
+
+
+def aggregate_remarks(asset: Asset) -> list[str]:
+    """One line suggesting ``lookalike cards`` where ``asset`` looks like aggregate geometry
+    (``lookalike.asset.parts.aggregate_traits``), else none."""
+    traits = aggregate_traits(asset)
+    if traits is None:
+        return []
+    return [f"the input looks like aggregate geometry ({traits}): decimation melts such parts into blobs; "
+            "lookalike cards approximates them with alpha-textured cards"]
+
+
+SIMPLIFY = Application(command="simplify", outdir_suffix=OUTDIR_SUFFIX,
+                       initial_guess=lambda asset, cfg, count: build_initial_guess(asset, cfg, count),
+                       remarks=aggregate_remarks)
+"""``simplify``: decimation (or the user's mesh) and the classic bake, fitted."""

@@ -17,7 +17,7 @@ from ..fit.training_views import ViewSampler
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from .map_noise import map_noise
-from .metrics import psnr, silhouette_band
+from .metrics import psnr, silhouette_band, silhouette_iou
 from .record import MethodResult, score_method
 
 BACKGROUND = (0.2, 0.2, 0.2)
@@ -42,6 +42,7 @@ class HeldoutViews:
         camera, light: the views (batch ``count``).
         pose: the poses they show (batch ``count``), where the sampler draws poses, else ``None``.
         reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND``.
+        coverage: ``[count, H, W]`` float32 the reference's antialiased coverage.
         silhouette: ``[count, H, W]`` bool, the pixels near the reference's outline
             (``lookalike.report.metrics.silhouette_band``).
     """
@@ -51,25 +52,30 @@ class HeldoutViews:
         self.camera, self.light, self.pose = views.camera, views.light, views.pose
         rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp, pose=self.pose)
         self.reference = over_background(rgba)
+        self.coverage = rgba[..., 3].float()
         self.silhouette = silhouette_band(rgba[..., 3])
 
     @torch.no_grad()
-    def images(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
-        """``[count, H, W, 3]`` linear images of ``asset`` drawn by ``render``, over ``BACKGROUND``."""
+    def renders(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
+        """``[count, H, W, 4]`` linear RGB and coverage of ``asset`` drawn by ``render``."""
         n = self.camera.batch_size
         chunks = [slice(i, i + RENDER_CHUNK) for i in range(0, n, RENDER_CHUNK)]
-        rgba = torch.cat([render(asset, self.camera[c], self.light[c], None if self.pose is None else self.pose[c])
+        return torch.cat([render(asset, self.camera[c], self.light[c], None if self.pose is None else self.pose[c])
                           for c in chunks])
-        return over_background(rgba)
+
+    def images(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
+        """``[count, H, W, 3]`` linear images of ``asset`` drawn by ``render``, over ``BACKGROUND``."""
+        return over_background(self.renders(asset, render))
 
     def score(self, key: str, label: str, asset: Asset, render: AssetRenderer, texture_size: int | None) -> MethodResult:
         """Render ``asset`` on the held-out views and score it against the reference
         (``lookalike.report.record.score_method``: PSNR, FLIP and FLIP maps per view, the
-        share of the error near the outline, and the noise of its maps where it has its own
-        textures, ``texture_size`` given)."""
+        share of the error near the outline, the silhouette's intersection over union, and the
+        noise of its maps where it has its own textures, ``texture_size`` given)."""
         noise = map_noise(asset) if texture_size is not None else None
-        return score_method(key, label, self.reference, self.images(asset, render),
-                            asset.mesh.num_triangles, texture_size, self.silhouette, noise)
+        rgba = self.renders(asset, render)
+        return score_method(key, label, self.reference, over_background(rgba), asset.mesh.num_triangles,
+                            texture_size, self.silhouette, noise, silhouette_iou(self.coverage, rgba[..., 3]))
 
     def psnr(self, asset: Asset, render: AssetRenderer) -> float:
         """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""

@@ -197,6 +197,7 @@ def _summary_cards(data: RunRecord) -> str:
 def _methods_table(data: RunRecord) -> str:
     outline = any(m.silhouette_error is not None for m in data.methods)
     noise = any(m.map_noise is not None for m in data.methods)
+    iou = any(m.silhouette_iou is not None for m in data.methods)
 
     def noise_cell(m: MethodResult) -> str:
         if not noise:
@@ -209,21 +210,27 @@ def _methods_table(data: RunRecord) -> str:
         gain_text = "—" if m is data.baseline else _change(m.psnr - data.baseline.psnr, 2, " dB")
         texture = f"{m.texture_size}²" if m.texture_size else "input's own"
         share = "—" if m.silhouette_error is None else f"{100 * m.silhouette_error:.0f} %"
+        overlap = "—" if m.silhouette_iou is None else f"{m.silhouette_iou:.3f}"
         return (f'<tr class="{"ours" if m is data.ours else ""}"><td>{_esc(m.label)}</td><td>{m.triangles:,}</td>'
                 f"<td>{texture}</td><td>{m.psnr:.2f}</td><td>{m.flip:.4f}</td><td>{gain_text}</td>"
-                f"{f'<td>{share}</td>' if outline else ''}{noise_cell(m)}</tr>")
+                f"{f'<td>{share}</td>' if outline else ''}{f'<td>{overlap}</td>' if iou else ''}{noise_cell(m)}</tr>")
 
     head = ("<tr><th>Method</th><th>Triangles</th><th>Textures</th><th>PSNR (dB) ↑</th><th>FLIP ↓</th>"
             f"<th>Gain</th>{'<th>Error near outline</th>' if outline else ''}"
+            f"{'<th>Silhouette IoU ↑</th>' if iou else ''}"
             f"{'<th>Map noise ↓ (colour / specular / normal)</th>' if noise else ''}</tr>")
     reference = (f'<tr><td>Reference (input)</td><td>{data.input_triangles:,}</td><td>input\'s own</td>'
-                 f"<td>—</td><td>—</td><td>—</td>{'<td>—</td>' if outline else ''}{'<td>—</td>' if noise else ''}</tr>")
+                 f"<td>—</td><td>—</td><td>—</td>{'<td>—</td>' if outline else ''}{'<td>—</td>' if iou else ''}"
+                 f"{'<td>—</td>' if noise else ''}</tr>")
     table = f'<div class="scroll"><table>{head}{reference}{"".join(row(m) for m in data.methods)}</table></div>'
     if outline:
         table += (f'<p class="notes">Error near outline: the share of a method\'s squared error (tone-mapped) that lies '
                   f"within {SILHOUETTE_WIDTH_PX} pixels of the reference's outline. Error there comes mostly from the "
                   "outline's shape, which more triangles improve; elsewhere mostly from shading, which textures "
                   "improve.</p>")
+    if iou:
+        table += ('<p class="notes">Silhouette IoU: the overlap of a method\'s coverage with the reference\'s over all '
+                  "views, sum min / sum max of the antialiased coverages (1 is the same outline).</p>")
     if noise:
         table += ('<p class="notes">Map noise: the RMS of each map\'s discrete Laplacian over the texels inside its '
                   "charts (linear base colour; roughness and metalness; the normal's x and y). Grain that the "

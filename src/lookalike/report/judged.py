@@ -93,21 +93,23 @@ def score_renders(reference_rgba: torch.Tensor, rgba: torch.Tensor) -> dict:
 
 @torch.no_grad()
 def render_ours(reference: Reference, models: list[JudgedModel], views: Views, resolution: int, spp: int,
-                msaa: int) -> dict[str, torch.Tensor]:
+                msaa: int, layers: int = 1) -> dict[str, torch.Tensor]:
     """``{"reference" | model key: [B, H, W, 4]}`` drawn by our pipeline as the report draws
     them on ``views`` (in their poses, where they have them): the input by ``reference``,
-    supersampled ``spp`` x ``spp``; the methods with ``render_asset``."""
+    supersampled ``spp`` x ``spp``; the methods with ``render_asset`` over ``layers``
+    depth-peeled layers (the run's ``render.layers``, as the reference's)."""
     images = {"reference": render_in_chunks(reference, views.camera, views.light, resolution, spp, pose=views.pose)}
     chunks = [views[i:i + RENDER_CHUNK] for i in range(0, views.batch_size, RENDER_CHUNK)]
     for model in models:
         images[model.key] = torch.cat([render_asset(model.asset, chunk.camera, chunk.light, chunk.pose,
-                                                    resolution=resolution, msaa=msaa) for chunk in chunks])
+                                                    resolution=resolution, msaa=msaa, layers=layers)
+                                     for chunk in chunks])
     return images
 
 
 def judge_models(reference: Reference, reference_glb: Path, models: list[JudgedModel], views: Views,
                  resolution: int = JUDGE_RESOLUTION, spp: int = 2, msaa: int = 2,
-                 contact_sheet_path: Path | None = None) -> dict:
+                 contact_sheet_path: Path | None = None, layers: int = 1) -> dict:
     """Render the input and every model in our pipeline and in Cycles (shadows on, off) on
     ``views`` (in their poses, where they have them) and score them (module docstring).
 
@@ -115,7 +117,8 @@ def judge_models(reference: Reference, reference_glb: Path, models: list[JudgedM
         reference: the input as the run saw it (a ``MeshReference``, or a ``SkinnedReference``
             in an animated run); reference_glb: the same input written as a glb.
         models: the methods; views: the held-out views (``heldout_views``).
-        resolution: side of the pictures; spp, msaa: our renderer's samples (the report's).
+        resolution: side of the pictures; spp, msaa: our renderer's samples (the report's);
+            layers: the depth-peeled layers our renderer draws the models with.
         contact_sheet_path: also write a PNG of the first ``CONTACT_VIEWS`` views of every
             model in every renderer there (``contact_sheet``).
 
@@ -129,7 +132,7 @@ def judge_models(reference: Reference, reference_glb: Path, models: list[JudgedM
     """
     seconds = {}
     started = time.monotonic()
-    ours = render_ours(reference, models, views, resolution, spp, msaa)
+    ours = render_ours(reference, models, views, resolution, spp, msaa, layers)
     seconds["ours"] = time.monotonic() - started
     started = time.monotonic()
     cycles_images = {True: {}, False: {}}

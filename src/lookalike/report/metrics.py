@@ -91,6 +91,15 @@ def coverage_union(reference_alpha, test_alpha) -> np.ndarray:
     return union[None] if union.ndim == 2 else union
 
 
+def silhouette_iou(reference_alpha, test_alpha) -> float:
+    """Soft intersection over union of two coverages ``[B, H, W]`` in [0, 1] (torch or numpy),
+    over all views: sum min(a, b) / sum max(a, b); 1 where neither covers anything."""
+    a = torch.as_tensor(reference_alpha).detach().to("cpu").double().clamp(0, 1)
+    b = torch.as_tensor(test_alpha).detach().to("cpu").double().clamp(0, 1)
+    union = float(torch.maximum(a, b).sum())
+    return float(torch.minimum(a, b).sum()) / union if union > 0 else 1.0
+
+
 def psnr(reference, test) -> float:
     """Mean over views of ``psnr_views`` (dB)."""
     return float(psnr_views(reference, test).mean())

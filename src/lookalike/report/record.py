@@ -32,6 +32,8 @@ class MethodResult:
             reference's outline (``lookalike.report.metrics.error_share``), or ``None``.
         map_noise: the high-frequency energy of each of its texture maps
             (``lookalike.report.map_noise``), or ``None`` where it was not measured.
+        silhouette_iou: soft intersection over union of its coverage and the reference's,
+            all views (``lookalike.report.metrics.silhouette_iou``), or ``None``.
     """
 
     key: str
@@ -44,6 +46,7 @@ class MethodResult:
     texture_size: int | None = None
     silhouette_error: float | None = None
     map_noise: dict[str, float] | None = None
+    silhouette_iou: float | None = None
 
     @property
     def psnr(self) -> float:
@@ -58,15 +61,15 @@ class MethodResult:
 
 def score_method(key: str, label: str, reference, images, triangles: int,
                  texture_size: int | None = None, silhouette=None,
-                 map_noise: dict[str, float] | None = None) -> MethodResult:
+                 map_noise: dict[str, float] | None = None, silhouette_iou: float | None = None) -> MethodResult:
     """Score ``images [B, H, W, C]`` against ``reference [B, H, W, C]`` (both linear) with
     PSNR and FLIP (see ``lookalike.report.metrics``) and keep the FLIP maps for the page; with
     ``silhouette`` (``[B, H, W]`` bool, ``metrics.silhouette_band``) also the share of the error
-    that lies there. ``map_noise`` is passed through."""
+    that lies there. ``map_noise`` and ``silhouette_iou`` are passed through."""
     flip_means, flip_maps = flip_views(reference, images, with_maps=True)
     share = None if silhouette is None else error_share(reference, images, silhouette)
     return MethodResult(key, label, images, psnr_views(reference, images), flip_means, flip_maps,
-                        int(triangles), texture_size, share, map_noise)
+                        int(triangles), texture_size, share, map_noise, silhouette_iou)
 
 
 @dataclass
@@ -175,6 +178,7 @@ class RunRecord:
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
                 **({"poses": self.view_labels} if self.view_labels is not None else {}),
                 **{m.key: {"label": m.label, "psnr": m.psnr, "flip": m.flip, "silhouette_error": m.silhouette_error,
+                           "silhouette_iou": m.silhouette_iou,
                            "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},
             },

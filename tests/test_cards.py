@@ -1,0 +1,160 @@
+"""``lookalike cards``: a small generated aggregate (alpha-tested leaves in three clumps)
+approximated by fitted cards, written, scored and resumed as ``simplify``'s runs are."""
+
+from __future__ import annotations
+
+import json
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from pygltflib import GLTF2
+
+from lookalike import io
+from lookalike.asset import Asset, Material, Mesh, Texture
+from lookalike.cli import main
+from lookalike.fit.config_file import config_from_dict, load_config
+from lookalike.fit.reference import MeshReference
+from lookalike.fit.textured_mesh import render_asset
+from lookalike.fit.training_views import view_sampler
+from lookalike.jobs.cards import CARDS_DEFAULTS, cards
+from lookalike.jobs.simplify import simplify
+from lookalike.report.heldout import HeldoutViews
+from test_io_gltf import assert_valid
+
+TINY = {"views": {"pool_size": 8, "refresh_every": 2, "heldout": 4, "validation": 2}, "render": {"resolution": 48},
+        "latent": {"texture_size": 64}, "optim": {"checkpoint_seconds": 1e9}}
+
+
+def leaf_texture(size: int = 32) -> torch.Tensor:
+    """``[S, S, 4]`` green leaf colour with a disc of alpha 1 (0 outside)."""
+    u = (np.arange(size) + 0.5) / size
+    uu, vv = np.meshgrid(u, u)
+    inside = ((uu - 0.5) ** 2 + (vv - 0.5) ** 2) < 0.2
+    colour = np.stack([0.1 + 0.2 * uu, 0.4 + 0.3 * vv, 0.05 + 0 * uu], axis=-1)
+    return torch.from_numpy(np.concatenate([colour, inside[..., None]], axis=-1)).float()
+
+
+def clumps(leaves_per_clump: int = 60, seed: int = 0) -> Asset:
+    """Three clumps of small square leaves (two triangles each, own vertices), each clump's
+    leaves tilted around one orientation; one alpha-tested, double-sided leaf material."""
+    rng = np.random.default_rng(seed)
+    centres = np.array([[-0.6, 0.2, 0.0], [0.5, 0.4, 0.1], [0.0, -0.4, -0.2]])
+    positions, uvs = [], []
+    for centre in centres:
+        tilt = rng.normal(size=3)
+        for _ in range(leaves_per_clump):
+            normal = tilt + 0.3 * rng.normal(size=3)
+            normal /= np.linalg.norm(normal)
+            a = np.cross(normal, [0.0, 1.0, 0.0] if abs(normal[1]) < 0.9 else [1.0, 0.0, 0.0])
+            a /= np.linalg.norm(a)
+            b = np.cross(normal, a)
+            at = centre + rng.normal(scale=0.2, size=3)
+            corners = [at + 0.07 * (sa * a + sb * b) for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+            positions.append(corners)
+            uvs.append([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]])
+    count = len(positions)
+    quads = np.arange(count)[:, None] * 4
+    tri = np.concatenate([quads + [0, 1, 2], quads + [0, 2, 3]])
+    mesh = Mesh(v_pos=torch.tensor(np.reshape(positions, (-1, 3))).float(), t_pos_idx=torch.from_numpy(tri).long(),
+                uv=[(torch.tensor(np.reshape(uvs, (-1, 2))).float(), torch.from_numpy(tri).long())])
+    leaf = Material(name="leaf", kd=Texture(leaf_texture()), ks=Texture.constant([0.0, 0.7, 0.0]),
+                    alpha_mode="MASK", alpha_cutoff=0.5, double_sided=True)
+    return Asset(mesh=mesh, materials=[leaf], source=Path("clumps.glb"))
+
+
+@pytest.fixture(scope="module")
+def clump_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cards")
+    io.save(clumps(), folder / "clumps.glb")
+    result = cards(folder / "clumps.glb", folder / "out", triangles=24, iterations=40,
+                   config=config_from_dict(TINY, base=CARDS_DEFAULTS), progress=False)
+    return folder, result
+
+
+def test_cards_writes_a_double_sided_alpha_tested_model_with_the_cutoff_it_chose(clump_run):
+    folder, result = clump_run
+    gltf = GLTF2().load(str(result.model))
+    (material,) = gltf.materials
+    assert material.alphaMode == "MASK" and material.doubleSided
+    assert material.alphaCutoff in (0.3, 0.4, 0.5, 0.6, 0.7)
+    model = io.load(result.model)
+    assert model.mesh.num_triangles == 24
+    assert_valid(result.model)
+    assert [json.loads((folder / "out" / "metrics.json").read_text())["methods"]] == [["decimated", "start", "ours"]]
+    assert (folder / "out" / "config.toml").is_file() and (folder / "out" / "report.html").is_file()
+    assert "Billboard cloud" in (folder / "out" / "report.html").read_text()
+
+
+def test_the_written_model_renders_in_our_pipeline_as_it_was_scored(clump_run):
+    """``model.glb`` read back (alpha mode, cutoff, sides, maps) scores what the run scored."""
+    folder, result = clump_run
+    cfg = load_config(folder / "out" / "config.toml")
+    assert cfg.render.layers == 8 and cfg.optim.loss == "l2-tonemapped"
+    reference = MeshReference(io.load(folder / "clumps.glb"), cfg.render.layers)
+    centre, radius = reference.bounding_sphere()
+    heldout = HeldoutViews(reference, view_sampler(centre, radius), cfg.views.heldout, cfg.views.heldout_seed,
+                           cfg.render.resolution, cfg.render.target_spp)
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
+                   layers=cfg.render.layers)
+    again = heldout.score("ours", "Ours", io.load(result.model), draw, None)
+    scored = result.metrics["heldout"]["ours"]
+    assert again.psnr == pytest.approx(scored["psnr"], abs=0.05)
+    assert again.silhouette_iou == pytest.approx(scored["silhouette_iou"], abs=2e-3)
+
+
+def test_the_masked_model_keeps_more_of_the_outline_than_plain_decimation(clump_run):
+    _, result = clump_run
+    heldout = result.metrics["heldout"]
+    assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"]
+    assert 0.0 < heldout["decimated"]["silhouette_iou"] < heldout["ours"]["silhouette_iou"] <= 1.0
+
+
+def test_blended_cards_beat_their_billboard_cloud_and_are_written_blended(tmp_path):
+    result = cards(clumps(), tmp_path / "out", triangles=24, iterations=60, alpha="blend",
+                   config=config_from_dict(TINY, base=CARDS_DEFAULTS), progress=False)
+    (material,) = GLTF2().load(str(result.model)).materials
+    assert material.alphaMode == "BLEND" and material.doubleSided
+    heldout = result.metrics["heldout"]
+    assert heldout["ours"]["psnr"] > heldout["start"]["psnr"] + 0.3
+    assert heldout["start"]["psnr"] > heldout["decimated"]["psnr"]
+
+
+def test_cards_resumes_bit_exactly_where_ctrl_c_stopped_it(tmp_path, monkeypatch):
+    from lookalike.fit.loop import Fitter
+
+    settings = {"triangles": 12, "iterations": 6, "config": config_from_dict(TINY, base=CARDS_DEFAULTS),
+                "progress": False}
+    whole = cards(clumps(20), tmp_path / "whole", **settings)
+    step = Fitter.step
+
+    def interrupted_step(self):
+        if self.progress.iteration == 3:
+            raise KeyboardInterrupt
+        return step(self)
+
+    monkeypatch.setattr(Fitter, "step", interrupted_step)
+    first = cards(clumps(20), tmp_path / "out", **settings)
+    assert first.interrupted and "lookalike cards" in first.summary()
+    monkeypatch.setattr(Fitter, "step", step)
+    with pytest.raises(Exception, match="lookalike cards"):
+        simplify(clumps(20), tmp_path / "out", resume=True, progress=False)
+    second = cards(clumps(20), tmp_path / "out", resume=True, progress=False)
+    assert not second.interrupted
+    assert second.metrics["heldout"]["ours"]["psnr"] == whole.metrics["heldout"]["ours"]["psnr"]
+
+
+def test_simplify_suggests_cards_for_aggregate_geometry(tmp_path, caplog):
+    result = simplify(clumps(), tmp_path / "out", triangles=60, iterations=1, config=config_from_dict(TINY),
+                      progress=False)
+    assert "lookalike cards" in caplog.text and "lookalike cards" in result.report.read_text()
+
+
+def test_cards_command_reports_bad_input_in_one_line(tmp_path, capsys):
+    broken = tmp_path / "broken.glb"
+    broken.write_bytes(b"not a gltf")
+    assert main(["cards", str(broken), "-o", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "broken.glb" in err[0]
