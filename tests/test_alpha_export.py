@@ -112,3 +112,24 @@ def test_l2_tonemapped_and_silhouette_iou():
     b = torch.tensor([[[1.0, 0.0], [0.0, 1.0]]])
     assert silhouette_iou(a, b) == pytest.approx((1 + 0.5) / (1 + 1 + 1))
     assert silhouette_iou(torch.zeros(1, 2, 2), torch.zeros(1, 2, 2)) == 1.0
+
+
+def test_dithered_alpha_keeps_the_mean_of_every_block_in_zeros_and_ones():
+    from lookalike.jobs.alpha_export import bayer_thresholds, dithered_alpha
+
+    thresholds = bayer_thresholds(3)
+    assert sorted((thresholds * 64 - 0.5).round().astype(int).ravel().tolist()) == list(range(64))
+    alpha = torch.rand(4, 4).repeat_interleave(8, 0).repeat_interleave(8, 1)   # constant over each 8 x 8 block
+    binary = dithered_alpha(alpha)
+    assert set(binary.unique().tolist()) <= {0.0, 1.0}
+    blocks = binary.reshape(4, 8, 4, 8).mean(dim=(1, 3))
+    assert torch.allclose(blocks, alpha[::8, ::8], atol=1 / 64 + 1e-6)
+
+
+def test_a_soft_model_written_masked_may_take_the_dither():
+    kd = torch.rand(16, 16, 4)
+    soft = Asset(scattered_quads(2), [Material(kd=Texture(kd), alpha_mode="BLEND")])
+    binary = lambda m: float(((m.materials[0].kd.data[..., 3] == 0) | (m.materials[0].kd.data[..., 3] == 1)).all())
+    chosen = finished_alpha(soft, "mask", binary)
+    assert chosen.materials[0].alpha_mode == "MASK" and binary(chosen) == 1.0
+    assert finished_alpha(soft, "mask", lambda m: 0.0).materials[0].kd.data[..., 3].equal(kd[..., 3])

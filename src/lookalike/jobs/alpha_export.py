@@ -5,9 +5,10 @@
   blended, soft alpha. A straight-through mask learns little from a billboard cloud's
   projected alpha (on a test clump the held-out score did not move in 150 steps, while the
   same run blended gained 0.6-1.2 dB): coverage that the cards must move lives in partial alpha.
-- The cutoff of a ``MASK`` model: the one of ``CUTOFFS`` (and the model's own) whose model
+- The alpha of a ``MASK`` model: the cutoff of ``CUTOFFS`` (or the model's own) whose model
   scores the best PSNR on the run's validation views; ``"mask"`` turns the soft model into an
-  alpha-tested one that way.
+  alpha-tested one that way, or by an ordered dither of its soft alpha (a screen door that keeps
+  partial coverage), whichever scores best.
 - Colour under texels no sample can see: each RGB texel whose 3 x 3 neighbourhood is all
   invisible (alpha below the cutoff, or zero when blending) takes the colour of the nearest
   visible texel, so that the mip levels engines build from the texture do not bleed the dark
@@ -29,6 +30,10 @@ from ..asset import Asset
 CUTOFFS = (0.3, 0.4, 0.5, 0.6, 0.7)
 """The alpha cutoffs tried on the validation views."""
 
+ALPHA_CANDIDATES = len(CUTOFFS) + 2
+"""At most this many models are scored on the validation views to choose the alpha (the
+cutoffs, the model's own, the dither)."""
+
 
 def training_start(asset: Asset, mode: str) -> Asset:
     """``asset`` as the fit trains it for ``latent.alpha_mode`` ``mode``: its alpha-using
@@ -48,22 +53,59 @@ def with_alpha_mode(asset: Asset, mode: str) -> Asset:
 
 def finished_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> Asset:
     """``model`` as written for ``latent.alpha_mode`` ``mode``: alpha-tested for ``"mask"``;
-    a ``MASK`` model at the cutoff of ``CUTOFFS`` that ``score`` (e.g. validation PSNR; higher
-    is better) rates best, ties to the model's own (kept where ``score`` is ``None``); every
-    alpha-using material's colour filled under unseen texels (``filled_colour``). Opaque models
-    are returned as they are."""
+    a ``MASK`` model at the cutoff of ``CUTOFFS`` (or, for ``"mask"``, with its soft alpha
+    dithered, ``dithered_alpha``) that ``score`` (e.g. validation PSNR; higher is better) rates
+    best, ties to the model's own cutoff (kept where ``score`` is ``None``); every alpha-using
+    material's colour filled under unseen texels (``filled_colour``). Opaque models are returned
+    as they are."""
     if not any(m.uses_alpha for m in model.materials):
         return model
     if mode == "mask":
         model = with_alpha_mode(model, "MASK")
     if score is not None and any(m.alpha_mode == "MASK" for m in model.materials):
         own = model.materials[0].alpha_cutoff
-        candidates = sorted({own, *CUTOFFS}, key=lambda c: (c != own, c))
-        scored = [(score(_at_cutoff(model, c)), -i, c) for i, c in enumerate(candidates)]
-        model = _at_cutoff(model, max(scored)[2])
+        candidates = [_at_cutoff(model, c) for c in sorted({own, *CUTOFFS}, key=lambda c: (c != own, c))]
+        if mode == "mask":
+            candidates.append(_dithered(model))
+        scored = [(score(candidate), -i) for i, candidate in enumerate(candidates)]
+        model = candidates[-max(scored)[1]]
     materials = [dataclasses.replace(m, kd=dataclasses.replace(m.kd, data=filled_colour(m.kd.data, _seen_from(m))))
                  if m.uses_alpha else m for m in model.materials]
     return dataclasses.replace(model, materials=materials)
+
+
+BAYER_ORDER = 3
+"""``dithered_alpha`` uses the ``2^BAYER_ORDER``-sided Bayer matrix (8 x 8: 64 levels)."""
+
+
+def bayer_thresholds(order: int = BAYER_ORDER) -> np.ndarray:
+    """``[N, N]`` (N = 2^order) thresholds ``(B + 0.5) / N^2`` of the Bayer matrix ``B``,
+    ``B_{2n} = [[4 B_n, 4 B_n + 2], [4 B_n + 3, 4 B_n + 1]]`` from ``B_1 = [[0]]``: every level
+    once, neighbours far apart in value."""
+    matrix = np.zeros((1, 1))
+    for _ in range(order):
+        matrix = np.block([[4 * matrix, 4 * matrix + 2], [4 * matrix + 3, 4 * matrix + 1]])
+    return (matrix + 0.5) / matrix.size
+
+
+def dithered_alpha(alpha: torch.Tensor) -> torch.Tensor:
+    """``alpha [H, W]`` in [0, 1] as 0 or 1 by ordered dithering: 1 where it exceeds the Bayer
+    threshold tiled over the texels (``bayer_thresholds``). Over each 8 x 8 block the share of
+    ones is the mean alpha (to 1/64): an alpha-tested texture that keeps soft coverage as a
+    screen door, where thresholding at one cutoff would round it all one way."""
+    height, width = alpha.shape
+    tiles = np.tile(bayer_thresholds(), (height // 2 ** BAYER_ORDER + 1, width // 2 ** BAYER_ORDER + 1))
+    return (alpha > torch.from_numpy(tiles[:height, :width]).to(alpha)).to(alpha)
+
+
+def _dithered(model: Asset) -> Asset:
+    """``model`` with the alpha of its ``MASK`` materials dithered (``dithered_alpha``), cutoff 0.5."""
+    def dither(material):
+        kd = material.kd.data.detach().clone()
+        kd[..., 3] = dithered_alpha(kd[..., 3])
+        return dataclasses.replace(material, kd=dataclasses.replace(material.kd, data=kd), alpha_cutoff=0.5)
+
+    return dataclasses.replace(model, materials=[dither(m) if m.alpha_mode == "MASK" else m for m in model.materials])
 
 
 def _at_cutoff(model: Asset, cutoff: float) -> Asset:

@@ -53,7 +53,7 @@ from ..report.heldout import HeldoutViews
 from ..report.record import RunRecord
 from ..threads import CoreShare
 from . import animated
-from .alpha_export import finished_alpha, training_start
+from .alpha_export import ALPHA_CANDIDATES, finished_alpha, training_start
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import METRICS_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 
@@ -66,9 +66,11 @@ BIND_POSE_STAGE = "bind-pose fit (a run of its own)"
 """The stage of the timings that holds it."""
 
 OUTPUT_TIME_FACTOR = 2.0
-"""The outputs are estimated to take this many times the baseline's held-out scoring (scoring
-ours, and the report's pictures), and once more for each further scoring after the fit (an
-animated run's moving picture, the bind-pose fit's)."""
+"""The outputs are estimated to take this many times the slowest held-out scoring before the
+fit (a baseline's, or the start's: scoring ours, and the report's pictures), once more for each
+further scoring after the fit (an animated run's moving picture, the bind-pose fit's), and for a
+model with trained alpha the validation renders of its candidate cutoffs
+(``lookalike.jobs.alpha_export``)."""
 
 OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
@@ -328,7 +330,10 @@ def _run(app: Application, input, given: Asset | None, outdir: Path, options: di
     if saved is not None and "latent" in saved:
         fitter.load_state_dict(saved)
     scorings = OUTPUT_TIME_FACTOR + moving + (moving and compare_static)
-    output_time = scorings * timings["scoring plain decimation"] + OUTPUT_TIME_MARGIN
+    if train_alpha and validation is not None:
+        scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
+    scoring = max(seconds for stage, seconds in timings.items() if stage.startswith("scoring"))
+    output_time = scorings * scoring + OUTPUT_TIME_MARGIN
     available = max(budget - (time.monotonic() - started) - output_time, 0.0)
     with _stage(timings, "optimisation"):
         fit = fitter.run(seconds_available=available if cfg.optim.iterations is None else None, progress=progress)
