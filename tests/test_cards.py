@@ -158,3 +158,19 @@ def test_cards_command_reports_bad_input_in_one_line(tmp_path, capsys):
     assert main(["cards", str(broken), "-o", str(tmp_path / "out"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "broken.glb" in err[0]
+
+
+def test_bench_cards_tabulates_every_method_and_the_bar():
+    from lookalike.bench import cards as bench
+
+    row = {"asset": "shrub-0.5pct", "triangles": 963, "minutes": 9.7, "minutes_blend": 9.9, "minutes_simplify": 9.8,
+           "iterations": 300, "gain_over_decimated_db": 4.2, "gain_over_simplify_db": 2.9, "meets_bar": True}
+    for key, _ in bench.METHODS:
+        row.update({f"psnr_{key}": 20.0, f"flip_{key}": 0.1, f"iou_{key}": 0.5})
+    row["judge"] = {renderer: {key: {"psnr": 15.0, "flip": 0.1} for key, _ in bench.METHODS}
+                    for renderer in ("cycles", "cycles_no_shadows", "ours")}
+    result = {"time_budget_s": 600.0, "runs": [row], "all_meet_bar": True, "outputs": None,
+              "bar": {"minutes": 10.0, "share": 0.005, "gain_over_decimated_db": 4.0, "gain_over_simplify_db": 2.0}}
+    text = bench.format_table(result)
+    assert "IoU cards_blend" in text and "PSNR stochastic" in text and ": met (time budget 600 s" in text
+    assert "Cycles, shadows" in text and "+0.00" in text

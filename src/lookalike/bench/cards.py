@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
-from ._table import aligned_table
+from ._table import aligned_table, runs_table
 from .quality import TIME_BUDGET_S, check_judge, output_root
 
 HELP = "approximate the generated shrub with cards; compare with decimation, stochastic simplification and simplify"
@@ -207,20 +207,10 @@ COLUMNS = (
 
 def format_table(result: dict) -> str:
     """The runs as an aligned text table, with the bar underneath."""
-    header = [name for name, _, _ in COLUMNS] + ["bar"]
-    cells = [[fmt.format(r[key]) for _, key, fmt in COLUMNS] + ["ok" if r["meets_bar"] else "MISSED"]
-             for r in result["runs"]]
     bar = result["bar"]
-    lines = aligned_table(header, cells)
-    lines.append(f"bar: each run <= {bar['minutes']:g} min; at {100 * bar['share']:g} % of the triangles, cards >= plain "
-                 f"decimation + {bar['gain_over_decimated_db']:g} dB and >= simplify + {bar['gain_over_simplify_db']:g} "
-                 f"dB, with lower FLIP than both: {'met' if result['all_meet_bar'] else 'NOT met'} "
-                 f"(time budget {result['time_budget_s']:g} s per run)")
-    if result.get("outputs"):
-        lines.append(f"outputs: {result['outputs']}")
-    if any("judge" in r for r in result["runs"]):
-        lines += [""] + judge_table(result["runs"])
-    return "\n".join(lines)
+    return runs_table(result, COLUMNS, f"bar: each run <= {bar['minutes']:g} min; at {100 * bar['share']:g} % of the "
+                      f"triangles, cards >= plain decimation + {bar['gain_over_decimated_db']:g} dB and >= simplify + "
+                      f"{bar['gain_over_simplify_db']:g} dB, with lower FLIP than both", judge_table)
 
 
 def judge_table(rows: list[dict]) -> list[str]:

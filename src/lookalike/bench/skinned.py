@@ -24,7 +24,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from ._table import aligned_table
+from ._table import aligned_table, runs_table
 from .quality import SHARED_ASSETS, TIME_BUDGET_S, BenchAsset, check_assets_dir, check_judge, output_root
 
 HELP = "simplify the animated characters over their clips; compare with decimation and the bind-pose fit"
@@ -131,19 +131,10 @@ COLUMNS = (
 
 def format_table(result: dict) -> str:
     """The runs as an aligned text table, with the bar underneath."""
-    header = [name for name, _, _ in COLUMNS] + ["bar"]
-    cells = [[fmt.format(r[key]) for _, key, fmt in COLUMNS] + ["ok" if r["meets_bar"] else "MISSED"]
-             for r in result["runs"]]
     bar = result["bar"]
-    lines = aligned_table(header, cells)
-    lines.append(f"bar: each run <= {bar['minutes']:g} min; ours >= plain decimation + {bar['gain_over_decimated_db']:g} "
-                 f"dB and >= the bind-pose fit + {bar['gain_over_bind_pose_db']:g} dB, with lower FLIP than both: "
-                 f"{'met' if result['all_meet_bar'] else 'NOT met'} (time budget {result['time_budget_s']:g} s per run)")
-    if result.get("outputs"):
-        lines.append(f"outputs: {result['outputs']}")
-    if any("judge" in r for r in result["runs"]):
-        lines += [""] + judge_table(result["runs"])
-    return "\n".join(lines)
+    return runs_table(result, COLUMNS, f"bar: each run <= {bar['minutes']:g} min; ours >= plain decimation + "
+                      f"{bar['gain_over_decimated_db']:g} dB and >= the bind-pose fit + {bar['gain_over_bind_pose_db']:g} "
+                      "dB, with lower FLIP than both", judge_table)
 
 
 JUDGED = (("dec", "decimated"), ("bake", "baked"), ("bind-pose", "bind_pose"), ("ours", "ours"))
