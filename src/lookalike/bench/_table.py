@@ -30,3 +30,24 @@ def runs_table(result: dict, columns: tuple, bar: str, judge_table) -> str:
     if any("judge" in r for r in result["runs"]):
         lines += [""] + judge_table(result["runs"])
     return "\n".join(lines)
+
+
+def judged_table(rows: list[dict], first: str, methods: tuple, ours: str, gains: tuple, title: str) -> list[str]:
+    """Lines of a judge's table: ``title``, then per judged row (``row["judge"]``), one line
+    per renderer (Cycles with and without shadows, ours) with the PSNR of each method of
+    ``methods`` (``(column name, method key)``), the gains of ``ours`` over the methods
+    ``gains`` (``(column name, method key)``) and each method's FLIP; ``first`` heads the
+    rows' name column."""
+    from ..report.judged import RENDERERS
+
+    header = ([first, "renderer"] + [f"PSNR {name}" for name, _ in methods] + [name for name, _ in gains]
+              + [f"FLIP {name}" for name, _ in methods])
+    cells = []
+    for row in (r for r in rows if "judge" in r):
+        for i, renderer in enumerate(("cycles", "cycles_no_shadows", "ours")):
+            scores = row["judge"][renderer]
+            cells.append([row["asset"] if i == 0 else "", RENDERERS[renderer]]
+                         + [f"{scores[key]['psnr']:.2f}" for _, key in methods]
+                         + [f"{scores[ours]['psnr'] - scores[key]['psnr']:+.2f}" for _, key in gains]
+                         + [f"{scores[key]['flip']:.4f}" for _, key in methods])
+    return [title] + aligned_table(header, cells)

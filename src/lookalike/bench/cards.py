@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
-from ._table import aligned_table, runs_table
+from ._table import judged_table, runs_table
 from .quality import TIME_BUDGET_S, check_judge, output_root
 
 HELP = "approximate the generated shrub with cards; compare with decimation, stochastic simplification and simplify"
@@ -216,17 +216,7 @@ def format_table(result: dict) -> str:
 def judge_table(rows: list[dict]) -> list[str]:
     """Lines of the judge's table: per case, one row per renderer (Cycles with and without
     shadows, ours) with PSNR and FLIP of each method and the gains of ``cards``."""
-    from ..report.judged import RENDERERS
-
-    header = (["case", "renderer"] + [f"PSNR {key}" for key, _ in METHODS] + ["cards-dec dB", "cards-simplify dB"]
-              + [f"FLIP {key}" for key, _ in METHODS])
-    cells = []
-    for row in (r for r in rows if "judge" in r):
-        for i, renderer in enumerate(("cycles", "cycles_no_shadows", "ours")):
-            scores = row["judge"][renderer]
-            cells.append([row["asset"] if i == 0 else "", RENDERERS[renderer]]
-                         + [f"{scores[key]['psnr']:.2f}" for key, _ in METHODS]
-                         + [f"{scores['cards']['psnr'] - scores[key]['psnr']:+.2f}" for key in ("decimated", "simplify")]
-                         + [f"{scores[key]['flip']:.4f}" for key, _ in METHODS])
-    return (["judge: Blender Cycles (32 samples, direct light) and our renderer on the held-out views; PSNR over the "
-             "pixels either picture covers, FLIP over the whole picture"] + aligned_table(header, cells))
+    return judged_table(rows, "case", tuple((key, key) for key, _ in METHODS), "cards",
+                        (("cards-dec dB", "decimated"), ("cards-simplify dB", "simplify")),
+                        "judge: Blender Cycles (32 samples, direct light) and our renderer on the held-out views; PSNR "
+                        "over the pixels either picture covers, FLIP over the whole picture")

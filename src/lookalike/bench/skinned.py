@@ -24,7 +24,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from ._table import aligned_table, runs_table
+from ._table import judged_table, runs_table
 from .quality import SHARED_ASSETS, TIME_BUDGET_S, BenchAsset, check_assets_dir, check_judge, output_root
 
 HELP = "simplify the animated characters over their clips; compare with decimation and the bind-pose fit"
@@ -144,18 +144,7 @@ JUDGED = (("dec", "decimated"), ("bake", "baked"), ("bind-pose", "bind_pose"), (
 def judge_table(rows: list[dict]) -> list[str]:
     """Lines of the judge's table: per asset, one row per renderer (Cycles with and without
     shadows, ours) with PSNR and FLIP of each method and the gains of ours."""
-    from ..report.judged import RENDERERS
-
-    header = (["asset", "renderer"] + [f"PSNR {name}" for name, _ in JUDGED] + ["ours-dec dB", "ours-bind dB"]
-              + [f"FLIP {name}" for name, _ in JUDGED])
-    cells = []
-    for row in (r for r in rows if "judge" in r):
-        for i, renderer in enumerate(("cycles", "cycles_no_shadows", "ours")):
-            scores = row["judge"][renderer]
-            cells.append([row["asset"] if i == 0 else "", RENDERERS[renderer]]
-                         + [f"{scores[key]['psnr']:.2f}" for _, key in JUDGED]
-                         + [f"{scores['ours']['psnr'] - scores[key]['psnr']:+.2f}" for key in ("decimated", "bind_pose")]
-                         + [f"{scores[key]['flip']:.4f}" for _, key in JUDGED])
-    return (["judge: Blender Cycles (32 samples, direct light, each model posed by Blender's glTF importer) and our "
-             "renderer on the held-out views; PSNR over the pixels either picture covers, FLIP over the whole "
-             "picture"] + aligned_table(header, cells))
+    return judged_table(rows, "asset", JUDGED, "ours", (("ours-dec dB", "decimated"), ("ours-bind dB", "bind_pose")),
+                        "judge: Blender Cycles (32 samples, direct light, each model posed by Blender's glTF importer) "
+                        "and our renderer on the held-out views; PSNR over the pixels either picture covers, FLIP over "
+                        "the whole picture")
