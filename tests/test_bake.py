@@ -16,7 +16,7 @@ from lookalike.asset.uv_raster import sample_bilinear
 from lookalike.cli import main
 from lookalike.errors import ConfigError
 from lookalike.init import unwrap
-from lookalike.init.bake import atlas_texels, bake, box_filter, project_along_normals
+from lookalike.init.projection_bake import atlas_texels, bake, box_filter, project_along_normals
 from lookalike.jobs.bake import bake_asset
 from lookalike.init import raycast
 from lookalike.init.raycast import RayCaster, intersect_python

@@ -17,7 +17,7 @@ from lookalike.asset.normals import face_normals, safe_normalize
 from lookalike.fit.config import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate
-from lookalike.init.bake import bake
+from lookalike.init.projection_bake import bake
 from lookalike.init.initial_guess import Ranges, initial_guess
 from mesh_factory import icosphere
 

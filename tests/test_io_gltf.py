@@ -22,7 +22,7 @@ from lookalike.asset import Animation, Asset, Channel, Material, Node, Skin
 from lookalike.asset.skinning import node_world_matrices
 from lookalike.errors import AssetError
 from lookalike.io.gltf_data import GltfData, parse_gltf
-from lookalike.io.images import encode_png
+from lookalike.io.image_files import encode_png
 
 VALIDATOR = Path(__file__).with_name("gltf_validate.js")
 

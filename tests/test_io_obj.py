@@ -12,7 +12,7 @@ from io_factory import covered_texels, two_material_asset
 from lookalike import io
 from lookalike.asset import Texture
 from lookalike.errors import AssetError
-from lookalike.io.images import srgb_to_linear, write_png
+from lookalike.io.image_files import srgb_to_linear, write_png
 from log_capture import expect_warning
 
 OBJ = """# a quad, a pentagon with negative indices, a triangle without vt

@@ -16,8 +16,8 @@ from lookalike import io
 from lookalike.asset import Animation, Asset, Channel, Material, Mesh, Texture
 from lookalike.asset.pose import REST, Poses
 from lookalike.errors import ConfigError
-from lookalike.judge import INSTALL_HINT, judge_available, require_judge
-from lookalike.judge.conversion import GLTF_TO_BLENDER, blender_cameras, blender_point_lights, projection_parameters
+from lookalike.blender import INSTALL_HINT, judge_available, require_judge
+from lookalike.blender.conversion import GLTF_TO_BLENDER, blender_cameras, blender_point_lights, projection_parameters
 from lookalike.shading.camera import Camera, perspective
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render, render_coverage
@@ -119,7 +119,7 @@ def test_judged_views_are_the_reports_heldout_views():
     from lookalike.fit.reference import MeshReference
     from lookalike.fit.training_views import view_sampler
     from lookalike.report.heldout import HeldoutViews
-    from lookalike.report.judged import heldout_views
+    from lookalike.jobs.judge_scores import heldout_views
 
     asset = Asset(mesh=icosphere(1, center=(0.3, -0.2, 5.0), radius=2.0))
     reference = MeshReference(asset)
@@ -134,7 +134,7 @@ def test_judged_views_of_an_animated_run_carry_its_poses():
     from lookalike.fit.training_views import view_sampler
     from lookalike.jobs.animated import heldout_poses
     from lookalike.report.heldout import HeldoutViews
-    from lookalike.report.judged import heldout_views
+    from lookalike.jobs.judge_scores import heldout_views
 
     asset = _swaying_cylinder()
     reference = SkinnedReference(asset)
@@ -168,7 +168,7 @@ def _plane_radiance(camera: Camera, light: PointLight, albedo, height: int, widt
 
 @needs_blender
 def test_cycles_lambertian_radiance_is_the_analytic_one(tmp_path):
-    from lookalike.judge.cycles import render_in_cycles
+    from lookalike.blender.cycles import render_in_cycles
 
     quad = plane(3)
     quad = Mesh(v_pos=quad.v_pos * 4 - torch.tensor([2.0, 2.0, 0.0]), t_pos_idx=quad.t_pos_idx, uv=quad.uv)
@@ -191,7 +191,7 @@ def test_cycles_lambertian_radiance_is_the_analytic_one(tmp_path):
 @needs_blender
 def test_silhouettes_land_on_the_same_pixels(tmp_path):
     from lookalike.fit.training_views import view_sampler
-    from lookalike.judge.cycles import render_in_cycles
+    from lookalike.blender.cycles import render_in_cycles
 
     mesh = icosphere(3)                                                       # an off-centre, lopsided blob
     v_pos = mesh.v_pos * torch.tensor([1.6, 0.7, 1.0]) + 0.4 * mesh.v_pos[:, :1] ** 2 + torch.tensor([0.5, 2.0, -1.0])
@@ -210,8 +210,8 @@ def test_silhouettes_land_on_the_same_pixels(tmp_path):
 @needs_blender
 def test_cycles_agrees_with_our_renderer_on_a_smooth_textured_sphere(tmp_path):
     from lookalike.fit.training_views import view_sampler
-    from lookalike.judge.cycles import render_cycles_views
-    from lookalike.report.judged import score_renders
+    from lookalike.blender.cycles import render_cycles_views
+    from lookalike.jobs.judge_scores import score_renders
 
     kd = gradient_texture(64, 4, seed=1)
     kd[..., 3] = 1.0
@@ -228,7 +228,7 @@ def test_cycles_agrees_with_our_renderer_on_a_smooth_textured_sphere(tmp_path):
 
 @needs_blender
 def test_shadows_off_lights_what_the_occluder_shades(tmp_path):
-    from lookalike.judge.cycles import render_cycles_views
+    from lookalike.blender.cycles import render_cycles_views
 
     quad = plane(3)
     floor = Mesh(v_pos=quad.v_pos * 4 - torch.tensor([2.0, 2.0, 0.0]), t_pos_idx=quad.t_pos_idx)
@@ -252,8 +252,8 @@ def test_shadows_off_lights_what_the_occluder_shades(tmp_path):
 @needs_blender
 def test_cycles_poses_a_skinned_glb_as_our_skinning_does(tmp_path):
     from lookalike.fit.reference import SkinnedReference
-    from lookalike.judge.cycles import render_in_cycles
-    from lookalike.report.judged import score_renders
+    from lookalike.blender.cycles import render_in_cycles
+    from lookalike.jobs.judge_scores import score_renders
 
     glb = _save(_swaying_cylinder(), tmp_path / "character.glb")
     reference = SkinnedReference(io.load(glb))
@@ -278,7 +278,7 @@ def test_cycles_poses_a_skinned_glb_as_our_skinning_does(tmp_path):
 
 @needs_blender
 def test_blender_bake_round_trips_through_our_loader(tmp_path):
-    from lookalike.judge.blender_bake import blender_classic_bake
+    from lookalike.blender.decimate_bake import blender_classic_bake
 
     source = Asset(mesh=uv_sphere(24, 48), materials=[
         Material(kd=Texture.constant([0.5, 0.25, 0.1, 1.0]), ks=Texture.constant([0.0, 0.3, 0.7]))])

@@ -19,9 +19,9 @@ from lookalike.fit.config_file import config_from_dict
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
 from lookalike.init.atlas import merge_materials
-from lookalike.init.bake import atlas_texels, bake
+from lookalike.init.projection_bake import atlas_texels, bake
 from lookalike.init.initial_guess import Ranges, initial_guess, resample, surface_mean_channel
-from lookalike.io.images import encode_png
+from lookalike.io.image_files import encode_png
 from lookalike.jobs.bake import bake_asset
 from lookalike.jobs.simplify import simplify
 from lookalike.shading import render

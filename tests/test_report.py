@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from lookalike.report import RunRecord, score_method, write_report
-from lookalike.report.images import image_grid, signed_difference, to_srgb_uint8
+from lookalike.report.pictures import image_grid, signed_difference, to_srgb_uint8
 from lookalike.report.plot import plot_loss, smooth
 
 
@@ -144,7 +144,7 @@ def test_metrics_are_the_records_figures():
 
 def test_the_judges_scores_fill_the_reports_slot_and_replace_an_earlier_judging(tmp_path):
     from lookalike.report.html import add_judge_section, judge_section
-    from lookalike.report.judged import RENDERERS
+    from lookalike.jobs.judge_scores import RENDERERS
     path = write_report(tmp_path, _data())
     empty = path.read_text(encoding="utf-8")
     assert "Scores in Blender Cycles" not in empty

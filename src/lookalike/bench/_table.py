@@ -38,7 +38,7 @@ def judged_table(rows: list[dict], first: str, methods: tuple, ours: str, gains:
     ``methods`` (``(column name, method key)``), the gains of ``ours`` over the methods
     ``gains`` (``(column name, method key)``) and each method's FLIP; ``first`` heads the
     rows' name column."""
-    from ..report.judged import RENDERERS
+    from ..jobs.judge_scores import RENDERERS
 
     header = ([first, "renderer"] + [f"PSNR {name}" for name, _ in methods] + [name for name, _ in gains]
               + [f"FLIP {name}" for name, _ in methods])

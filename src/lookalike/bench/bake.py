@@ -1,4 +1,4 @@
-"""``lookalike bench bake``: speed of the classic projection bake (``lookalike.init.bake``).
+"""``lookalike bench bake``: speed of the classic projection bake (``lookalike.init.projection_bake``).
 
 The reference is a bumpy UV sphere of 500,000 triangles with a 1024^2 base-colour texture and
 a 1024^2 normal map; the low-poly mesh is a 3,200-triangle sphere with a fresh 1024^2 atlas.
@@ -70,7 +70,7 @@ def _timed(function) -> tuple[float, float, object]:
 
 
 def run(repeats: int | None = None) -> dict:
-    from ..init.bake import atlas_texels, bake, default_cage, locate_on_reference
+    from ..init.projection_bake import atlas_texels, bake, default_cage, locate_on_reference
 
     repeats = 3 if repeats is None else max(1, repeats)
     reference, low = reference_asset(), low_mesh()

@@ -67,7 +67,7 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         reuse: take the runs already in ``out`` (those with a ``metrics.json``) instead of
             running them again.
         judge: ``"blender"``: also render every method and the shrub in Blender Cycles on the
-            same views and score them there (``lookalike.report.judged.judge_models``; needs the
+            same views and score them there (``lookalike.jobs.judge_scores.judge_models``; needs the
             ``judge`` extra).
 
     Returns:
@@ -169,7 +169,7 @@ def _judge(reference, source: Path, models: dict, cfg, folder: Path) -> dict:
     """Every method and the shrub rendered in Cycles (shadows on and off) and ours on the
     held-out views, written as glbs into ``folder``: ``{renderer: {key: {"psnr", "flip"}}}``."""
     from .. import io
-    from ..report.judged import JUDGE_RESOLUTION, JudgedModel, heldout_views, judge_models
+    from ..jobs.judge_scores import JUDGE_RESOLUTION, JudgedModel, heldout_views, judge_models
 
     folder.mkdir(parents=True, exist_ok=True)
     judged = []

@@ -175,7 +175,7 @@ def check_judge(judge: str) -> None:
     """``ConfigError`` unless ``judge`` is one of ``JUDGES`` and installed."""
     if judge not in JUDGES:
         raise ConfigError(f"unknown judge {judge!r}; the judges are {', '.join(JUDGES)}")
-    from ..judge import require_judge
+    from ..blender import require_judge
 
     require_judge()
 
@@ -263,7 +263,7 @@ JUDGED_METHODS = (("dec", "decimated"), ("bake", "baked"), ("Blender", "blender"
 def judge_table(result: dict) -> list[str]:
     """Lines of the judge's table: per asset, one row per renderer (ours; Cycles with and without
     shadows) with PSNR and FLIP of each method and the gains of ours, then the bar."""
-    from ..report.judged import RENDERERS
+    from ..jobs.judge_scores import RENDERERS
 
     rows = [r for r in result["runs"] if "judge" in r]
     header = (["asset", "renderer"] + [f"PSNR {name}" for name, _ in JUDGED_METHODS]

@@ -45,7 +45,7 @@ def tone_map(image):
     [0, 1]: colour un-premultiplied, clamped, sRGB-encoded; alpha as is."""
     import numpy as np
 
-    from ..io.images import linear_to_srgb
+    from ..io.image_files import linear_to_srgb
 
     rgba = image.detach().cpu().double().numpy()
     alpha = rgba[..., 3:4].clip(0.0, 1.0)
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     import torch
 
     from .. import io
-    from ..io.images import write_png
+    from ..io.image_files import write_png
     from ..shading import render
     from ..shading.view_sampling import random_lights, random_views
 

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
 
     apply_threads(args)
     if args.judge is not None:
-        from ..judge import require_judge
+        from ..blender import require_judge
 
         require_judge()
     result = simplify(args.input, args.output, init_mesh=args.init_mesh, resume=args.resume, force=args.force,

@@ -69,7 +69,7 @@ class LatentConfig:
             when both are unset, ``DEFAULT_RATIO``.
         texture_size: side S of the square base colour, specular and normal textures.
         init: how the textures start: ``"bake"`` (a fresh atlas with the classic projection
-            bake of the input, ``lookalike.init.bake``: normals, colours and specular from rays
+            bake of the input, ``lookalike.init.projection_bake``: normals, colours and specular from rays
             along the low-poly normals), ``"source"`` (the input's own UVs and textures, where it
             has one material with UVs; else as ``"average"``), ``"average"`` (a fresh atlas
             holding the input's mean material) or ``"random"`` (a fresh atlas with uniform

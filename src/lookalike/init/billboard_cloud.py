@@ -61,7 +61,7 @@ of a triangle facing away from ``n`` is flipped, as the renderer flips it. A tex
 mean of its samples', its base colour, specular, emission and occlusion the ``w``-weighted means
 (straight, not premultiplied, alpha), its normal map the ``w``-weighted mean normal in the frame
 ``(u, v, n)``, normalised. Texels with no weight (transparent) take those values from the nearest
-covered texel (``lookalike.init.bake.nearest_covered``), keeping alpha 0, so bilinear and mip
+covered texel (``lookalike.init.projection_bake.nearest_covered``), keeping alpha 0, so bilinear and mip
 sampling pull in no dark fringe.
 """
 
@@ -82,7 +82,7 @@ from ..asset.mesh import Mesh
 from ..asset.parts import triangle_parts
 from ..errors import ConfigError
 from ..phases import phase
-from .bake import nearest_covered, to_unit_normal
+from .projection_bake import nearest_covered, to_unit_normal
 from .reference_surface import ReferenceSurface
 
 ORIENTATION_WEIGHT = 1.0

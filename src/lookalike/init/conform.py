@@ -51,7 +51,7 @@ import torch
 from ..asset import Mesh
 from ..asset.laplacian import UniformLaplacian
 from ..asset.normals import face_normals, safe_normalize
-from .bake import project_along_normals
+from .projection_bake import project_along_normals
 from .closest_point import ClosestPoints, SurfaceQuery
 from .raycast import RayCaster
 
@@ -182,7 +182,7 @@ def oriented_targets(points: np.ndarray, normals: np.ndarray, closest: ClosestPo
     point where the surface there faces the same way (``surface_normal [T, 3]`` of its
     triangle, positive dot product), else the nearest point along ``+-normal`` within ``reach``
     where the surface, seen from the side ``normal`` points to, shows its front
-    (``lookalike.init.bake.project_along_normals``, every triangle one-sided); ``closest``'s
+    (``lookalike.init.projection_bake.project_along_normals``, every triangle one-sided); ``closest``'s
     point where there is none."""
     targets = closest.point.copy()
     wrong = np.nonzero((surface_normal[closest.triangle] * normals).sum(axis=1) < 0)[0]

@@ -6,7 +6,7 @@ mesh, ours (quadric decimation, ``lookalike.init.decimate``) or the user's own
 (``--init-mesh``), and its textures come from:
 
 - ``"bake"`` (the default): a fresh atlas and the classic projection bake of the input
-  (``lookalike.init.bake``); the bake is also a baseline of its own;
+  (``lookalike.init.projection_bake``); the bake is also a baseline of its own;
 - ``"source"``: the low-poly mesh's UVs with the input's own textures, resampled (where the
   input has one material and the low-poly mesh carries its UVs; else as ``"average"``);
 - ``"average"``: a fresh atlas holding the input's mean material; ``"random"``: a fresh atlas
@@ -30,7 +30,7 @@ from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from ..phases import phase
-from .bake import BakeResult, bake
+from .projection_bake import BakeResult, bake
 from .conform import conform_to_surface, reattach_detached_parts
 from .decimate import check_triangle_target
 from .unwrap import unwrap
@@ -249,7 +249,7 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
         ranges: the valid ranges of random textures.
         rng: draws random textures.
         keep_uvs: bake onto ``low_poly``'s own UVs (a user's atlas) instead of a fresh atlas.
-        cage: the bake's ray reach (default: ``lookalike.init.bake``'s).
+        cage: the bake's ray reach (default: ``lookalike.init.projection_bake``'s).
     """
     source = reusable_source_material(asset, low_poly) if init == "source" else None
     baked = None

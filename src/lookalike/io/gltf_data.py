@@ -15,7 +15,7 @@ import numpy as np
 import pygltflib
 
 from ..errors import AssetError
-from .images import decode_image
+from .image_files import decode_image
 
 COMPONENT_DTYPES = {
     5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32,

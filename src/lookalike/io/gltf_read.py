@@ -44,7 +44,7 @@ from ..asset.skinning import trs_matrix
 from ..errors import AssetError
 from .arrays import unique_rows
 from .gltf_data import GltfData, parse_gltf
-from .images import resize, srgb_to_linear
+from .image_files import resize, srgb_to_linear
 from .normal_frames import import_normal_maps
 from .registry import reader
 from .transforms import matrix_to_trs

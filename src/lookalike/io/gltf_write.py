@@ -45,7 +45,7 @@ import numpy as np
 from ..asset import Asset, Material, Texture
 from ..errors import AssetError
 from .arrays import constant_texel, unique_rows
-from .images import encode_png, linear_to_srgb
+from .image_files import encode_png, linear_to_srgb
 from .mikktspace import mikktspace_tangents
 from .normal_frames import export_normal_maps
 from .registry import writer

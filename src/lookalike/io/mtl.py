@@ -21,7 +21,7 @@ import torch
 from ..asset import Material, Texture
 from ..errors import AssetError
 from .arrays import constant_texel
-from .images import linear_to_srgb, read_image, resize, srgb_to_linear, write_png
+from .image_files import linear_to_srgb, read_image, resize, srgb_to_linear, write_png
 
 # Map options taking up to this many numbers, and options taking one word.
 _NUMERIC_OPTIONS = {"-bm": 1, "-boost": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1}

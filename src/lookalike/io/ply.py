@@ -14,7 +14,7 @@ import torch
 from ..asset import Asset, Material, Mesh
 from ..asset.normals import file_normals
 from ..errors import AssetError
-from .images import srgb_to_linear
+from .image_files import srgb_to_linear
 from .registry import reader
 
 

@@ -67,7 +67,7 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
         triangles, ratio: target triangle count, or fraction of the input's (default
             ``LatentConfig.DEFAULT_RATIO``), as for ``simplify``.
         texture_size: side of the square baked textures.
-        cage: ray reach on each side of the low-poly surface (default: see ``lookalike.init.bake``).
+        cage: ray reach on each side of the low-poly surface (default: see ``lookalike.init.projection_bake``).
         force: overwrite an existing non-empty ``outdir``.
         material_override: bake the input as if every triangle had this material (e.g. a colour
             for untextured scans).

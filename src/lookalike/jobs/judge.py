@@ -8,9 +8,9 @@ writes into ``RUN/judge/``:
 - ``decimated.glb`` and ``baked.glb``: the run's plain decimation and our classic bake (taken
   from the simplify result where given, else read back from an earlier judging, else built
   again from the run's settings and seed with the current code);
-- ``blender.glb``: Blender's own pipeline (``lookalike.judge.blender_bake``) with the run's
+- ``blender.glb``: Blender's own pipeline (``lookalike.blender.decimate_bake``) with the run's
   triangle target and texture size (not in an animated run, below);
-- ``judge.json``: the scores (``lookalike.report.judged.judge_models``), the noise of each
+- ``judge.json``: the scores (``lookalike.jobs.judge_scores.judge_models``), the noise of each
   textured model's maps as written (``lookalike.report.map_noise``) and timings;
 - ``views.png``: the first views of every model in every renderer;
 
@@ -44,10 +44,10 @@ from ..fit.reference import MeshReference, SkinnedReference
 from ..init.initial_guess import target_triangle_count
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
-from ..judge import require_judge
-from ..judge.blender_bake import blender_classic_bake
+from ..blender import require_judge
+from ..blender.decimate_bake import blender_classic_bake
 from ..report.html import add_judge_section, judge_section
-from ..report.judged import (
+from .judge_scores import (
     JUDGE_RESOLUTION,
     RENDERERS,
     JudgedModel,
@@ -83,7 +83,7 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
             views (default: all of them).
 
     Returns:
-        The content of ``judge.json``: ``lookalike.report.judged.judge_models``' result plus
+        The content of ``judge.json``: ``lookalike.jobs.judge_scores.judge_models``' result plus
         ``"blender_bake"`` (triangles, seconds per step; or why it was not run), ``"poses"``
         (an animated run's: what each view shows) and ``"seconds"`` per stage.
     """

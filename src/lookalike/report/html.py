@@ -18,7 +18,7 @@ from ..version import __version__
 from .map_noise import CHANNELS as MAP_NOISE_CHANNELS
 from .record import MethodResult, RunRecord
 from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
-from .images import (DIFFERENCE_FULL_SCALE, animated_picture, image_grid, save_animation, signed_difference,
+from .pictures import (DIFFERENCE_FULL_SCALE, animated_picture, image_grid, save_animation, signed_difference,
                      to_srgb_uint8)
 from .plot import plot_loss
 

@@ -6,7 +6,7 @@ function (``lookalike.colour.tonemap``), then clamp to [0, 1]; they compare the 
 background included (reference and candidate share the background, so uncovered pixels agree
 and add no error; every method is scored on the same pixels, which keeps the comparison fair).
 ``masked_psnr_views`` scores only given pixels (e.g. ``coverage_union``: those either image
-covers), as the independent judge (``lookalike.report.judged``) does.
+covers), as the independent judge (``lookalike.jobs.judge_scores``) does.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Blender's classic LOD pipeline as a baseline: decimate, unwrap, bake selected-to-active
 (``blender_classic_bake``). What users compare us with ("Blender's decimate + bake"); the
-steps and their settings are in ``lookalike.judge.blender_bake_worker``. It makes a still model
+steps and their settings are in ``lookalike.blender.decimate_bake_worker``. It makes a still model
 (its steps know no skeleton), so the judge leaves it out of animated runs.
 """
 
@@ -16,7 +16,7 @@ from .process import run_worker
 
 CAGE_FRACTION = 0.02
 """Rays start this fraction of the reference's bounding-box diagonal above the low-poly surface
-and end as far below it (the reach of our own bake, ``lookalike.init.bake``)."""
+and end as far below it (the reach of our own bake, ``lookalike.init.projection_bake``)."""
 
 MARGIN = 16
 """Texels of dilation around every chart (Blender's bake margin)."""
@@ -69,7 +69,7 @@ def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, tria
                "padding": int(padding), "samples": int(samples), "threads": threads or thread_count(),
                "cage_fraction": float(cage_fraction), "margin": int(margin),
                "base_colour_pass": base_colour_pass}
-        total = run_worker("blender_bake_worker", job)
+        total = run_worker("decimate_bake_worker", job)
         figures = json.loads(stats.read_text())
     return BlenderBake(output_glb, figures["input_triangles"], figures["triangles"],
                        {**figures["seconds"], "total": total})

@@ -1,6 +1,6 @@
-"""The Blender side of ``lookalike.judge.blender_bake``: Blender's classic LOD pipeline.
+"""The Blender side of ``lookalike.blender.decimate_bake``: Blender's classic LOD pipeline.
 
-Run as ``python -m lookalike.judge.blender_bake_worker JOB.json``; imports only ``bpy``,
+Run as ``python -m lookalike.blender.decimate_bake_worker JOB.json``; imports only ``bpy``,
 ``xatlas``, NumPy and the standard library. The job (JSON) holds ``reference`` (a glb),
 ``output`` (the glb to write), ``stats`` (a JSON file for timings), ``scratch`` (a folder for
 the baked PNGs), ``triangles``, ``texture_size``, ``padding``, ``samples``, ``threads``,
@@ -436,5 +436,5 @@ def main(job_path: str) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) != 2:
-        raise SystemExit("usage: python -m lookalike.judge.blender_bake_worker JOB.json")
+        raise SystemExit("usage: python -m lookalike.blender.decimate_bake_worker JOB.json")
     main(sys.argv[1])

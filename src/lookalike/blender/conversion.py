@@ -20,7 +20,7 @@ coloured intensity ``I = (r, g, b)`` becomes colour ``I / max(I)`` and power ``4
 
 Poses. A view of an animated model shows clip ``c`` (an index into the glb's animations, the
 order ``lookalike.io`` writes ``Asset.animations`` in) at ``t`` seconds; the worker plays the
-importer's action of that animation at frame ``t * fps`` (``lookalike.judge.cycles_worker``).
+importer's action of that animation at frame ``t * fps`` (``lookalike.blender.cycles_worker``).
 The rest pose (clip ``REST``) is no animation playing.
 """
 

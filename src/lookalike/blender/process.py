@@ -2,8 +2,8 @@
 
 ``bpy`` keeps global state (one scene, one set of data blocks), starts threads of its own and
 bundles libraries of its own; none of that belongs in the lookalike process. A worker module
-(``lookalike.judge.cycles_worker``, ``lookalike.judge.blender_bake_worker``) is run as
-``python -m lookalike.judge.<worker> JOB.json`` with the same interpreter; the job file says
+(``lookalike.blender.cycles_worker``, ``lookalike.blender.decimate_bake_worker``) is run as
+``python -m lookalike.blender.<worker> JOB.json`` with the same interpreter; the job file says
 what to do and where to write the results. The worker imports only ``bpy``, NumPy, ``xatlas``
 and the standard library.
 """
@@ -46,7 +46,7 @@ def require_judge() -> None:
 
 
 def run_worker(module: str, job: dict, timeout: float = TIMEOUT_S) -> float:
-    """Run ``python -m lookalike.judge.<module> JOB.json`` on ``job`` (JSON-serialisable) and
+    """Run ``python -m lookalike.blender.<module> JOB.json`` on ``job`` (JSON-serialisable) and
     wait for it; returns its wall seconds.
 
     Raises:
@@ -60,7 +60,7 @@ def run_worker(module: str, job: dict, timeout: float = TIMEOUT_S) -> float:
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         started = time.monotonic()
         try:
-            done = subprocess.run([sys.executable, "-m", f"lookalike.judge.{module}", str(job_path)],
+            done = subprocess.run([sys.executable, "-m", f"lookalike.blender.{module}", str(job_path)],
                                   capture_output=True, text=True, timeout=timeout, env=env, cwd=scratch)
         except subprocess.TimeoutExpired as e:
             raise JudgeError(f"Blender ({module}) ran past {timeout:g} s") from e

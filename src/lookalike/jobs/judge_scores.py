@@ -1,5 +1,5 @@
 """Scores from an independent judge: the input and every method rendered on the same held-out
-views by Blender Cycles (``lookalike.judge``), with shadows and without, and by our own
+views by Blender Cycles (``lookalike.blender``), with shadows and without, and by our own
 pipeline, each method scored against its renderer's picture of the input.
 
 Scores (``score_renders``), for every renderer alike:
@@ -18,7 +18,7 @@ Animated runs (a skinned input fitted over its clips): the held-out views carry 
 and a time each, ``heldout_views``), and every renderer draws every skinned model in the pose of
 each view: ours poses the input with ``SkinnedReference`` and the models with ``render_asset``
 (``lookalike.asset.skinning.posed``), Cycles plays the clip of the glb at that time with
-Blender's armature (``lookalike.judge.cycles_worker``).
+Blender's armature (``lookalike.blender.cycles_worker``).
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ from ..asset import Asset
 from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
 from ..fit.textured_mesh import render_asset
 from ..fit.training_views import PoseSampler, Views, view_sampler
-from ..judge.cycles import render_cycles_views
-from .heldout import BACKGROUND
-from .images import image_grid, to_srgb_uint8
-from .metrics import coverage_union, flip_views, masked_psnr_views
+from ..blender.cycles import render_cycles_views
+from ..report.heldout import BACKGROUND
+from ..report.pictures import image_grid, to_srgb_uint8
+from ..report.metrics import coverage_union, flip_views, masked_psnr_views
 
 JUDGE_RESOLUTION = 384
 """Side of the judged pictures in pixels (the issue's)."""

@@ -1,13 +1,13 @@
 """Render a glb in Blender Cycles under our cameras and point lights (``render_in_cycles``).
 
-All views of one model are rendered by one Blender process (``lookalike.judge.cycles_worker``):
+All views of one model are rendered by one Blender process (``lookalike.blender.cycles_worker``):
 the glb is imported once, then the camera and the light are moved from view to view. The
-conversion of our views is exact (``lookalike.judge.conversion``); the images come back in our
+conversion of our views is exact (``lookalike.blender.conversion``); the images come back in our
 renderer's conventions: ``[B, H, W, 4]`` float32 linear RGB over black (premultiplied by
 coverage, like ``lookalike.shading.pipeline.render`` without a background) and alpha =
 coverage, row 0 at the top. An animated glb (a skin and animations, as ``lookalike.io`` writes
 an animated run's models) is posed per view, at the view's clip and time (``Poses``), by
-Blender's own armature (``lookalike.judge.cycles_worker``).
+Blender's own armature (``lookalike.blender.cycles_worker``).
 """
 
 from __future__ import annotations

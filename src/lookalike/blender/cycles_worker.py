@@ -1,6 +1,6 @@
-"""The Blender side of ``lookalike.judge.cycles``: render one glb under many views in Cycles.
+"""The Blender side of ``lookalike.blender.cycles``: render one glb under many views in Cycles.
 
-Run as ``python -m lookalike.judge.cycles_worker JOB.json`` (``lookalike.judge.process``); it
+Run as ``python -m lookalike.blender.cycles_worker JOB.json`` (``lookalike.blender.process``); it
 imports only ``bpy``, NumPy and the standard library. The job (JSON) holds:
 
 - ``glb``: the model; ``output``: where to write the pixels (``.npy``); ``stats``: where to
@@ -9,7 +9,7 @@ imports only ``bpy``, NumPy and the standard library. The job (JSON) holds:
 - ``views``: per view a camera (``matrix_world`` in Blender axes, ``angle_y``, ``clip_start``,
   ``clip_end``), a light (``location``, ``color``, ``energy`` in W) and a ``pose`` (``clip``: an
   index into the glb's animations, ``time`` in seconds; ``None`` or absent: the rest pose), from
-  ``lookalike.judge.conversion``;
+  ``lookalike.blender.conversion``;
 - ``shadows``: a list of booleans, one pass over every view for each.
 
 The output is ``[S, B, H, W, 4]`` float32 (S shadow settings, B views): linear RGB over black
@@ -298,5 +298,5 @@ def main(job_path: str) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) != 2:
-        raise SystemExit("usage: python -m lookalike.judge.cycles_worker JOB.json")
+        raise SystemExit("usage: python -m lookalike.blender.cycles_worker JOB.json")
     main(sys.argv[1])

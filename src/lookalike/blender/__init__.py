@@ -2,16 +2,16 @@
 pipeline (decimate, unwrap, bake) as a baseline.
 
 Blender runs as the ``bpy`` package (the ``judge`` extra) in a child process
-(``lookalike.judge.process``), never in the lookalike process. Modules:
+(``lookalike.blender.process``), never in the lookalike process. Modules:
 
 - ``conversion``  our cameras and point lights in Blender's axes and units
 - ``process``     ``judge_available``, and running a worker with a JSON job
 - ``cycles``      ``render_in_cycles``: a glb under our views, ``[B, H, W, 4]`` (an animated glb
   posed per view by Blender's armature, at the view's clip and time)
 - ``cycles_worker``  the Blender side of ``cycles``
-- ``blender_bake``   ``blender_classic_bake``: Blender's decimate + xatlas + selected-to-active
+- ``decimate_bake``  ``blender_classic_bake``: Blender's decimate + xatlas + selected-to-active
   bake (of still models)
-- ``blender_bake_worker``  the Blender side of ``blender_bake``
+- ``decimate_bake_worker``  the Blender side of ``decimate_bake``
 
 This package imports nothing heavy on import, so that the workers (run with ``python -m``)
 start quickly.
