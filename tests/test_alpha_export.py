@@ -12,8 +12,8 @@ import torch
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.parts import aggregate_traits, triangle_parts, triangle_parts_python
 from lookalike.errors import ConfigError
-from lookalike.fit.config import Config
-from lookalike.fit.config_file import load_config, with_overrides
+from lookalike.settings import Config
+from lookalike.settings import load_config, with_overrides
 from lookalike.fit.losses import l2_tonemapped
 from lookalike.jobs.alpha_export import CUTOFFS, filled_colour, finished_alpha, training_start
 from lookalike.report.metrics import silhouette_iou

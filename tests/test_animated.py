@@ -17,14 +17,15 @@ from lookalike.asset.pose import REST, Poses
 from lookalike.asset.skinning import posed
 from lookalike.cli import main
 from lookalike.errors import ConfigError
-from lookalike.fit.config import ClampConfig
-from lookalike.fit.config_file import config_from_dict
+from lookalike.settings import ClampConfig
+from lookalike.settings import config_from_dict
 from lookalike.fit.reference import SkinnedReference
 from lookalike.fit.skinned_mesh import SkinnedMesh
 from lookalike.init.initial_guess import initial_guess, Ranges
 from lookalike.init.skin_weights import blend_influences, skin_candidates, transfer_skin
 from lookalike.init import decimate
-from lookalike.jobs.simplify import BIND_POSE_FOLDER, simplify
+from lookalike.jobs.bind_pose import BIND_POSE_FOLDER
+from lookalike.jobs.simplify import simplify
 from lookalike.shading.view_sampling import random_poses, random_views, random_lights, spread_poses
 from skin_factory import bent_cylinder
 

@@ -15,7 +15,7 @@ from pygltflib import GLTF2
 from lookalike import io
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.cli import main
-from lookalike.fit.config_file import config_from_dict, load_config
+from lookalike.settings import config_from_dict, load_config
 from lookalike.fit.reference import MeshReference
 from lookalike.fit.textured_mesh import render_asset
 from lookalike.fit.training_views import view_sampler
@@ -113,7 +113,7 @@ def test_the_masked_model_keeps_more_of_the_outline_than_plain_decimation(clump_
 
 
 def test_blended_cards_beat_their_billboard_cloud_and_are_written_blended(tmp_path):
-    result = cards(clumps(), tmp_path / "out", triangles=24, iterations=60, alpha="blend",
+    result = cards(clumps(), tmp_path / "out", triangles=24, iterations=60, alpha_mode="blend",
                    config=config_from_dict(TINY, base=CARDS_DEFAULTS), progress=False)
     (material,) = GLTF2().load(str(result.model)).materials
     assert material.alphaMode == "BLEND" and material.doubleSided

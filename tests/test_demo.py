@@ -30,5 +30,5 @@ def test_the_knot_resolution_is_adjustable():
 
 
 def test_the_demo_command_parses():
-    args = build_parser().parse_args(["demo", "-o", "somewhere", "--time-budget", "3m"])
+    args = build_parser(["demo"]).parse_args(["demo", "-o", "somewhere", "--time-budget", "3m"])
     assert args.output == "somewhere" and args.time_budget == "3m"

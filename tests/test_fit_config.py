@@ -6,17 +6,16 @@ from __future__ import annotations
 import pytest
 
 from lookalike.errors import ConfigError
-from lookalike.fit.config import (
+from lookalike.fit.from_settings import loop_settings, objective
+from lookalike.settings import (
     COLD_START,
     WARM_START,
     Config,
     learning_rates,
-    loop_settings,
-    objective,
     outline_views,
     refresh_interval,
 )
-from lookalike.fit.config_file import (
+from lookalike.settings import (
     config_from_dict,
     load_config,
     parse_duration,
@@ -97,15 +96,6 @@ def test_overrides_name_fields_and_a_count_replaces_a_ratio(tmp_path):
     assert with_overrides(config, ratio=0.3).latent.triangles is None
     with pytest.raises(ConfigError, match=r"texture_size \(--texture-size\) must lie in \[4, 4096\]"):
         with_overrides(None, texture_size=2)
-
-
-def test_the_command_offers_every_texture_start():
-    """``lookalike simplify --init`` lists its choices without importing torch; they must stay
-    those of the configuration."""
-    from lookalike.commands._options import INITS as command_inits
-    from lookalike.fit.config import INITS
-
-    assert command_inits == INITS
 
 
 @pytest.mark.parametrize("init, expected", [

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from lookalike.asset import Mesh
-from lookalike.fit.config import ClampConfig
+from lookalike.settings import ClampConfig
 from lookalike.fit.slope_normals import (
     normal_to_slopes,
     slopes_to_normal,

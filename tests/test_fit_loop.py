@@ -4,6 +4,7 @@ outline views; the rolling view pool."""
 
 from __future__ import annotations
 
+import dataclasses
 import copy
 import math
 import signal
@@ -16,15 +17,14 @@ from test_fit_latent import make_latent
 from lookalike.asset import Mesh
 from lookalike.errors import ConfigError
 from lookalike.fit.checkpoint import CHECKPOINT_VERSION, Checkpointer, read_checkpoint
-from lookalike.fit.config import (
+from lookalike.fit.from_settings import loop_settings, objective
+from lookalike.settings import (
     COLD_START,
     WARM_START,
     Config,
-    loop_settings,
-    objective,
 )
-from lookalike.fit.config_file import config_from_dict, config_to_dict
-from lookalike.fit.loop import SNAPSHOT_EVERY, Fitter, LoopSettings
+from lookalike.settings import config_from_dict, config_to_dict
+from lookalike.fit.loop import SNAPSHOT_EVERY, Fitter
 from lookalike.fit.objective import Objective
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.fit.training_views import Batch
@@ -96,7 +96,7 @@ def test_loss_goes_down_and_the_best_state_is_kept():
     result = fit.run(progress=False)
     assert result.iterations == 60 and len(result.losses) == 60
     assert np.mean(result.losses[-10:]) < 0.3 * np.mean(result.losses[:5])
-    assert fit.progress.best_score > -math.inf
+    assert fit.best.score > -math.inf
     assert not torch.equal(result.best.kd(), make_latent(SIZE).kd())
 
 
@@ -259,7 +259,7 @@ def test_a_resume_from_a_periodic_checkpoint_continues_like_the_uninterrupted_ru
                    checkpointer=AfterTenSteps(path, every_seconds=3600))
     assert first.run(progress=False).losses == straight.losses
     state = read_checkpoint(path)
-    assert state["progress"]["iteration"] == 10 and len(state["progress"]["validation"]) == 3
+    assert state["progress"]["iteration"] == 10 and len(state["best"]["validation"]) == 3
 
     torch.manual_seed(1)
     truth, latent = toy_latent(), toy_latent()
@@ -439,7 +439,8 @@ class GreySource(ToySource):
 
 def test_the_loop_optimises_any_latent_by_its_own_groups_and_clamps():
     latent = FlatLatent()
-    settings = LoopSettings(learning_rates={"colour": 0.02}, iterations=150, lr_decades=0.0)
+    settings = dataclasses.replace(loop_settings(Config(), outline=False), learning_rates={"colour": 0.02},
+                                   iterations=150, lr_decades=0.0)
     fit = Fitter(latent, GreySource(), Objective("l2", batch_size=1, regularizer_weight=0.0), settings)
     assert [group["lr"] for group in fit.optimizer.param_groups] == [0.02]
     fit.step()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -15,7 +16,7 @@ from lookalike import io
 from lookalike.asset import Asset, Material, Texture
 from lookalike.cli import main
 from lookalike.errors import ConfigError
-from lookalike.fit.config_file import config_from_dict, load_config
+from lookalike.settings import config_from_dict, load_config
 from lookalike.fit.loop import Fitter
 from lookalike.jobs import simplify as simplify_job
 from lookalike.jobs.simplify import simplify
@@ -146,7 +147,7 @@ def test_ctrl_c_leaves_the_best_result_and_a_checkpoint_that_resume_finishes(tmp
     with pytest.raises(ConfigError, match="--force"):
         simplify(bumpy_sphere(), outdir, triangles=100, progress=False)
     whole = simplify(bumpy_sphere(), tmp_path / "whole", triangles=100, iterations=8, config=cfg, progress=False)
-    monkeypatch.setattr(simplify_job, "build_initial_guess", _no_second_initial_guess)
+    monkeypatch.setattr(simplify_job, "SIMPLIFY", dataclasses.replace(simplify_job.SIMPLIFY, initial_guess=_no_second_initial_guess))
     second = simplify(bumpy_sphere(), outdir, resume=True, progress=False)
     assert not second.interrupted and second.metrics["iterations"] == 8
     assert not (outdir / "checkpoint.pt").exists()
@@ -178,7 +179,7 @@ def test_a_killed_run_can_resume_from_the_checkpoint_written_after_the_initial_g
     process.send_signal(signal.SIGKILL)
     process.wait(timeout=60)
     assert (outdir / "checkpoint.pt").exists() and not (outdir / "model.glb").exists()
-    monkeypatch.setattr(simplify_job, "build_initial_guess", _no_second_initial_guess)
+    monkeypatch.setattr(simplify_job, "SIMPLIFY", dataclasses.replace(simplify_job.SIMPLIFY, initial_guess=_no_second_initial_guess))
     resumed = simplify(source, outdir, resume=True, progress=False)
     assert resumed.metrics["iterations"] == 4 and (outdir / "model.glb").exists()
 

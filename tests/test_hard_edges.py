@@ -14,7 +14,7 @@ from io_factory import box, covered_texels
 from lookalike import io
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.normals import face_normals, safe_normalize
-from lookalike.fit.config import ClampConfig
+from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate
 from lookalike.init.projection_bake import bake

@@ -13,7 +13,7 @@ from test_conform import surface_distances
 import lookalike.init.initial_guess as initial_guess_module
 from lookalike.asset import Asset, Material, Texture
 from lookalike.errors import ConfigError
-from lookalike.fit.config import ClampConfig
+from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
 from lookalike.init.initial_guess import (

@@ -168,7 +168,7 @@ def _plane_radiance(camera: Camera, light: PointLight, albedo, height: int, widt
 
 @needs_blender
 def test_cycles_lambertian_radiance_is_the_analytic_one(tmp_path):
-    from lookalike.blender.cycles import render_in_cycles
+    from lookalike.blender.cycles import render_cycles_views
 
     quad = plane(3)
     quad = Mesh(v_pos=quad.v_pos * 4 - torch.tensor([2.0, 2.0, 0.0]), t_pos_idx=quad.t_pos_idx, uv=quad.uv)
@@ -178,7 +178,7 @@ def test_cycles_lambertian_radiance_is_the_analytic_one(tmp_path):
     height, width = 24, 40                                                    # not square: checks the aspect
     camera = _camera([[0.3, -0.4, 3.0]], [[0.0, 0.0, 0.0]], 40.0, aspect=width / height)
     light = PointLight(position=torch.tensor([[0.6, 0.5, 1.2]]), intensity=torch.tensor([[3.0, 2.0, 2.5]]))
-    cycles = render_in_cycles(glb, camera, light, (height, width), shadows=True, samples=4)[0].numpy()
+    cycles = render_cycles_views(glb, camera, light, (height, width), (True,), samples=4).images[True][0].numpy()
     ours = render(asset, camera, light, (height, width), spp=2)[0].numpy()
     expected = _plane_radiance(camera, light, albedo, height, width)
     assert cycles.shape == (height, width, 4)
@@ -191,7 +191,7 @@ def test_cycles_lambertian_radiance_is_the_analytic_one(tmp_path):
 @needs_blender
 def test_silhouettes_land_on_the_same_pixels(tmp_path):
     from lookalike.fit.training_views import view_sampler
-    from lookalike.blender.cycles import render_in_cycles
+    from lookalike.blender.cycles import render_cycles_views
 
     mesh = icosphere(3)                                                       # an off-centre, lopsided blob
     v_pos = mesh.v_pos * torch.tensor([1.6, 0.7, 1.0]) + 0.4 * mesh.v_pos[:, :1] ** 2 + torch.tensor([0.5, 2.0, -1.0])
@@ -200,7 +200,7 @@ def test_silhouettes_land_on_the_same_pixels(tmp_path):
     glb = _save(asset, tmp_path / "blob.glb")
     views = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(3), 3)
     camera, light = views.camera, views.light
-    cycles = render_in_cycles(glb, camera, light, 64, shadows=False, samples=4)
+    cycles = render_cycles_views(glb, camera, light, 64, (False,), samples=4).images[False]
     ours = render(asset, camera, light, 64, spp=2)
     a, b = cycles[..., 3] > 0.5, ours[..., 3] > 0.5
     iou = (a & b).sum(dim=(1, 2)) / (a | b).sum(dim=(1, 2))
@@ -252,7 +252,7 @@ def test_shadows_off_lights_what_the_occluder_shades(tmp_path):
 @needs_blender
 def test_cycles_poses_a_skinned_glb_as_our_skinning_does(tmp_path):
     from lookalike.fit.reference import SkinnedReference
-    from lookalike.blender.cycles import render_in_cycles
+    from lookalike.blender.cycles import render_cycles_views
     from lookalike.jobs.judge_scores import score_renders
 
     glb = _save(_swaying_cylinder(), tmp_path / "character.glb")
@@ -262,7 +262,7 @@ def test_cycles_poses_a_skinned_glb_as_our_skinning_does(tmp_path):
     # halfway through the bend (where Blender's normalised lerp of the rotation keys meets the
     # slerp), its end, half a frame into the sway (a subframe; the elbow back at rest), the rest pose
     pose = Poses.of([0, 0, 1, REST], [0.5, 1.0, 0.5 / 24, 0.0])
-    cycles = render_in_cycles(glb, camera, light, 48, shadows=False, samples=16, pose=pose)
+    cycles = render_cycles_views(glb, camera, light, 48, (False,), samples=16, pose=pose).images[False]
     ours = reference.render(camera, light, 48, 4, pose)
     a, b = cycles[..., 3] > 0.5, ours[..., 3] > 0.5
     iou = (a & b).sum(dim=(1, 2)) / (a | b).sum(dim=(1, 2))
@@ -309,7 +309,7 @@ def test_blender_bake_round_trips_through_our_loader(tmp_path):
 def test_judge_run_scores_every_method_in_every_renderer(tmp_path):
     import json
 
-    from lookalike.fit.config_file import config_from_dict
+    from lookalike.settings import config_from_dict
     from lookalike.jobs.judge import judge_run
     from lookalike.jobs.simplify import simplify
 
@@ -345,7 +345,7 @@ def test_judge_run_scores_every_method_in_every_renderer(tmp_path):
 def test_judge_run_judges_an_animated_run_in_motion(tmp_path):
     import json
 
-    from lookalike.fit.config_file import config_from_dict
+    from lookalike.settings import config_from_dict
     from lookalike.jobs.judge import judge_run, reference_of_run
     from lookalike.jobs.simplify import simplify
 

@@ -14,8 +14,9 @@ from io_factory import gradient_texture, uv_sphere
 from log_capture import expect_warning
 from lookalike import io
 from lookalike.asset import Asset, Material, Mesh, Texture
-from lookalike.fit.config import Config, loop_settings
-from lookalike.fit.config_file import config_from_dict
+from lookalike.fit.from_settings import loop_settings
+from lookalike.settings import Config
+from lookalike.settings import config_from_dict
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
 from lookalike.init.atlas import merge_materials

@@ -3,6 +3,7 @@ the ways a run used to go wrong around the job."""
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import json
 import os
@@ -20,7 +21,7 @@ from lookalike import io, kernel_cache
 from lookalike.cli import main
 from lookalike.errors import ConfigError
 from lookalike.fit.checkpoint import read_checkpoint
-from lookalike.fit.config_file import config_from_dict
+from lookalike.settings import config_from_dict
 from lookalike.fit.loop import Fitter
 from lookalike.jobs import outputs
 from lookalike.jobs.simplify import simplify
@@ -164,7 +165,9 @@ def test_force_then_an_early_interrupt_keeps_the_old_outputs_together(tmp_path, 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("lookalike.jobs.simplify.build_initial_guess", interrupted)
+    from lookalike.jobs import simplify as simplify_job
+
+    monkeypatch.setattr(simplify_job, "SIMPLIFY", dataclasses.replace(simplify_job.SIMPLIFY, initial_guess=interrupted))
     with pytest.raises(KeyboardInterrupt):
         simplify(bumpy_sphere(), tmp_path / "out", triangles=60, iterations=2, config=cfg, force=True, progress=False)
     assert {name: (tmp_path / "out" / name).read_bytes() for name in old} == old

@@ -10,7 +10,7 @@ from lookalike import io
 from lookalike.asset import Asset
 from lookalike.bench.repair import damaged
 from lookalike.cli import main
-from lookalike.fit.config_file import config_from_dict
+from lookalike.settings import config_from_dict
 from lookalike.init import decimate
 from lookalike.init.conform import boundary_loops
 from lookalike.init.initial_guess import UV_OVERLAP_LIMIT, uv_overlap

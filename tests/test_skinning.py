@@ -9,12 +9,12 @@ import torch
 
 from lookalike.asset import Animation, Channel, Node, Skin
 from lookalike.asset.skinning import (
+    blended_matrices,
     dense_weights,
     joint_matrices,
     node_world_matrices,
     quaternion_to_matrix,
     sample_channel,
-    skin_vertices,
     slerp,
     strongest_influences,
 )
@@ -42,6 +42,12 @@ def two_bone_skin() -> Skin:
     rest_world[1, 1, 3] = 2.0
     rest_world[1, 0, 0] = 2.0
     return Skin(nodes=nodes, joints=torch.tensor([0, 1]), inverse_bind=torch.linalg.inv(rest_world))
+
+
+def skin_vertices(v_pos, joints, weights, mats):
+    """Linear-blend skinning ``[F, V, 3]`` through ``blended_matrices``, as ``posed`` applies it."""
+    blended = blended_matrices(joints, weights, mats)
+    return (blended[..., :3] @ v_pos.unsqueeze(-1)).squeeze(-1) + blended[..., 3]
 
 
 def skin_vertices_loop(v_pos, joints, weights, mats):

@@ -19,13 +19,13 @@ never import each other, ``jobs`` composes them):
 - ``lookalike.render``  differentiable rasterizer with nvdiffrast's contracts
 - ``lookalike.asset``   Mesh, Material, Skin, Asset and differentiable mesh operations
 - ``lookalike.colour``  sRGB encoding and the paper's tone map
+
+Importing lookalike changes nothing in the host process (its environment, its C heap), so that
+it can live inside a notebook, Blender or a Ray worker; the ``lookalike`` command sets both for
+its own process (``lookalike.kernel_cache``, ``lookalike.heap``).
 """
 
-from . import heap, kernel_cache
 from .version import __version__  # noqa: F401  (re-exported)
-
-kernel_cache.choose()
-heap.keep_freed_memory()
 
 
 def __getattr__(name: str):

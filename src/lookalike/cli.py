@@ -14,7 +14,12 @@ from .errors import LookalikeError
 from .version import __version__
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser. Every subcommand is listed, but only the one that ``argv``
+    names (``sys.argv[1:]`` by default) gets its options: they state the defaults of the
+    application it runs, which loads the numerical stack."""
+    argv = sys.argv[1:] if argv is None else argv
+    chosen = next((word for word in argv if not word.startswith("-")), None)
     parser = argparse.ArgumentParser(
         prog="lookalike",
         description="Turn a heavy 3D asset into a light one that looks the same.",
@@ -25,7 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name in command_modules():
         module = _command_module(name)
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
-        module.add_arguments(p)
+        if name == chosen:
+            module.add_arguments(p)
     return parser
 
 
@@ -68,7 +74,11 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command; its exit status: 0 done, 2 the user's input or an OS error on a path
     (one line on stderr naming it), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
     after saving what the command saves when stopped)."""
-    args = build_parser().parse_args(argv)
+    from . import heap, kernel_cache  # the program's process settings, before Numba is first imported
+
+    kernel_cache.choose()
+    heap.keep_freed_memory()
+    args = build_parser(argv).parse_args(argv)
     _log_one_line_warnings(args.command)
     with StopSignals() as stop:
         try:

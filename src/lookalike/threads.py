@@ -6,11 +6,12 @@ cores instead of each claiming all of them.
 
 Where the count is not set, the optimisation loop gives cores to other busy programs while they
 run (``CoreShare``): every few seconds it measures how many of this process's cores others kept
-busy and uses the rest. Beside a second ``simplify`` on two cores, each then steps on one core
-instead of both fighting over two: 0.94 s per step against 0.54 alone (1.7 x; with both on
-every core, 2.09 against 0.51, 4.1 x; ``lookalike bench contention``). Idle
-OpenMP threads keep spinning briefly (the runtime's default): making them sleep at once
-(``OMP_WAIT_POLICY=PASSIVE``) gave the same fairness but cost 28 % per step alone.
+busy and uses the rest. Beside a second ``simplify``, each then steps on its share of the cores
+instead of both fighting over all of them, because two programs that each claim every core slow
+each other down far more than sharing does (``lookalike bench contention``; figures in
+``docs/benchmarks.md``). Idle OpenMP threads keep spinning briefly (the runtime's default):
+making them sleep at once (``OMP_WAIT_POLICY=PASSIVE``) gave the same fairness but made every
+step of a program alone slower.
 
 A set count is never changed, so a run with ``set_threads`` (``--threads``) repeats bit for
 bit; the thread count changes how sums are split, so runs at different counts differ in the

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 from numba import njit
 
+from ..kernel_cache import CACHE
 from .mesh import Mesh
 from .tangents import vertex_tangents
 
@@ -44,7 +45,7 @@ def texel_frames(normals: np.ndarray, tangents: np.ndarray, tri: np.ndarray, bar
     return t, b, n
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def frame_at(normals, tangents, f, l0, l1, l2):
     """Orthonormal frame ``(t, b, n)`` of triangle ``f`` at barycentrics ``(l0, l1, l2)`` as nine
     scalars ``tx, ty, tz, bx, by, bz, nx, ny, nz`` (the same computation as ``texel_frames``, for

@@ -3,11 +3,9 @@
 (position, normal) pair.
 
 One sequential pass each (hash tables with open addressing, or lists per position; expected
-O(T)), where the numpy twins sort (O(T log T)): on 4 million triangles ``triple_copies`` +
-compaction take 0.6 s against 9.6 s for the sorts of ``decimate.clean_triangles_python``,
-``patch_labels`` 1.2 s against 6.8 s for ``transfer.surface_patches_python``,
-``first_occurrence_slots`` (for ``normals.weld_normals``) 0.1 s against 2.7-4.5 s for a
-lexsort. Tests compare each with its twin.
+O(T)), where the numpy twins sort (O(T log T)), because on inputs of millions of triangles the
+sorts of ``decimate.clean_triangles_python``, ``transfer.surface_patches_python`` and
+``normals.weld_normals_python`` dominated the start-up. Tests compare each with its twin.
 """
 
 from __future__ import annotations
@@ -15,17 +13,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..kernel_cache import CACHE
+
 _EMPTY = -1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _mix(h, x):
     """One round of a multiplicative hash of int64 ``x`` into ``h`` (wrapping arithmetic)."""
     h = (h ^ x) * 0x100000001B3
     return h ^ (h >> 29)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _capacity(n):
     """A power of two at least ``2 n`` (and 16): a table at most half full."""
     capacity = 16
@@ -34,7 +34,7 @@ def _capacity(n):
     return capacity
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _sorted3(a, b, c):
     if a > b:
         a, b = b, a
@@ -45,7 +45,7 @@ def _sorted3(a, b, c):
     return a, b, c
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def triple_copies(t_pos_idx):
     """Repeated vertex triples among the triangles ``t_pos_idx [T, 3]`` int64.
 
@@ -91,7 +91,7 @@ def triple_copies(t_pos_idx):
     return fin, first
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _edge_ends(w_idx, half_edge):
     """``(lo, hi, flipped)``: the vertices of half-edge ``3 t + k`` (corner ``k`` to ``k + 1``
     of triangle ``t``), in ascending order, and whether that reverses them."""
@@ -100,7 +100,7 @@ def _edge_ends(w_idx, half_edge):
     return (end, start, True) if start > end else (start, end, False)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _root(parent, node):
     while parent[node] != node:
         parent[node] = parent[parent[node]]
@@ -108,7 +108,7 @@ def _root(parent, node):
     return node
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def patch_labels(w_idx, t_mat_idx, corner_uv, tolerance):
     """Connected components of triangles that share a material and an edge across which UVs
     are continuous (twin: ``transfer.surface_patches_python``).
@@ -167,14 +167,14 @@ def patch_labels(w_idx, t_mat_idx, corner_uv, tolerance):
     return labels
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def first_occurrence_slots(position, bits, n_positions):
     """Equal rows of ``(position [N] int64, bits [N, 3] int32)`` get equal slots.
 
     Each position in ``0 .. n_positions-1`` keeps a list of the first rows of its distinct
     ``bits`` (a few per position: one per smoothing group), so a row is compared only with rows
-    at its own position, and no hashing scatters the accesses (12 million corners of a mesh
-    with local indices: 0.1 s; of random indices: 0.5 s).
+    at its own position, and no hashing scatters the accesses (so a mesh whose indices are
+    local runs fastest).
 
     Returns ``(slot [N] int64, count)``, slots numbered ``0 .. count-1`` in the order of each
     distinct row's first occurrence (twin: ``normals.weld_normals_python``)."""

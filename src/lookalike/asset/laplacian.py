@@ -69,15 +69,3 @@ class UniformLaplacian:
         if reference_delta is not None:
             delta = delta - reference_delta
         return (delta * delta).sum(dim=-1).mean()
-
-
-def laplacian_differentials(v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> torch.Tensor:
-    """``[V, 3]`` uniform differentials of ``v_pos [V, 3]`` on triangles ``t_pos_idx [T, 3]``
-    (builds the operator; keep a ``UniformLaplacian`` when calling repeatedly)."""
-    return UniformLaplacian(t_pos_idx, v_pos.shape[0]).differentials(v_pos)
-
-
-def laplacian_loss(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
-                   reference_delta: torch.Tensor | None = None) -> torch.Tensor:
-    """Scalar Laplacian loss ``mean_i |delta_i - delta'_i|^2`` (see ``UniformLaplacian.loss``)."""
-    return UniformLaplacian(t_pos_idx, v_pos.shape[0]).loss(v_pos, reference_delta)

@@ -67,8 +67,6 @@ class Material:
         kd: base colour + alpha texture, 4 channels.
         ks: (gamma, roughness, metalness) texture, 3 channels.
         normal: tangent-space normal map, 3 channels, or ``None`` (flat).
-        normal_scale: glTF ``normalTexture.scale`` (already applied to ``normal`` on load;
-            kept so a writer can report it).
         alpha_mode: ``"OPAQUE"``, ``"MASK"`` or ``"BLEND"``.
         alpha_cutoff: threshold for ``"MASK"``.
         double_sided: render back faces (with flipped normals).
@@ -81,7 +79,6 @@ class Material:
     kd: Texture = field(default_factory=lambda: Texture.constant([0.75, 0.72, 0.68, 1.0]))
     ks: Texture = field(default_factory=lambda: Texture.constant([0.0, 0.45, 0.0]))
     normal: Texture | None = None
-    normal_scale: float = 1.0
     alpha_mode: str = "OPAQUE"
     alpha_cutoff: float = 0.5
     double_sided: bool = False

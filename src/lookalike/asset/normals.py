@@ -193,9 +193,9 @@ def weld_normals(t_pos_idx: torch.Tensor, corner_normals: torch.Tensor) -> tuple
     normals compared bitwise (``-0.0`` equal to ``0.0``).
 
     Each corner's normal is compared, bit for bit, with the distinct normals met so far at its
-    position (``index_tables.first_occurrence_slots``, compiled): one pass over the corners
-    (4 million triangles: 0.1-0.5 s, against 2.7-4.5 s for a ``np.lexsort`` of the keys and 8 s
-    per million triangles for ``torch.unique(dim=0)``).
+    position (``index_tables.first_occurrence_slots``, compiled): one pass over the corners,
+    because sorting the keys (``np.lexsort``, ``torch.unique(dim=0)``) dominated the loading of
+    large inputs.
 
     Args:
         t_pos_idx: ``[T, 3]`` int64 triangles.

@@ -38,16 +38,6 @@ def blended_matrices(joints: torch.Tensor, weights: torch.Tensor, joint_matrices
     return sum(weights[:, k, None, None] * rows[:, joints[:, k]] for k in range(joints.shape[1]))
 
 
-def skin_vertices(v_pos: torch.Tensor, joints: torch.Tensor, weights: torch.Tensor,
-                  joint_matrices: torch.Tensor) -> torch.Tensor:
-    """Linear-blend skinning of bind-pose positions ``v_pos [V, 3]`` for F frames: ``[F, V, 3]``,
-    ``sum_k weights[v, k] * (M_(joints[v, k]) @ (v, 1))[:3]`` through the blended matrix
-    (``blended_matrices``, which says the arguments and the cost). Differentiable in ``v_pos``,
-    ``weights`` and ``joint_matrices``."""
-    blended = blended_matrices(joints, weights, joint_matrices)
-    return (blended[..., :3] @ v_pos.unsqueeze(-1)).squeeze(-1) + blended[..., 3]
-
-
 def dense_weights(v_joints: torch.Tensor, v_weights: torch.Tensor, num_joints: int) -> torch.Tensor:
     """Dense ``[V, J]`` weights from sparse glTF influences ``v_joints [V, K]`` int64 and
     ``v_weights [V, K]`` float (repeated joints add up)."""
@@ -153,7 +143,7 @@ def node_world_matrices(skin: Skin, animation: Animation | None, times: torch.Te
 def joint_matrices(skin: Skin, animation: Animation | None = None,
                    times: torch.Tensor | float = 0.0) -> torch.Tensor:
     """Skinning matrices ``[F, J, 4, 4]`` (float32) of ``skin`` at ``times`` (``[F]`` seconds or
-    one number), for ``skin_vertices`` applied to the loaded bind-pose positions:
+    one number), for ``blended_matrices`` applied to the loaded bind-pose positions:
     ``world(joint_j) @ inverse_bind_j @ inverse(mesh_to_world)``."""
     times = torch.as_tensor(times, dtype=torch.float32).reshape(-1)
     world = node_world_matrices(skin, animation, times)[:, skin.joints]

@@ -13,14 +13,20 @@ import sys
 import time
 from pathlib import Path
 
-from .. import io
-from ..jobs.demo import demo_asset
-from ..jobs.simplify import simplify
+from .. import heap, kernel_cache
 
 OUTPUT_TRIANGLES = 2000
 
 
 def main(argv: list[str]) -> None:
+    """Run the row as ``lookalike simplify`` runs, with the command's process settings
+    (``kernel_cache.choose``, ``heap.keep_freed_memory``) made before Numba is first imported."""
+    kernel_cache.choose()
+    heap.keep_freed_memory()
+    from .. import io
+    from ..jobs.demo import demo_asset
+    from ..jobs.simplify import simplify
+
     triangles, steps, outdir, result = int(argv[0]), int(argv[1]), Path(argv[2]), Path(argv[3])
     outdir.mkdir(parents=True, exist_ok=True)
     clock = time.monotonic()

@@ -1,4 +1,4 @@
-"""``lookalike bench cards``: foliage as cards (issue 19) on the generated shrub
+"""``lookalike bench cards``: foliage as cards on the generated shrub
 (``lookalike.jobs.shrub``) at two budgets, 0.5 % and 2 % of its triangles.
 
 Per budget, with default settings: ``cards`` (alpha-tested, and a second run blended,
@@ -102,7 +102,7 @@ def _case(case: CardsCase, source: Path, folder: Path, time_budget: float, reuse
     """Both runs of one case, every method scored on the ``cards`` run's held-out views (and
     judged in Cycles where ``judged``), and the table row."""
     from .. import io
-    from ..fit.config_file import load_config
+    from ..settings import load_config
     from ..fit.reference import MeshReference
     from ..fit.textured_mesh import render_asset
     from ..fit.training_views import view_sampler
@@ -113,7 +113,7 @@ def _case(case: CardsCase, source: Path, folder: Path, time_budget: float, reuse
     asset = io.load(source)
     count = max(2, round(case.share * asset.mesh.num_triangles))
     minutes = {}
-    runs = (("cards", cards, {}), ("cards_blend", cards, {"alpha": "blend"}),
+    runs = (("cards", cards, {}), ("cards_blend", cards, {"alpha_mode": "blend"}),
             ("simplify", simplify, {"config": _peeled_like_cards()}))
     for name, job, options in runs:
         run_dir = folder / name
@@ -187,7 +187,7 @@ def _judge(reference, source: Path, models: dict, cfg, folder: Path) -> dict:
 
 def _peeled_like_cards():
     """``simplify``'s default settings with the depth-peeled layers of ``cards``."""
-    from ..fit.config import Config
+    from ..settings import Config
     from ..jobs.cards import CARDS_DEFAULTS
 
     config = Config()

@@ -1,15 +1,15 @@
 """``lookalike bench contention``: how much slower is a step with a second busy program?
 
 Users run ``simplify`` beside other work. torch's and Numba's thread pools each claiming every
-core used to oversubscribe the machine 4-12 x (issue 15); one thread policy (``--threads``,
-``lookalike.threads``) is meant to leave a fair 2 x.
+core oversubscribe the machine; one thread policy (``--threads``, ``lookalike.threads``) is
+meant to leave a fair 2 x.
 
 ``simplify`` of spot (the smallest benchmark asset, to 1,000 triangles) with a fixed step count
 runs twice as a user runs it (``lookalike simplify``, default settings, in a child process):
 alone, then with a second ``simplify`` of the same input started at the same moment and
 stopped when the first ends. Each run's seconds per step are its ``metrics.json``'s.
 
-Bar (issue 15): s/step with the second program at most 2.5 x s/step alone.
+Bar: s/step with the second program at most 2.5 x s/step alone.
 """
 
 from __future__ import annotations

@@ -2,10 +2,10 @@
 of ``../shared/assets``, scored on held-out views.
 
 Bar: every run within 10 minutes on a 2-core machine, ours at least 3 dB PSNR above plain
-decimation on every asset (issue 4) and, where the classic bake was scored, at least 1 dB
-above the bake with a lower FLIP (issue 5).
+decimation on every asset and, where the classic bake was scored, at least 1 dB above the bake
+with a lower FLIP.
 
-``--judge blender`` (issue 14) also judges every run in Blender (``lookalike.jobs.judge``):
+``--judge blender`` also judges every run in Blender (``lookalike.jobs.judge``):
 the input, plain decimation, our classic bake, Blender's own decimate + bake and ours, rendered
 on the run's held-out views by our renderer and by Cycles with and without shadows, PSNR over
 the pixels either picture covers and FLIP. Its bar: in Cycles with shadows ours at least 1 dB
@@ -69,7 +69,7 @@ def select_assets(names: list[str], cases: tuple[BenchAsset, ...] = ASSETS) -> t
 
 
 def scan_material():
-    """The material the issue prescribes for untextured scans."""
+    """The material the benchmark prescribes for untextured scans."""
     from ..asset import Material, Texture
 
     return Material(name="scan", kd=Texture.constant([*SCAN_COLOUR, 1.0]),
@@ -112,7 +112,7 @@ def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget:
                   iterations: int | None = None, init_mesh: Path | None = None):
     """``simplify`` of one benchmark case with default settings (and ``init``, a fixed
     ``iterations`` count instead of the time budget, and a starting mesh ``init_mesh`` where
-    given) into ``outdir``; returns its ``SimplifyResult``."""
+    given) into ``outdir``; returns its ``RunResult``."""
     from ..jobs.simplify import simplify
 
     return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget, init=init,
@@ -135,7 +135,7 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         repeats: ignored (each asset runs once; a run takes minutes).
         out: keep each run's outputs in ``out/<asset>`` (default: ``$LOOKALIKE_BENCH_OUT`` or a
             temporary folder removed afterwards).
-        time_budget: seconds per run (the issue's default, 600).
+        time_budget: seconds per run (the benchmark's default, 600).
         assets: which cases to run; assets_dir: where their files are.
         judge: ``"blender"``: also judge every run in Blender (module docstring; needs the
             ``judge`` extra).
@@ -185,7 +185,7 @@ def judged_row(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: dic
     which writes ``run_dir/judge/``); its result plus the gains of ours over Blender's bake
     (Cycles, shadows) and over our bake (our renderer), in dB, and whether they meet the bar."""
     from ..jobs.judge import judge_run
-    from ..jobs.simplify import prepare_input
+    from ..jobs.input_asset import prepare_input
 
     loaded = io_load(assets_dir / case.path)
     reference, _ = prepare_input(loaded, scan_material() if case.scan else None)

@@ -15,8 +15,7 @@ Figures (medians over ``repeats``):
   ``startup_s``: the same with the cache filled.
 
 Targets on the 2-core reference machine: visibility <= 70 ms (100k) and <= 150 ms (500k),
-frame forward + backward <= 120 ms and CPU/wall >= 1.8 (issue 15; the first engine met 350 ms
-and 1.7), cached start-up <= 1 s.
+frame forward + backward <= 120 ms and CPU/wall >= 1.8, cached start-up <= 1 s.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ part (the ``PART`` of the triangles nearest a random vertex) detached and moved 
 of the radius, and its UVs scrambled. ``simplify --init-mesh`` then starts from it, with the
 default settings and budget, and is compared with the default run from our own decimation.
 
-Bar (issue 16): the repaired run's held-out PSNR within ``BAR_DB`` of the default run's. With
+Bar: the repaired run's held-out PSNR within ``BAR_DB`` of the default run's. With
 ``--out`` pointing at the folder of a ``bench quality`` run, its finished default runs are
 reused.
 """

@@ -10,7 +10,7 @@ A row: the input's triangles; start-up seconds (every stage before the first ste
 decimation, unwrapping, the bake, the reference's views, scoring the baselines) with each
 stage's and phase's wall seconds and CPU/wall; seconds per step; peak resident memory.
 
-Bar (issue 15): s/step at 4M at most 1.3 x that at 100k; peak memory at 4M at most 8 GB;
+Bar: s/step at 4M at most 1.3 x that at 100k; peak memory at 4M at most 8 GB;
 start-up at 4M at most 90 s.
 """
 

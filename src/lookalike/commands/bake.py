@@ -6,18 +6,22 @@ from __future__ import annotations
 import argparse
 
 from ..limits import MAX_BAKE_TEXTURE_SIZE
-from ._options import add_job_arguments
+from ..settings import Config
+from ._options import add_job_arguments, default_text
 
 HELP = "decimate, unwrap and bake an asset the classic way (the baseline simplify beats)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_job_arguments(parser, verb="bake", outdir_suffix="-baked")
-    parser.add_argument("--texture-size", type=int, default=1024, metavar="S",
-                        help=f"side of the square baked textures (default 1024, at most {MAX_BAKE_TEXTURE_SIZE})")
+    from ..init.projection_bake import DEFAULT_CAGE_FRACTION
+    from ..jobs.bake import OUTDIR_SUFFIX
+
+    add_job_arguments(parser, "bake", OUTDIR_SUFFIX, Config())
+    parser.add_argument("--texture-size", type=int, metavar="S", help="side of the square baked textures "
+                        f"{default_text(Config(), 'texture_size')}, at most {MAX_BAKE_TEXTURE_SIZE}")
     parser.add_argument("--cage", type=float, metavar="D",
                         help="ray reach on each side of the low-poly surface, in the asset's units "
-                             "(default 2%% of the bounding-box diagonal)")
+                             f"(default: {100 * DEFAULT_CAGE_FRACTION:g}%% of the bounding-box diagonal)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..limits import MAX_WORKERS
-from ._options import add_count_arguments, add_fit_arguments, fit_options
+from ._options import add_count_arguments, add_fit_arguments, settings_keywords
 
 HELP = "simplify many assets (files or folders) on a local Ray instance or a Ray cluster"
 
@@ -21,8 +21,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run on this Ray cluster instead of a local instance started for the batch")
     parser.add_argument("--cpus-per-task", type=int, metavar="C",
                         help="CPUs (and threads) per asset (default: the cores / --workers; 2 on a cluster)")
-    add_count_arguments(parser)
-    add_fit_arguments(parser)
+    from ..jobs.simplify import SIMPLIFY
+
+    add_count_arguments(parser, SIMPLIFY.defaults)
+    add_fit_arguments(parser, SIMPLIFY.defaults)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,6 +36,6 @@ def run(args: argparse.Namespace) -> int:
         if value is not None and not 1 <= value <= MAX_WORKERS:
             raise ConfigError(f"--{name.replace('_', '-')} must lie in [1, {MAX_WORKERS}], not {value}")
     result = batch(args.inputs, args.output, workers=args.workers, address=args.address,
-                   cpus_per_task=args.cpus_per_task, progress=not args.quiet, **fit_options(args))
+                   cpus_per_task=args.cpus_per_task, progress=not args.quiet, **settings_keywords(args))
     print(result.summary())
     return 0 if all(status == "done" for status in result.statuses.values()) else 1

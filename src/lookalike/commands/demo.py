@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fit.config_file import parse_duration
+    from ..settings import parse_duration
     from ..jobs.demo import DEMO_CARDS_SHARE, DEMO_TRIANGLES, demo, demo_cards
 
     time_budget = parse_duration(args.time_budget)

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import add_fit_arguments, add_job_arguments, add_run_arguments, apply_threads, fit_options
+from ._options import add_fit_arguments, add_job_arguments, add_run_arguments, run_keywords
 
 HELP = "simplify an asset: a low-poly model with textures that renders like the input"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_job_arguments(parser, verb="simplify", outdir_suffix="-lookalike")
-    add_fit_arguments(parser)
+    from ..jobs.simplify import SIMPLIFY
+
+    add_job_arguments(parser, "simplify", SIMPLIFY.outdir_suffix, SIMPLIFY.defaults)
+    add_fit_arguments(parser, SIMPLIFY.defaults)
     parser.add_argument("--init-mesh", metavar="LOD", help="start from this low-poly mesh (e.g. an existing LOD that "
                         "looks wrong) instead of our decimation; its UVs and textures are kept where they form an atlas")
     pose = parser.add_mutually_exclusive_group()
@@ -32,14 +34,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..jobs.simplify import simplify
 
-    apply_threads(args)
     if args.judge is not None:
         from ..blender import require_judge
 
         require_judge()
-    result = simplify(args.input, args.output, init_mesh=args.init_mesh, resume=args.resume, force=args.force,
-                      static=True if args.static else None, compare_static=args.compare_static,
-                      progress=not args.quiet, profile=args.profile, **fit_options(args))
+    result = simplify(args.input, args.output, init_mesh=args.init_mesh, static=True if args.static else None,
+                      compare_static=args.compare_static, **run_keywords(args))
     print(result.summary())
     if args.judge is not None and not result.interrupted:
         from ..jobs.judge import judge_run, judge_summary, reference_of_run

@@ -6,7 +6,7 @@ application composes:
 - ``latent``: the ``Latent`` protocol; ``textured_mesh``: ``TexturedMesh``, the mesh with PBR
   textures that ``simplify`` optimises;
 - ``objective``: image loss + outline loss + scheduled regularisers (``losses``, ``schedule``);
-- ``loop``: ``Fitter``, stepping, rollback, best-state keeping and the time budget;
-  ``checkpoint``: writing and reading its state;
-- ``config``: every setting, with its defaults; ``config_file``: TOML and option overrides.
+- ``loop``: ``Fitter``, stepping and rollback; ``best_state``, ``pacing``, ``progress_bar``: the
+  loop's best state, time budget and bar; ``checkpoint``: writing and reading its state;
+- ``from_settings``: the loop's settings and the objective as a run's settings describe them.
 """

@@ -12,7 +12,7 @@ import torch
 from ..errors import ConfigError
 from ..io.atomic import atomic_path
 
-CHECKPOINT_VERSION = 4
+CHECKPOINT_VERSION = 5
 
 
 class Checkpointer:

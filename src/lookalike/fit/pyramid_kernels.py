@@ -16,8 +16,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 
-@njit(cache=True)
+
+@njit(cache=CACHE)
 def axis_taps(n_in, n_out):
     """``(i0 [n_out], i1 [n_out], f [n_out])``: the two input texels each output texel reads
     along one axis and the weight of the second (float32, as torch computes it)."""
@@ -36,7 +38,7 @@ def axis_taps(n_in, n_out):
     return i0, i1, f
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def readers(n_in, n_out):
     """The transpose of ``axis_taps``: ``(start [n_in + 1], output [2 n_out], weight [2
     n_out])``, input texel ``j`` being read by outputs ``output[start[j]:start[j + 1]]`` with
@@ -61,7 +63,7 @@ def readers(n_in, n_out):
     return start, output, weight
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def upsample_add(coarse, fine, scale, low, high, out):
     """``out [H, W, C] = clamp(scale * fine [H, W, C] + up(coarse [h, w, C]), low [C], high
     [C])``; where the clamp moves a texel, the move divided by ``scale`` is added to ``fine``
@@ -96,7 +98,7 @@ def upsample_add(coarse, fine, scale, low, high, out):
                 fine_rows[y, k] += (bounded - value) * inverse
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def upsample_adjoint(grad, height, width):
     """``[height, width, C]``: the adjoint of upsampling a ``height x width`` image to
     ``grad [H, W, C]``'s size (contiguous), applied to ``grad`` (each fine texel's gradient

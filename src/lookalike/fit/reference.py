@@ -45,14 +45,6 @@ class Reference(Protocol):
         ...
 
 
-class RelightableReference(Reference, Protocol):
-    """A reference whose geometry never changes, so one camera's view can be lit again."""
-
-    def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
-        """The view from ``camera`` (batch 1), ready to be lit (``CapturedView.light``)."""
-        ...
-
-
 class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled, with ``layers``
     depth-peeled layers (it does not move: ``pose`` is ignored); what its views share is
@@ -68,6 +60,8 @@ class MeshReference:
         return render(self.asset, camera, light, (resolution, resolution), spp=spp, layers=self.layers)
 
     def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
+        """The view from ``camera`` (batch 1), ready to be lit again (``CapturedView.light``),
+        which a still asset allows because its geometry never changes."""
         return capture_view(self.asset, camera, resolution, spp)
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:

@@ -5,7 +5,7 @@ learning rate ends 100 times lower than it starts. Our CPU runs are ten times sh
 k = 0.0002 would leave the rate nearly constant (the textures then keep jittering at the
 end), so by default k is stretched over the run: k = decades / total (``learning_rate_decay``),
 with the paper's two decades (its k exactly for 10k steps) from scratch and one from a warm
-start (``lookalike.fit.config.StartDefaults``).
+start (``lookalike.settings.StartDefaults``).
 
 Laplacian weight: the paper updates lambda_t = (lambda_{t-1} - lambda_min) * 10^(-k t) + lambda_min
 with k = 1e-6 and lambda_min = 0.02 lambda_0. Unrolled, that is

@@ -23,7 +23,7 @@ from ..asset.skinning import posed
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render, render_coverage
-from .config import ClampConfig
+from ..settings import ClampConfig
 from .slope_normals import normal_to_slopes, slopes_to_normal
 from .texture_pyramid import TexturePyramid
 

@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
+from ..kernel_cache import CACHE
 from ..threads import thread_count
 from .triangle_kernels import centroids_and_extents
 
@@ -74,19 +75,19 @@ def closest_barycentric(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarr
     return np.stack([wa, wb, wc], axis=-1)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _clip_divide(num: float, den: float) -> float:
     if den == 0.0:
         return 0.0
     return min(max(num / den, 0.0), 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _dot(x0, x1, x2, y0, y1, y2):
     return x0 * y0 + x1 * y1 + x2 * y2
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _closest_barycentric_one(p, tri):
     """Scalar ``closest_barycentric`` of one point ``p [3]`` and one triangle ``tri [3, 3]``
     (rows a, b, c): returns ``(wa, wb, wc)``; the same regions in the same order."""
@@ -121,7 +122,7 @@ def _closest_barycentric_one(p, tri):
     return 1.0 - v - w, v, w
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _best_candidates(points, candidates, corners, t_label, labels):
     """For each point, the closest of its candidate triangles.
 
@@ -236,7 +237,7 @@ class SurfaceQuery:
         if len(self.corners) == 0:
             raise ValueError("SurfaceQuery needs at least one triangle")
         samples, self.sample_triangle, self.cover_radius = _cover_samples(self.corners)
-        self.tree = cKDTree(samples, balanced_tree=False, compact_nodes=False)   # builds 3x faster
+        self.tree = cKDTree(samples, balanced_tree=False, compact_nodes=False)   # builds faster, queries as fast
         self.t_label = None if t_label is None else np.asarray(t_label, dtype=np.int64)
 
     def closest(self, points: np.ndarray, labels: np.ndarray | None = None) -> ClosestPoints:

@@ -8,8 +8,8 @@ split at creases sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (
 only: the values follow the positions).
 
 fast-simplification's ``agg`` sets how fast its error threshold grows; low values keep the
-shape better (about 1 to 1.7 dB PSNR over its default 7 on our benchmark assets) but may stop
-above the requested count. Its quadrics do not guard open borders, so small flat parts (a quad
+shape better than its default 7 (``docs/benchmarks.md``) but may stop above the requested
+count. Its quadrics do not guard open borders, so small flat parts (a quad
 of two triangles) and the rims of open sheets collapse first unless border vertices are frozen
 (``preserve_border``), which in turn stalls on meshes that are mostly border. So the mesh is
 scaled to a unit bounding-box diagonal (making the threshold independent of units) and the
@@ -17,7 +17,7 @@ first setting of ``SCHEDULE`` that reaches the count is used.
 
 Landing on the exact count takes several runs, each over the whole input; on a large input
 (over ``COARSE_ABOVE`` triangles) one run first brings it to ``COARSE_TRIANGLES``, and the
-runs that land on the count start from there (4 million triangles: 61 s before, issue 15).
+runs that land on the count start from there, so that the whole input is decimated once.
 """
 
 from __future__ import annotations

@@ -43,8 +43,8 @@ UV_CHECK_SIZE = 512
 """Side of the grid on which that share is measured."""
 UV_CHECK_TEXELS = 1 << 20
 """Most texels ``uv_overlap`` rasterizes: where the triangles' UV areas add up to more, the grid
-is coarser (scrambled UVs cover the square hundreds of times over: 42 s at 512 x 512 on a
-2,000-triangle LOD; their overlap is plain at any grid)."""
+is coarser, because scrambled UVs cover the square hundreds of times over and rasterizing them
+at full size takes far longer than the check is worth (their overlap is plain at any grid)."""
 
 
 @dataclass

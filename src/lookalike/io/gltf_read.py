@@ -337,7 +337,7 @@ class _MaterialReader:
             spec = resize(self._pixels(spec_info), h, w)[..., 3] if spec_info else np.ones((h, w), np.float32)
             ks = self._texture(layout, np.stack(
                 [1.0 - spec_factor * spec, rough_factor * mr[..., 1], metal_factor * mr[..., 2]], axis=-1))
-        normal, scale = None, 1.0
+        normal = None
         if m.normalTexture is not None:
             info = _texture_info(m.normalTexture)
             scale = float(info.get("scale", 1.0) if info.get("scale") is not None else 1.0)
@@ -363,7 +363,7 @@ class _MaterialReader:
         if alpha_mode not in ("OPAQUE", "MASK", "BLEND"):
             raise AssetError(self.data.path, f"material {m.name!r} has unknown alphaMode {alpha_mode!r}")
         return Material(
-            name=m.name or "material", kd=kd, ks=ks, normal=normal, normal_scale=scale, alpha_mode=alpha_mode,
+            name=m.name or "material", kd=kd, ks=ks, normal=normal, alpha_mode=alpha_mode,
             alpha_cutoff=0.5 if m.alphaCutoff is None else float(m.alphaCutoff),
             double_sided=bool(m.doubleSided), emissive=emissive, occlusion=occlusion,
         )

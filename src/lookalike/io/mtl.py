@@ -166,7 +166,7 @@ def material_from_statements(block: _MaterialStatements, base: Path) -> Material
         rough, metal = _common_size(rough, metal)
         ks = np.stack([np.zeros_like(rough), rough, metal], axis=-1)
 
-    normal, scale = None, 1.0
+    normal = None
     bump = _map(block, "map_bump", base)
     if bump is not None:
         pixels, options = bump
@@ -182,7 +182,7 @@ def material_from_statements(block: _MaterialStatements, base: Path) -> Material
         emissive = _tex(srgb_to_linear(ke_map[0][..., :3]) * ke)
     elif ke.any():
         emissive = Texture.constant(ke)
-    return Material(name=block.name, kd=_tex(kd), ks=_tex(ks), normal=normal, normal_scale=scale,
+    return Material(name=block.name, kd=_tex(kd), ks=_tex(ks), normal=normal,
                     alpha_mode="BLEND" if float(alpha.min()) < 1.0 else "OPAQUE", emissive=emissive)
 
 

@@ -24,6 +24,7 @@ from numba import njit
 from ..asset import Material, Mesh
 from ..asset.frames import corner_normals, corner_uvs, frame_at, our_corner_frame, reexpress_texels, unit
 from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
+from ..kernel_cache import CACHE
 from .mikktspace import mikktspace_tangents
 
 
@@ -54,7 +55,7 @@ def _extend_into_gutter(out: np.ndarray, covered: np.ndarray, gutter: int) -> np
     return out.astype(np.float32)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _reexpress_kernel(pixels, out, covered, xy, src_n, src_t, dst_n, dst_t):
     """Write ``out [H, W, 3]`` at texels covered by triangles ``xy [T, 3, 2]`` (texel-index space,
     ``uv * (W, H) - 0.5``) with ``pixels [H, W, 3]`` converted, and mark them in ``covered [H, W]``;

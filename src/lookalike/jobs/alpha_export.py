@@ -2,9 +2,9 @@
 
 - Training: ``"auto"`` trains the start's own mode (the input's: ``MASK`` with a
   straight-through gradient, ``lookalike.shading.surface``); ``"mask"`` and ``"blend"`` train
-  blended, soft alpha. A straight-through mask learns little from a billboard cloud's
-  projected alpha (on a test clump the held-out score did not move in 150 steps, while the
-  same run blended gained 0.6-1.2 dB): coverage that the cards must move lives in partial alpha.
+  blended, soft alpha, because a straight-through mask learns little from a billboard cloud's
+  projected alpha where the same run blended improves (``docs/benchmarks.md``): coverage that
+  the cards must move lives in partial alpha.
 - The alpha of a ``MASK`` model: the cutoff of ``CUTOFFS`` (or the model's own) whose model
   scores the best PSNR on the run's validation views; ``"mask"`` turns the soft model into an
   alpha-tested one that way, or by an ordered dither of its soft alpha (a screen door that keeps

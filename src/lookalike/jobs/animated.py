@@ -21,7 +21,7 @@ import torch
 
 from ..asset import Asset
 from ..asset.pose import REST, Poses
-from ..fit.config import Config
+from ..settings import Config
 from ..fit.reference import RENDER_CHUNK, SkinnedReference, render_in_chunks
 from ..fit.training_views import PoseSampler
 from ..init.initial_guess import InitialGuess

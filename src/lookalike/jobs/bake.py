@@ -21,14 +21,14 @@ from .. import io
 from ..asset.asset import Asset
 from ..asset.material import Material
 from ..errors import ConfigError
-from ..fit.config import LatentConfig
+from ..settings import Config
 from ..init.decimate import decimate
 from ..init.initial_guess import Ranges, initial_guess, target_triangle_count
 from ..io.atomic import write_text_atomic
 from ..limits import MAX_BAKE_TEXTURE_SIZE
 from .outdir import check_outdir, left_as_found, prepare_outdir
 from .outputs import METRICS_NAME, MODEL_NAME, staged_outputs, write_model
-from .simplify import prepare_input
+from .input_asset import prepare_input
 
 OUTDIR_SUFFIX = "-baked"
 
@@ -57,16 +57,17 @@ class BakeJobResult:
 
 
 def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
-               ratio: float | None = None, texture_size: int = 1024, cage: float | None = None,
+               ratio: float | None = None, texture_size: int | None = None, cage: float | None = None,
                force: bool = False, material_override: Material | None = None) -> BakeJobResult:
     """Decimate, unwrap and bake ``input`` into ``outdir/model.glb``.
 
     Args:
         input: any file ``lookalike.io.load`` reads, or an ``Asset``.
         outdir: output folder (default ``<input name>-baked`` in the current folder).
-        triangles, ratio: target triangle count, or fraction of the input's (default
-            ``LatentConfig.DEFAULT_RATIO``), as for ``simplify``.
-        texture_size: side of the square baked textures.
+        triangles, ratio: target triangle count, or fraction of the input's (default: the
+            settings' ``latent.ratio``), as for ``simplify``.
+        texture_size: side of the square baked textures (default: the settings'
+            ``latent.texture_size``).
         cage: ray reach on each side of the low-poly surface (default: see ``lookalike.init.projection_bake``).
         force: overwrite an existing non-empty ``outdir``.
         material_override: bake the input as if every triangle had this material (e.g. a colour
@@ -74,6 +75,8 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
     Raises:
         ConfigError, AssetError: with a message naming the problem.
     """
+    defaults = Config().latent
+    texture_size = defaults.texture_size if texture_size is None else texture_size
     if not 4 <= texture_size <= MAX_BAKE_TEXTURE_SIZE:
         raise ConfigError(f"the texture size (--texture-size) must lie in [4, {MAX_BAKE_TEXTURE_SIZE}], not {texture_size}")
     started = time.monotonic()
@@ -83,7 +86,7 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
     seconds = {}
     clock = time.monotonic()
     asset, _ = prepare_input(input if isinstance(input, Asset) else io.load(input), material_override)
-    count = target_triangle_count(triangles, LatentConfig.DEFAULT_RATIO if ratio is None else ratio,
+    count = target_triangle_count(triangles, defaults.ratio if ratio is None else ratio,
                                   asset.mesh.num_triangles)
     seconds["load"] = time.monotonic() - clock
     clock = time.monotonic()
@@ -94,23 +97,23 @@ def bake_asset(input: str | Path | Asset, outdir: str | Path | None = None, *, t
     seconds["unwrap and bake"] = time.monotonic() - clock
     baked, result = guess.baked, guess.bake
 
+    metrics = {"input": str(asset.source or name),
+               "triangles": {"input": asset.mesh.num_triangles, "output": baked.mesh.num_triangles},
+               "texture_size": texture_size, "cage": result.cage, "texels": result.texels,
+               "hit_fraction": result.hit_fraction, "mean_offset": result.mean_offset, "seconds": seconds}
     with left_as_found(outdir):
         outdir = prepare_outdir(outdir, force=force, resume=False)
-        clock = time.monotonic()
-        with staged_outputs(outdir) as staging:
-            write_model(baked, staging, obj=False)
-            seconds["export"] = time.monotonic() - clock
-            seconds["total"] = time.monotonic() - started
-            metrics = {
-                "input": str(asset.source or name),
-                "triangles": {"input": asset.mesh.num_triangles, "output": baked.mesh.num_triangles},
-                "texture_size": texture_size,
-                "cage": result.cage,
-                "texels": result.texels,
-                "hit_fraction": result.hit_fraction,
-                "mean_offset": result.mean_offset,
-                "seconds": seconds,
-            }
-            write_text_atomic(staging / METRICS_NAME, json.dumps(metrics, indent=2))
+        write_bake(outdir, baked, metrics, started)
     model = outdir / MODEL_NAME
     return BakeJobResult(outdir=outdir, model=model, asset=baked, metrics=metrics)
+
+
+def write_bake(outdir: Path, baked: Asset, metrics: dict, started: float) -> None:
+    """``model.glb`` and ``metrics.json`` (its export and total seconds added) into ``outdir``,
+    all or none (``jobs.outputs.staged_outputs``)."""
+    clock = time.monotonic()
+    with staged_outputs(outdir) as staging:
+        write_model(baked, staging, obj=False)
+        metrics["seconds"]["export"] = time.monotonic() - clock
+        metrics["seconds"]["total"] = time.monotonic() - started
+        write_text_atomic(staging / METRICS_NAME, json.dumps(metrics, indent=2))

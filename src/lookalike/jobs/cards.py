@@ -5,17 +5,13 @@ which decimation melts into blobs or loses. ``cards`` starts from a billboard cl
 (``lookalike.init.billboard_cloud``: the input's parts clustered by position and orientation,
 one textured quad per cluster, or one per part where the budget allows, its base colour and
 alpha baked by projection) and fits the cards' vertices, base colour + alpha, specular and
-normal map against renders of the input, with ``render.layers`` depth-peeled layers (8, as the
-paper) composited back to front, both sides of each card lit. The loss is the paper's for this
-application, squared L2 on tone-mapped colour. ``model.glb`` is alpha-tested (``MASK``, at a
-cutoff chosen on the validation views: engines draw it without sorting) or blended
-(``alpha="blend"``), double-sided, its colour filled under unseen texels
-(``lookalike.jobs.alpha_export``).
-
-Everything else is ``simplify``'s run (``lookalike.jobs.simplify.run``): the options, outputs
-(``model.glb``, ``report.html``, ``metrics.json``, ``config.toml``), progress, time budget,
-checkpoints and resume. The report scores plain decimation and the billboard cloud the fit
-started from beside ours.
+normal map against renders of the input, with ``render.layers`` depth-peeled layers composited
+back to front, both sides of each card lit. The loss is the paper's for this application,
+squared L2 on tone-mapped colour. ``model.glb`` is alpha-tested (``MASK``, at a cutoff chosen on
+the validation views: engines draw it without sorting) or blended (``alpha_mode="blend"``),
+double-sided, its colour filled under unseen texels (``lookalike.jobs.alpha_export``).
+Everything else is the shared run (``jobs.run``); the report scores plain decimation and the
+billboard cloud the fit started from beside ours.
 """
 
 from __future__ import annotations
@@ -26,35 +22,32 @@ import numpy as np
 
 from ..asset import Asset
 from ..errors import ConfigError
-from ..fit.config import Config, LatentConfig, OptimConfig, RenderConfig, ViewsConfig
 from ..init import decimate
 from ..init.billboard_cloud import billboard_cloud
 from ..init.initial_guess import InitialGuess, decimation_baseline
 from ..phases import phase
-from .simplify import TEXTURE_STREAM, Application, SimplifyResult, run
-
-CARDS_RATIO = 0.01
-"""Default target: this share of the input's triangles (the paper's trees keep 0.4-0.8 %)."""
+from ..settings import Config, LatentConfig, OptimConfig, RenderConfig, ViewsConfig
+from .run import TEXTURE_STREAM, Application, keywords_doc, run
+from .run_result import RunResult
 
 CARDS_DEFAULTS = Config(
-    latent=LatentConfig(ratio=CARDS_RATIO, alpha_mode="mask"),
+    latent=LatentConfig(ratio=0.01, alpha_mode="mask"),
     render=RenderConfig(layers=8),
     views=ViewsConfig(pool_size=32),
     optim=OptimConfig(loss="l2-tonemapped", lr_positions=0.01, lr_textures=0.03),
 )
-"""Where a ``cards`` run's settings start: 8 depth-peeled layers, squared L2 on tone-mapped
-colour, the large steps of a coarse start (paper Sec. 6.4: a billboard cloud moves far; lr_0
-0.01 for positions, as the paper's, and a cold start's 0.03 for texels: the projected bake is
-only a rough picture of the cards' final look), a pool of 32 views (each reference view of
-peeled foliage costs several single-layer ones: half the start-up of 64), alpha-tested
-output."""
+"""Where a ``cards`` run's settings start: a smaller share of the input's triangles (the
+paper's trees keep 0.4-0.8 %), 8 depth-peeled layers as the paper peels, squared L2 on
+tone-mapped colour, the large steps of a coarse start (a billboard cloud moves far, and its
+projected bake is only a rough picture of the cards' final look), a pool of 32 views (each
+reference view of peeled foliage costs several single-layer ones), alpha-tested output."""
 
 
 def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
-    """The initial guess of a ``cards`` run: the billboard cloud of ``asset`` with ``count``
-    triangles (``count // 2`` cards) and ``cfg.latent.texture_size`` textures, and plain
-    decimation to the same count as the baseline. Raises ``ConfigError`` for settings that
-    do not apply (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
+    """The billboard cloud of ``asset`` with ``count`` triangles (``count // 2`` cards) and
+    ``cfg.latent.texture_size`` textures, and plain decimation to the same count as the
+    baseline. Raises ``ConfigError`` for settings that do not apply (``io.init_mesh``,
+    ``latent.init`` other than ``"bake"``)."""
     if cfg.io.init_mesh or count is None:
         raise ConfigError("cards starts from its own billboard cloud: io.init_mesh does not apply")
     if cfg.latent.init != "bake":
@@ -73,28 +66,11 @@ CARDS = Application(command="cards", outdir_suffix="-cards", initial_guess=cards
 """``cards``: a billboard cloud, fitted."""
 
 
-def cards(input: str | Path | Asset, outdir: str | Path | None = None, *, triangles: int | None = None,
-          ratio: float | None = None, texture_size: int | None = None, resolution: int | None = None,
-          time_budget: float | None = None, iterations: int | None = None, seed: int | None = None,
-          alpha: str | None = None, config: Config | str | Path | None = None, resume: bool = False,
-          force: bool = False, export_obj: bool | None = None, progress: bool = True,
-          profile: bool = False) -> SimplifyResult:
-    """Approximate the aggregate geometry in ``input`` with alpha-textured cards into ``outdir``.
+def cards(input: str | Path | Asset, outdir: str | Path | None = None, *, config: Config | str | Path | None = None,
+          **keywords) -> RunResult:
+    return run(CARDS, input, outdir, config=config, **keywords)
 
-    Args:
-        input: any file ``lookalike.io.load`` reads, or an ``Asset``.
-        outdir: output folder (default: ``<input name>-cards`` in the current folder).
-        triangles, ratio: target triangle count (two per card), or fraction of the input's
-            (default ``CARDS_RATIO``).
-        alpha: ``"mask"`` (default: alpha-tested at a cutoff the fit chooses) or ``"blend"``.
-        texture_size, resolution, time_budget, iterations, seed, config, resume, force,
-        export_obj, progress, profile: as ``lookalike.jobs.simplify.simplify``; a settings file
-        starts from ``CARDS_DEFAULTS`` where it is silent.
 
-    Raises:
-        ConfigError, AssetError: with a message naming the problem.
-    """
-    options = {"triangles": triangles, "ratio": ratio, "texture_size": texture_size, "resolution": resolution,
-               "iterations": iterations, "seed": seed, "export_obj": export_obj, "alpha_mode": alpha}
-    return run(CARDS, input, outdir, options, time_budget=time_budget, config=config, resume=resume, force=force,
-               progress=progress, profile=profile)
+cards.__doc__ = keywords_doc(CARDS, "Approximate the aggregate geometry in ``input`` with alpha-textured cards "
+                             "into ``outdir``.", ("triangles", "ratio", "texture_size", "resolution", "time_budget",
+                                                  "iterations", "seed", "alpha_mode", "export_obj"))

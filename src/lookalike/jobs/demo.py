@@ -22,7 +22,8 @@ from .. import io
 from ..asset import Asset, Material, Mesh, Texture
 from .cards import cards
 from .shrub import shrub
-from .simplify import SimplifyResult, simplify
+from .run_result import RunResult
+from .simplify import simplify
 
 DEMO_TRIANGLES = 2000
 DEMO_TEXTURE_SIZE = 512
@@ -111,7 +112,7 @@ def demo_asset(triangles: int = 2 * SEGMENTS * SIDES) -> Asset:
 
 
 def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_BUDGET_S, force: bool = False,
-         progress: bool = True) -> SimplifyResult:
+         progress: bool = True) -> RunResult:
     """``simplify`` of ``demo_asset()`` (written to a temporary glTF first, as a user's file
     would be) to ``DEMO_TRIANGLES`` triangles with ``DEMO_TEXTURE_SIZE`` textures and
     ``DEMO_RESOLUTION`` views, within ``time_budget`` seconds, into ``outdir``."""
@@ -123,7 +124,7 @@ def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_B
 
 
 def demo_cards(outdir: str | Path = "lookalike-cards-demo", time_budget: float = DEMO_TIME_BUDGET_S,
-               force: bool = False, progress: bool = True) -> SimplifyResult:
+               force: bool = False, progress: bool = True) -> RunResult:
     """``cards`` of the generated shrub (``lookalike.jobs.shrub``, written to a temporary glTF
     first) to ``DEMO_CARDS_SHARE`` of its triangles, with ``DEMO_TEXTURE_SIZE`` textures and
     ``DEMO_RESOLUTION`` views, within ``time_budget`` seconds, into ``outdir``."""

@@ -38,8 +38,6 @@ from pathlib import Path
 
 from .. import io
 from ..asset import Asset
-from ..fit.config import Config, LatentConfig
-from ..fit.config_file import load_config
 from ..fit.reference import MeshReference, SkinnedReference
 from ..init.initial_guess import target_triangle_count
 from ..init.skin_weights import transfer_skin
@@ -55,9 +53,12 @@ from .judge_scores import (
     judge_models,
 )
 from ..report.map_noise import map_noise
+from ..settings import Config, load_config
 from . import animated
 from .outputs import METRICS_NAME, MODEL_NAME, REPORT_NAME
-from .simplify import BIND_POSE_FOLDER, build_initial_guess, prepare_input
+from .bind_pose import BIND_POSE_FOLDER
+from .input_asset import prepare_input
+from .simplify import build_initial_guess
 
 JUDGE_FOLDER = "judge"
 RESULT_NAME = "judge.json"
@@ -97,22 +98,15 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     started = time.monotonic()
     reference_glb = folder / "reference.glb"
     io.save(input_asset, reference_glb)
-    ratio = cfg.latent.ratio if cfg.latent.ratio is not None else LatentConfig.DEFAULT_RATIO
-    count = target_triangle_count(cfg.latent.triangles, ratio, input_asset.mesh.num_triangles)
+    count = target_triangle_count(cfg.latent.triangles, cfg.latent.ratio, input_asset.mesh.num_triangles)
     paths = write_baselines(folder, input_asset, cfg, count, moving, baselines or {})
     bind_pose = run_dir / BIND_POSE_FOLDER / MODEL_NAME
     if moving and bind_pose.is_file():
         io.save(transfer_skin(input_asset, io.load(bind_pose)), folder / "bind_pose.glb")
         paths["bind_pose"] = folder / "bind_pose.glb"
     seconds["baselines"] = time.monotonic() - started
-    if moving:
-        blender_bake = {"skipped": BLENDER_BAKE_SKIPPED}
-    else:
-        bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, cfg.latent.texture_size)
-        seconds["blender_bake"] = bake.seconds["total"]
-        paths["blender"] = bake.path
-        blender_bake = {"input_triangles": bake.input_triangles, "triangles": bake.triangles,
-                        "texture_size": cfg.latent.texture_size, "seconds": bake.seconds}
+    blender_bake = {"skipped": BLENDER_BAKE_SKIPPED} if moving else \
+        blenders_bake(reference_glb, folder, count, cfg.latent.texture_size, paths, seconds)
     paths["ours"] = run_dir / MODEL_NAME
     models = [JudgedModel(key, LABELS[key], paths[key], io.load(paths[key])) for key in LABELS
               if key in paths and paths[key].exists()]
@@ -135,6 +129,17 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     add_to_metrics(run_dir / METRICS_NAME, result)
     add_judge_section(run_dir / REPORT_NAME, judge_section(result, RENDERERS, f"{JUDGE_FOLDER}/views.png"))
     return result
+
+
+def blenders_bake(reference_glb: Path, folder: Path, count: int, texture_size: int, paths: dict[str, Path],
+                  seconds: dict[str, float]) -> dict:
+    """Blender's own decimate + bake of ``reference_glb`` into ``folder/blender.glb`` (added to
+    ``paths``, its seconds to ``seconds``); ``judge.json``'s ``"blender_bake"``."""
+    bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, texture_size)
+    seconds["blender_bake"] = bake.seconds["total"]
+    paths["blender"] = bake.path
+    return {"input_triangles": bake.input_triangles, "triangles": bake.triangles, "texture_size": texture_size,
+            "seconds": bake.seconds}
 
 
 def write_baselines(folder: Path, input_asset: Asset, cfg: Config, count: int, moving: bool,

@@ -40,7 +40,7 @@ from ..report.pictures import image_grid, to_srgb_uint8
 from ..report.metrics import coverage_union, flip_views, masked_psnr_views
 
 JUDGE_RESOLUTION = 384
-"""Side of the judged pictures in pixels (the issue's)."""
+"""Side of the judged pictures in pixels (the judge's prescribed size)."""
 
 RENDERERS = {"ours": "our renderer", "cycles": "Cycles, shadows", "cycles_no_shadows": "Cycles, no shadows"}
 """Renderer keys of the judged scores, and what tables call them."""

@@ -12,11 +12,13 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
+
 MAX_WALK = 16
 """Most triangles a pixel-pair segment is followed through before it is given up."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _front_side(rast, b, ya, xa, yb, xb):
     """+1 when pixel a is the front of a pair showing different triangles (nearer; any
     triangle is in front of background), -1 when pixel b is, 0 when both show the same."""
@@ -28,7 +30,7 @@ def _front_side(rast, b, ya, xa, yb, xb):
     return 1 if a_in_front else -1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _count_pairs(rast, counts):
     n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     for row in prange(n_views * height):
@@ -42,7 +44,7 @@ def _count_pairs(rast, counts):
         counts[row] = n
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _fill_pairs(rast, starts, front, other, horizontal):
     n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
     for row in prange(n_views * height):
@@ -64,7 +66,7 @@ def _fill_pairs(rast, starts, front, other, horizontal):
                 k += 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy):
     """Parameter ``s`` at which the segment ``F + s (O - F)`` crosses the line of edge ``k``
     of triangle ``t``: ``e(F) / (e(F) - e(O))`` with ``e(p) = (v_i x v_j) . (p, 1)``; inf
@@ -82,7 +84,7 @@ def _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy):
     return e_f / (e_f - e_o)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, hit_tri, hit_edge):
     for m in prange(front.shape[0]):
         hit_tri[m] = -1
@@ -135,8 +137,8 @@ def outline_crossings(
         neighbour: ``[T, 3]`` int64 triangle across each edge (see ``EdgeTopology``).
         opposite: ``[T, 3]`` int64 far vertex of the triangle across each edge (-1: none; see
             ``EdgeTopology``), for the silhouette test of the edges the walk crosses
-            (``_is_silhouette``; only those: a 4-million-triangle view's walks cross a few
-            hundred thousand edges, testing all 12 million took 0.17 s).
+            (``_is_silhouette``; only those, because a large view's walks cross a small share
+            of its edges).
 
     Returns:
         ``(front [M], other [M], horizontal [M], edge_tri [M], edge [M])``: flat pixel
@@ -162,7 +164,7 @@ def outline_crossings(
     return front[hit], other[hit], horizontal[hit], hit_tri[hit], hit_edge[hit]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _is_silhouette(xyw, tri, opposite, t, k):
     """Is edge ``k`` of triangle ``t`` (opposite vertex ``k``) a silhouette edge in a view with
     clip-space ``xyw [V, 3]`` ``(x, y, w)``? It is when it has no neighbour (``opposite [T, 3]``
@@ -177,7 +179,7 @@ def _is_silhouette(xyw, tri, opposite, t, k):
     return (other > 0) == (own > 0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _edge_side(vi, vj, v):
     """``(vi x vj) . v`` for ``(x, y, w)`` vectors: the homogeneous side of the line through
     ``vi`` and ``vj`` that ``v`` lies on (``c_k . v`` of ``_is_silhouette``)."""

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 
-@njit(cache=True, parallel=True)
+
+@njit(cache=CACHE, parallel=True)
 def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
     """Fill ``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]``.
 
@@ -46,7 +48,7 @@ def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
             rast_db[b, iy, ix, 3] = (coef[b, t, 4] - v * coef[b, t, 7]) / s * ky
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
     """Accumulate into ``grad_coef [B, T, 9]`` (zeroed) the gradient of
     :func:`barycentrics_forward` given ``grad_rast [B,H,W,4]`` (channels 0, 1 used) and
@@ -104,7 +106,7 @@ def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
                 grad_coef[b, t, 8] += g_s
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def triangle_coefficients_forward(xyw, tri, shown, coef):
     """Fill ``coef [B, T, 9]`` with ``(c_0, c_1, c_0 + c_1 + c_2)``, ``c_i = v_j x v_k``
     (``(i, j, k)`` cyclic) of the vertices ``v = xyw[b, tri[t]]`` (``(x, y, w)``, ``xyw [B, V, 3]``,
@@ -132,7 +134,7 @@ def triangle_coefficients_forward(xyw, tri, shown, coef):
             coef[b, t, 8] += cw
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def shown_triangles(tri_id, shown):
     """Set ``shown[b, t]`` (``[B, T]`` bool, cleared by the caller) for every triangle ``t``
     that a pixel of view ``b`` shows (``tri_id [B, H, W]`` int32, triangle + 1, 0 = none)."""

@@ -12,14 +12,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 
-@njit(cache=True, inline="always")
+
+@njit(cache=CACHE, inline="always")
 def _pixel(pixels, every, i):
     """Flat pixel index of list entry ``i`` (``i`` itself when the list is every pixel)."""
     return np.int64(i) if every else pixels[i]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def interpolate_forward(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, out, out_da):
     """Fill ``out [N, C]`` with ``u a_0 + v a_1 + (1-u-v) a_2`` and ``out_da [N, 2D]`` with
     ``(dA/dX, dA/dY)`` of channels ``diff [D]``: ``dA/dX = (a_0-a_2) du/dX + (a_1-a_2) dv/dX``,
@@ -50,7 +52,7 @@ def interpolate_forward(attr, tri, rast, rast_db, diff, pixels, every, pixels_pe
             out_da[i, 2 * k + 1] = da_du * rast_db[p, 1] + da_dv * rast_db[p, 3]
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da, target,
                   grad_rast, grad_db, start, end):
     """:func:`interpolate_backward` for list entries ``start .. end-1``, attribute gradients
@@ -96,7 +98,7 @@ def _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view
             target[ab, i2, ch] -= g0 + g1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def interpolate_backward(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da,
                          grad_attr, grad_rast, grad_db, n_chunks):
     """Gradients of :func:`interpolate_forward` for ``grad_out [N, C]`` and ``grad_da [N, 2D]``:

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 
-@njit(cache=True, inline="always")
+
+@njit(cache=CACHE, inline="always")
 def _span(i, n_in, n_out):
     return (i * n_in) // n_out, ((i + 1) * n_in + n_out - 1) // n_out
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def downsample(table, src, h, w, dst, h2, w2, n_views):
     """Write level ``dst`` (``h2 x w2``, starting at row ``dst``) as the area average of
     level ``src`` (``h x w``) of the same ``table [N, C]``."""
@@ -39,7 +41,7 @@ def downsample(table, src, h, w, dst, h2, w2, n_views):
                 table[out, ch] = acc * scale
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _covering(i, n_in, n_out):
     """First and one-past-last output texel whose span contains input texel ``i``."""
     first = max(0, (i * n_out) // n_in - 1)
@@ -51,7 +53,7 @@ def _covering(i, n_in, n_out):
     return first, last
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def downsample_adjoint(grad, src, h, w, dst, h2, w2, n_views):
     """Add to level ``src`` of ``grad [N, C]`` the adjoint of :func:`downsample` applied to
     level ``dst``: each input texel gathers ``g / area`` from every output texel whose span

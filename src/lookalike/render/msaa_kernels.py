@@ -13,8 +13,10 @@ from __future__ import annotations
 
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 
-@njit(cache=True, parallel=True)
+
+@njit(cache=CACHE, parallel=True)
 def covered_sample_index(ids, u, factor, out):
     """``out [B, H, W]`` (int64) = flat index into ``[B, H f, W f]`` of the sample pixel
     ``(b, y, x)`` is shaded at: of the ``k`` samples of its ``f x f`` block with ``ids > 0``
@@ -47,17 +49,17 @@ def covered_sample_index(ids, u, factor, out):
             out[b, y, x] = (b * high + y * factor + sy) * wide + x * factor + sx
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def scatter_rows(values, index, out):
     """``out[index[i]] = values[i]`` for ``values [N, C]`` and distinct ``index [N]`` (``out``
-    zeroed by the caller): the gradient of reading rows ``index`` of ``out``'s shape (torch's
-    serial ``index_add_`` takes 7 ms for 262k rows of 4 into 1M)."""
+    zeroed by the caller): the gradient of reading rows ``index`` of ``out``'s shape, in
+    parallel because torch's ``index_add_`` runs serially."""
     for i in prange(index.shape[0]):
         for ch in range(values.shape[1]):
             out[index[i], ch] = values[i, ch]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def upsample_over_forward(accum, colour, ids, factor, out):
     """``out [B, H f, W f, 4]`` = ``accum + a (c - accum)`` per sample, with ``c = (rgb, 1)`` of
     the sample's pixel in ``colour [B, H, W, 4]`` (straight alpha) and ``a`` its alpha where
@@ -77,7 +79,7 @@ def upsample_over_forward(accum, colour, ids, factor, out):
                     out[b, hy, hx, 3] = accum[b, hy, hx, 3] + a * (1.0 - accum[b, hy, hx, 3])
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def upsample_over_backward(accum, colour, ids, factor, grad_out, grad_accum, grad_colour):
     """Gradients of :func:`upsample_over_forward`: ``grad_accum = (1 - a) grad_out`` per
     sample; ``grad_colour[..., :3]`` sums ``a grad_out[..., :3]`` over the pixel's samples and

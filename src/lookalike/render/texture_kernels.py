@@ -22,12 +22,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
+
 NEAREST, LINEAR, MIP_NEAREST, MIP_LINEAR = 0, 1, 2, 3
 WRAP, CLAMP, ZERO = 0, 1, 2
 _TINY = 1e-30  # footprints below this give level -inf (clamped to 0), with zero gradient
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _resolve(i, n, boundary):
     """``(index, inside)`` along one axis after the boundary rule; in ``ZERO`` mode an
     outside texel gets index 0 and ``inside = 0.0`` (it reads as 0)."""
@@ -40,7 +42,7 @@ def _resolve(i, n, boundary):
     return 0, 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _bilinear_taps(table_base, u, v, h, w, boundary):
     """Table rows of the four bilinear taps ``(i00, i01, i10, i11)`` (row, column offsets
     ``(0,0), (0,1), (1,0), (1,1)``), their inside masks ``(m00, m01, m10, m11)`` and the
@@ -62,7 +64,7 @@ def _bilinear_taps(table_base, u, v, h, w, boundary):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
     """``(L, raw, lam)``: the clamped level, the unclamped one and ``lambda_max``."""
     raw = 0.0
@@ -81,7 +83,7 @@ def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
     return level if level < top else float(top), raw, lam
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _bilinear_add(table, base, h, w, u, v, boundary, weight, out, p):
     """``out[p] += weight * bilinear(level starting at table row base)``."""
     i00, i01, i10, i11, m00, m01, m10, m11, fx, fy = _bilinear_taps(base, u, v, h, w, boundary)
@@ -93,7 +95,7 @@ def _bilinear_add(table, base, h, w, u, v, boundary, weight, out, p):
         out[p, ch] += w00 * table[i00, ch] + w01 * table[i01, ch] + w10 * table[i10, ch] + w11 * table[i11, ch]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _bilinear_backward(table, base, h, w, u, v, boundary, weight, grad_out, p, grad_table):
     """Accumulate ``weight * d bilinear / d texels`` into ``grad_table``; return ``(g_u,
     g_v, g_value)``: gradients of ``weight * bilinear`` to ``u`` and ``v``, and ``sum_ch
@@ -125,7 +127,7 @@ def _bilinear_backward(table, base, h, w, u, v, boundary, weight, grad_out, p, g
     return weight * g_x * w, weight * g_y * h, g_value
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
     """``grad_uv_da[p] = g_raw * d(0.5 log2 lambda_max)/d uv_da``."""
     dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
@@ -147,7 +149,7 @@ def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
     grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _mip_pair(mode, lvl, top):
     """``(level, frac)`` of a lookup at mip level ``lvl`` (clamped to [0, top]): the finer
     level read and the weight of the next coarser one, which is 0 for ``MIP_NEAREST`` (the
@@ -160,7 +162,7 @@ def _mip_pair(mode, lvl, top):
     return 0, 0.0
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary, out):
     """``out [P, C]`` (zeroed) = filtered lookups at ``uv [P, 2]``.  ``uv_da [P, 4]`` and
     ``bias [P]`` may have 0 rows (absent); ``per_view``: the table holds one texture per
@@ -190,7 +192,7 @@ def texture_forward(table, heights, widths, offsets, per_view, pixels_per_view, 
             _bilinear_add(table, offsets[level + 1] + view * h * w, h, w, u, v, boundary, frac, out, p)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _all_zero(grad_out, p):
     for ch in range(grad_out.shape[1]):
         if grad_out[p, ch] != 0.0:
@@ -198,7 +200,7 @@ def _all_zero(grad_out, p):
     return True
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _backward_pixels(
     table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
     grad_out, target, grad_uv, grad_uv_da, grad_bias, start, end,
@@ -245,7 +247,7 @@ def _backward_pixels(
         grad_uv[p, 1] = g_v
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def texture_backward(
     table, heights, widths, offsets, per_view, pixels_per_view, uv, uv_da, bias, mode, boundary,
     grad_out, grad_table, grad_uv, grad_uv_da, grad_bias, n_chunks,

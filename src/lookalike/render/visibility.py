@@ -36,6 +36,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
+
 TILE = 32
 """Side of a screen tile in pixels."""
 
@@ -43,7 +45,7 @@ _CHUNKS = 16
 """Triangle chunks binned in parallel (per view)."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _edge_and_depth_planes(pos, b, i0, i1, i2, width, height, planes):
     """Edge functions and depth of one triangle as affine functions of the pixel index.
 
@@ -88,7 +90,7 @@ def _edge_and_depth_planes(pos, b, i0, i1, i2, width, height, planes):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _outside_one_plane(pos, b, i0, i1, i2):
     """True when all three vertices lie outside the same clip plane (``x > w``, ``x < -w``,
     ``y > w``, ``y < -w``, ``z > w``, ``z < -w``): then no point of the triangle is visible."""
@@ -105,7 +107,7 @@ def _outside_one_plane(pos, b, i0, i1, i2):
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _pixel_range(xmin, xmax, ymin, ymax, width, height):
     """Inclusive pixel-index box ``(x0, x1, y0, y1)`` of the pixels whose centre (pixel
     coordinate ``ix``) lies in ``[xmin, xmax] x [ymin, ymax]``, clipped to the image."""
@@ -117,7 +119,7 @@ def _pixel_range(xmin, xmax, ymin, ymax, width, height):
     )
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _triangle_bbox(pos, b, i0, i1, i2, width, height):
     """Inclusive pixel-index bounding box ``(x0, x1, y0, y1)`` of the visible part of a
     triangle; empty (``x0 > x1``) when culled.
@@ -178,7 +180,7 @@ _FRONT = 64
 """Bit of ``project_vertices``'s codes: the vertex is in front of the eye and the near plane."""
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def project_vertices(pos, width, height):
     """Per view and vertex, what ``_triangle_bbox`` needs, computed once instead of once per
     triangle (a vertex is shared by about six): ``(screen [B, V, 2] float64, code [B, V]
@@ -209,7 +211,7 @@ def project_vertices(pos, width, height):
     return screen, code
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _projected_bbox(pos, screen, code, b, i0, i1, i2, width, height):
     """``_triangle_bbox`` from ``project_vertices``'s output: the same box, bit for bit (the
     general clipping path where a vertex is not in front)."""
@@ -223,7 +225,7 @@ def _projected_bbox(pos, screen, code, b, i0, i1, i2, width, height):
     return _triangle_bbox(pos, b, i0, i1, i2, width, height)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
     """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
     ``x0..x1, y0..y1`` and keep it where it is nearest: ``depth`` (float32 z/w) and
@@ -253,7 +255,7 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
                 tri_id[b, iy, ix] = t + 1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _rasterize_views(pos, screen, code, tri, tri_begin, tri_end, width, height, min_depth, tri_id, depth):
     """One view per parallel job: each walks its triangles in ascending order (so with the
     strict depth test the lower index wins ties).  Used when there are at least as many
@@ -266,7 +268,7 @@ def _rasterize_views(pos, screen, code, tri, tri_begin, tri_end, width, height, 
                 _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height):
     """Bound each view's triangles and bin them into screen tiles.
 
@@ -319,7 +321,7 @@ def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height):
     return bbox, bin_start, bin_tris
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth):
     """One screen tile of one view per parallel job, drawing the triangles binned to it
     (ascending order, so the lower index wins ties).  Used for fewer views than threads."""

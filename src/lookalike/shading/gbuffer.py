@@ -27,7 +27,7 @@ class MeshBuffers:
     Attributes (V vertices, VN normal slots, T triangles, B views):
         mesh: the source mesh.
         tri: ``[T, 3]`` int64 position triangles (the rasterizer takes int32 too, but converts
-            it on every call: 0.12 s per view of a 4-million-triangle reference).
+            it on every call, which costs a noticeable share of a large reference's view).
         clip: ``[B, V, 4]`` clip-space positions (``None`` in ``without_camera``'s buffers).
         v_nrm: ``[VN, 3]`` shading normals (``Mesh.normals``: authored, or split smooth normals
             of the current positions).

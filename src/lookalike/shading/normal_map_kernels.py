@@ -22,10 +22,12 @@ import math
 
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
+
 _EPS = 1e-20  # safe_normalize's floor of |x|^2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _normalize(x, y, z):
     """``(x, y, z) q`` with ``q = 1 / sqrt(max(|.|^2, eps))``: returns the three components,
     ``q`` and whether the floor was not hit (1.0/0.0)."""
@@ -38,7 +40,7 @@ def _normalize(x, y, z):
     return x * q, y * q, z * q, q, inside
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _normalize_backward(ux, uy, uz, q, inside, gx, gy, gz):
     """Gradient to ``x`` of ``u = normalize(x)`` for ``g = dL/du``: ``q (g - u (u.g))`` (the
     projection only where the floor was not hit)."""
@@ -46,7 +48,7 @@ def _normalize_backward(ux, uy, uz, q, inside, gx, gy, gz):
     return q * (gx - ux * dot), q * (gy - uy * dot), q * (gz - uz * dot)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _frame(normal, tangent, tangent_space, mapped, p):
     """The forward quantities of one point up to the mapped normal ``m``: ``(n, q_n, in_n, t',
     q_t, in_t, sign, mm, q_m, in_m, m)`` with vectors as 3-tuples (``t'`` and ``mm`` zero where
@@ -66,7 +68,7 @@ def _frame(normal, tangent, tangent_space, mapped, p):
     return (nx, ny, nz), qn, in_n, (px, py, pz), qt, in_t, sign, (mx, my, mz), qm, in_m, (ux, uy, uz)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def shading_normal_forward(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend, out):
     """``out [N, 3]`` = the shading normals above for ``normal, geometric, view_dir [N, 3]``,
     ``tangent [N, 4]``, ``tangent_space [N, 3]`` (read where ``mapped [N]`` bool), ``facing [N]``
@@ -84,7 +86,7 @@ def shading_normal_forward(normal, tangent, tangent_space, mapped, geometric, vi
         out[p, 2] = oz
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def shading_normal_backward(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend, grad_out,
                             grad_normal, grad_tangent, grad_tangent_space, grad_geometric, grad_view_dir):
     """Gradients of :func:`shading_normal_forward` for ``grad_out [N, 3]``: overwrite every row

@@ -210,8 +210,8 @@ def box_downsample(image: torch.Tensor, factor: int) -> torch.Tensor:
     """Average ``factor x factor`` blocks of ``image [B, H*factor, W*factor, C]`` -> ``[B, H, W, C]``."""
     if factor == 1:
         return image
-    # avg_pool2d on the channels-last view: 4x faster than a mean over the reshaped blocks'
-    # dims, and its backward 2-3x (on 1024^2 x 4 at 2 x 2: 3.6 ms + 5.6 ms against 14 + 11-18).
+    # avg_pool2d on the channels-last view, because it is several times faster each way than a
+    # mean over the reshaped blocks' dims (figures in docs/benchmarks.md).
     return F.avg_pool2d(image.permute(0, 3, 1, 2), factor).permute(0, 2, 3, 1)
 
 
@@ -317,9 +317,9 @@ are built once. Larger maps are stacked again for each render, as a latent's are
 class FixedAsset:
     """An asset that never changes (a reference), rendered as the asset is (it has its
     ``mesh``, ``materials`` and ``source``), with what every view of it shares computed once:
-    ``MeshBuffers.without_camera`` and the antialiasing topology (on a 1-million-triangle input
-    these were 40 % of each view's capture), and the texture stacks with their mip pyramids
-    (a fifth of each pool refresh of the flight helmet).
+    ``MeshBuffers.without_camera``, the antialiasing topology and the texture stacks with their
+    mip pyramids, because rebuilding them for every view was a large share of each capture and
+    each pool refresh (``docs/benchmarks.md``).
 
     Attributes:
         asset: the asset; buffers: its ``MeshBuffers`` without a camera; topology: its

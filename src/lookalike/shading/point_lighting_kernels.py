@@ -19,12 +19,13 @@ import math
 
 from numba import njit, prange
 
+from ..kernel_cache import CACHE
 from .bsdf import COSINE_EPSILON, DIELECTRIC_F0, MIN_ROUGHNESS
 
 _TINY = 1e-12  # the floor of |o|^2 and |v + l|^2, as in the torch twin
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _clamp(x, low, high):
     """``(clamp(x, low, high), 1.0 where low <= x <= high else 0.0)``."""
     if x < low:
@@ -34,7 +35,7 @@ def _clamp(x, low, high):
     return x, 1.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _light(x, light_pos, p, b):
     """``(o, d2, inside, rinv)``: offset to the light ``o [3]`` as a tuple, the clamped squared
     distance, whether the clamp passed (1.0/0.0) and ``1 / sqrt(d2)``."""
@@ -45,7 +46,7 @@ def _light(x, light_pos, p, b):
     return ox, oy, oz, d2, inside, 1.0 / math.sqrt(d2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _half(vx, vy, vz, lx, ly, lz):
     """``(h, |v+l|^2 clamp passed, 1/sqrt(clamped |v+l|^2))`` with ``h`` as three floats."""
     hx, hy, hz = vx + lx, vy + ly, vz + lz
@@ -54,7 +55,7 @@ def _half(vx, vy, vz, lx, ly, lz):
     return hx * hinv, hy * hinv, hz * hinv, inside, hinv
 
 
-@njit(cache=True, inline="always")
+@njit(cache=CACHE, inline="always")
 def _point(ks, normal, view_dir, position, geometric, light_pos, horizon, p, b):
     """Everything the radiance of point ``p`` under light ``b`` needs besides its base colour:
     ``(below, (o, d2, d2 clamp passed, 1/sqrt(d2)), l, n, v, h, |v+l|^2 clamp passed, 1/|v+l|,
@@ -84,7 +85,7 @@ def _point(ks, normal, view_dir, position, geometric, light_pos, horizon, p, b):
             (ks[p, 0], ks[p, 2], rough, rough_inside, a2), (den, dist, root_v, root_l, vis, (1.0 - vh) ** 5))
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _forward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out, start, end):
     """:func:`lit_radiance_forward` for points ``start .. end-1``."""
     shared = light_pos.shape[0] == 1
@@ -110,7 +111,7 @@ def _forward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos,
 
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def lit_radiance_forward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, out, runs):
     """``out [N, 3]`` = the radiance above for ``kd, ks, normal, view_dir, position, geometric
     [N, 3]`` and ``view [N]`` int64 (the light of each point: ``light_pos [L, 3]``,
@@ -122,7 +123,7 @@ def lit_radiance_forward(kd, ks, normal, view_dir, position, geometric, view, li
                      run * n // runs, (run + 1) * n // runs)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _backward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
                   grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity, start, end):
     """:func:`lit_radiance_backward` for points ``start .. end-1``."""
@@ -215,7 +216,7 @@ def _backward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos
         grad_position[p, 2] = -(glz * rinv + g_o2 * oz)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=CACHE, parallel=True)
 def lit_radiance_backward(kd, ks, normal, view_dir, position, geometric, view, light_pos, intensity, horizon, grad_out,
                           grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity, runs):
     """Gradients of :func:`lit_radiance_forward` for ``grad_out [N, 3]``: overwrite every row of

@@ -126,9 +126,3 @@ class TextureSampler:
             for i, part in zip(members, torch.split(out, channels, dim=-1)):
                 values[i] = part
         return values
-
-
-def sample_texture(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None = None) -> torch.Tensor:
-    """``[N, C]`` values of one texture at ``uv [N, 2]`` (with ``uv_da [N, 4]``: trilinear),
-    whatever its UV set (see ``TextureSampler.sample``)."""
-    return TextureSampler().sample([texture], lambda _: (uv, uv_da), uv.shape[0])[0]

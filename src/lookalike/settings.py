@@ -1,7 +1,7 @@
-"""Every setting of a run, with all defaults in one place.
+"""Every setting of a run, each default written once, and their TOML form.
 
 A run is described by :class:`Config`, a tree of small dataclasses that maps one to one onto
-a TOML file (one table per section; ``lookalike.fit.config_file`` reads and writes it)::
+a TOML file (one table per section)::
 
     [latent]
     triangles = 1500
@@ -11,17 +11,31 @@ a TOML file (one table per section; ``lookalike.fit.config_file`` reads and writ
     time_budget = 600.0
 
 ``None`` means "not set". Every run writes its complete configuration to
-``OUTDIR/config.toml``; passing that file back with ``--config`` repeats the run.
+``OUTDIR/config.toml``; passing that file back with ``--config`` repeats the run. An
+application (``lookalike.jobs.run.Application``) starts from its own ``Config``; the command
+line's help and the API's docstrings state the defaults by reading them from there
+(``setting_help``), so that what they say is what a run uses.
+
+This module imports no torch (an import-linter contract checks it), so that the command line
+and the settings files work without loading the numerical stack.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
+import tomllib
+import types
+import typing
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from pathlib import Path
+from typing import Any, NamedTuple
 
-from ..errors import ConfigError
-from ..limits import (
+import tomli_w
+
+from .errors import ConfigError
+from .limits import (
     MAX_LAYERS,
     MAX_POOL_BYTES,
     MAX_RESOLUTION,
@@ -30,11 +44,9 @@ from ..limits import (
     MAX_TEXTURE_SIZE,
     MAX_VIEWS,
 )
-from .loop import LoopSettings
-from .losses import IMAGE_LOSSES
-from .objective import Objective
 
-LOSSES = tuple(IMAGE_LOSSES)
+LOSSES = ("l1-tonemapped", "l2-tonemapped", "l2", "smape", "relative-l2")
+"""The image losses ``optim.loss`` names (``lookalike.fit.losses.IMAGE_LOSSES``)."""
 INITS = ("bake", "source", "average", "random")
 WARM_INITS = ("bake", "source")
 ALPHA_EXPORTS = ("auto", "mask", "blend")
@@ -64,9 +76,9 @@ class LatentConfig:
     """The low-poly model being optimised.
 
     Attributes:
-        triangles: target triangle count of the decimated initial mesh.
-        ratio: target count as a fraction of the input's (used when ``triangles`` is unset);
-            when both are unset, ``DEFAULT_RATIO``.
+        triangles: target triangle count of the initial mesh; where set, ``ratio`` is ignored
+            (and setting it through options or a file clears ``ratio``).
+        ratio: target count as a fraction of the input's (used where ``triangles`` is unset).
         texture_size: side S of the square base colour, specular and normal textures.
         init: how the textures start: ``"bake"`` (a fresh atlas with the classic projection
             bake of the input, ``lookalike.init.projection_bake``: normals, colours and specular from rays
@@ -96,10 +108,8 @@ class LatentConfig:
             (``lookalike.jobs.alpha_export``).
     """
 
-    DEFAULT_RATIO = 0.02
-
     triangles: int | None = None
-    ratio: float | None = None
+    ratio: float | None = 0.02
     texture_size: int = 1024
     init: str = "bake"
     texture_scales: tuple[float, float, float, float] = (0.25, 0.25, 0.25, 0.25)
@@ -153,15 +163,14 @@ class ViewsConfig:
         refresh_triangles: inputs of up to this many triangles refresh a view every
             ``refresh_every`` steps; larger ones proportionally less often
             (``refresh_interval``), so that refreshing costs about the same per step at any
-            size (a render's cost grows with the input: 0.25 s at 100k triangles, seconds at
-            4 million; issue 15). A count, not a clock, so that runs stay reproducible.
+            size (a render's cost grows with the input). A count, not a clock, so that runs
+            stay reproducible.
         relight: keep each pool camera's G-buffer instead of its image and light it again
             with a fresh random light whenever it is drawn (``lookalike.shading.relight``):
             lights keep varying, and the reference's triangles are touched once per camera.
-            Off by default: it trains no better (held-out PSNR 39.16 against 39.21 on nefertiti
-            in 4-minute runs, 29.15 against 29.23 dB on the flight helmet in 200 steps), and
-            with ``refresh_triangles`` the step's cost is bounded either way (since lighting is
-            compiled the two cost the same: 0.255 against 0.257 s per helmet step).
+            Off by default: it trains no better than stored images at the same cost
+            (``docs/benchmarks.md``), and with ``refresh_triangles`` the step's cost is
+            bounded either way.
         heldout: views of the report, drawn from ``heldout_seed`` and never trained on.
         heldout_seed: seed of the held-out views (fixed so that runs stay comparable).
         validation: views, drawn from ``validation_seed`` and never trained on, on which the
@@ -272,7 +281,7 @@ class ClampConfig:
 
 @dataclass
 class Config:
-    """One ``simplify`` run."""
+    """Every setting of one run, of any application."""
 
     io: IOConfig = field(default_factory=IOConfig)
     latent: LatentConfig = field(default_factory=LatentConfig)
@@ -288,7 +297,7 @@ class Config:
             (lat.triangles is None or lat.triangles > 0,
              f"target triangle count must be positive, got {lat.triangles} (latent.triangles)"),
             (lat.ratio is None or 0.0 < lat.ratio < 1.0, f"latent.ratio must lie in (0, 1), not {lat.ratio}"),
-            (lat.triangles is None or lat.ratio is None, "give latent.triangles or latent.ratio, not both"),
+            (lat.triangles is not None or lat.ratio is not None, "give latent.triangles or latent.ratio"),
             (4 <= lat.texture_size <= MAX_TEXTURE_SIZE,
              f"latent.texture_size (--texture-size) must lie in [4, {MAX_TEXTURE_SIZE}], not {lat.texture_size}"),
             (lat.init in INITS, f"latent.init must be one of {', '.join(INITS)}, not {lat.init!r}"),
@@ -396,25 +405,6 @@ def outline_views(config: Config) -> int:
     return start_defaults(config).outline_views
 
 
-def loop_settings(config: Config, outline: bool) -> LoopSettings:
-    """The loop's settings for ``config``: learning rates of the ``"positions"``,
-    ``"textures"``, ``"emissive"`` and ``"weights"`` groups, and the outline views per step on top of the batch where
-    ``outline`` (a latent whose coverage is geometry's alone), at most the pool's views besides
-    the batch."""
-    opt, views = config.optim, config.views
-    lr_positions, lr_textures = learning_rates(config)
-    count = outline_views(config) if outline else 0
-    if views.pool_size:
-        count = min(count, views.pool_size - views.batch_size)
-    lr_emissive = lr_textures if opt.lr_emissive is None else opt.lr_emissive
-    return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive,
-                                        "weights": opt.lr_weights},
-                        views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
-                        lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
-                        validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,
-                        max_rollbacks=opt.max_rollbacks)
-
-
 def refresh_interval(config: Config, input_triangles: int) -> int:
     """Steps between refreshes of the view pool for an input of ``input_triangles``:
     ``refresh_every * max(1, input_triangles * render.layers / refresh_triangles)``, rounded
@@ -425,10 +415,158 @@ def refresh_interval(config: Config, input_triangles: int) -> int:
     drawn = input_triangles * config.render.layers
     return math.ceil(every * max(1.0, drawn / config.views.refresh_triangles)) if every else 0
 
+def parse_duration(text: str | float) -> float:
+    """Seconds in ``"90"``, ``"90s"``, ``"10m"``, ``"1h"``, ``"1h30m"`` or a number.
 
-def objective(config: Config) -> Objective:
-    """The objective of ``config``: its image loss, outline weight and Laplacian schedule."""
-    opt = config.optim
-    return Objective(opt.loss, config.views.batch_size, outline_weight=opt.outline_weight,
-                     regularizer_weight=opt.laplacian_weight, min_fraction=opt.laplacian_min_fraction,
-                     decay_fraction=opt.laplacian_decay_fraction)
+    Raises ``ConfigError`` for anything else or for a duration that is not positive.
+    """
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        seconds = float(text)
+    else:
+        s = str(text).strip().lower()
+        parts = re.fullmatch(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?", s)
+        if not s or parts is None:
+            raise ConfigError(f"cannot read the duration {text!r}: use e.g. 90, 90s, 10m or 1h")
+        h, m, sec = (float(p) if p else 0.0 for p in parts.groups())
+        seconds = 3600 * h + 60 * m + sec
+    if not math.isfinite(seconds) or seconds <= 0:
+        raise ConfigError(f"the duration {text!r} must be positive")
+    return seconds
+
+
+def config_to_dict(config: Config) -> dict[str, dict[str, Any]]:
+    """Nested plain dict of ``config`` without ``None`` values (tuples become lists), and
+    without ``latent.ratio`` where ``latent.triangles`` is set."""
+    out = {}
+    if config.latent.triangles is not None:  # the count it names wins: the ratio is not used
+        config = dataclasses.replace(config, latent=dataclasses.replace(config.latent, ratio=None))
+    for section in dataclasses.fields(config):
+        values = dataclasses.asdict(getattr(config, section.name))
+        out[section.name] = {k: list(v) if isinstance(v, tuple) else v for k, v in values.items() if v is not None}
+    return out
+
+
+def to_toml(config: Config) -> str:
+    """The TOML text of ``config`` (every setting, defaults included)."""
+    return tomli_w.dumps(config_to_dict(config))
+
+
+def config_from_dict(data: dict[str, Any], base: Config | None = None, origin: str = "configuration") -> Config:
+    """``base`` (default: all defaults) with the values of ``{section: {key: value}}`` applied.
+
+    Raises ``ConfigError`` naming ``origin`` for an unknown section or key or a value of
+    the wrong type; the result is validated.
+    """
+    config = dataclasses.replace(base) if base is not None else Config()
+    if isinstance(data.get("latent"), dict):
+        config = _one_count(config, data["latent"], origin)
+    sections = {f.name: f for f in dataclasses.fields(Config)}
+    for name, values in data.items():
+        if name not in sections:
+            raise ConfigError(f"{origin}: unknown section [{name}]; known: {', '.join(sections)}")
+        if not isinstance(values, dict):
+            raise ConfigError(f"{origin}: [{name}] must be a table")
+        current = getattr(config, name)
+        setattr(config, name, _apply(current, values, f"{origin}: [{name}]"))
+    return config.validate()
+
+
+def _apply(section, values: dict[str, Any], where: str):
+    """A copy of the dataclass ``section`` with ``values`` set, each checked against its field's type."""
+    hints = typing.get_type_hints(type(section))
+    known = [f.name for f in dataclasses.fields(section)]
+    changes = {}
+    for key, value in values.items():
+        if key not in known:
+            raise ConfigError(f"{where}: unknown key {key!r}; known: {', '.join(known)}")
+        changes[key] = _coerce(key, value, hints[key], where)
+    return dataclasses.replace(section, **changes)
+
+
+def _coerce(key: str, value: Any, hint: Any, where: str) -> Any:
+    """``value`` checked against the annotation ``hint`` (ints are accepted for floats)."""
+    if key == "time_budget":
+        return parse_duration(value)
+    options = typing.get_args(hint) if typing.get_origin(hint) in (types.UnionType, typing.Union) else (hint,)
+    if value is None and type(None) in options:
+        return None
+    for option in options:
+        if typing.get_origin(option) is tuple:
+            n = len(typing.get_args(option))
+            if isinstance(value, (list, tuple)) and len(value) == n and all(_is_number(v) for v in value):
+                return tuple(float(v) for v in value)
+        elif option is float and _is_number(value):
+            return float(value)
+        elif option in (int, str, bool) and type(value) is option:
+            return value
+    raise ConfigError(f"{where}: {key} = {value!r} has the wrong type (expected {hint})")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def load_config(path: str | Path, defaults: Config | None = None) -> Config:
+    """Read a run's TOML file; missing settings keep those of ``defaults`` (default: ``Config()``).
+    A file that sets ``latent.triangles`` clears the defaults' ``ratio`` and vice versa."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such configuration file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path}: not a valid TOML file: {e}") from None
+    return config_from_dict(data, base=defaults or Config(), origin=str(path))
+
+
+def _one_count(config: Config, latent: dict[str, Any], origin: str) -> Config:
+    """``config`` with ``latent.ratio`` cleared where ``latent`` (settings about to be applied)
+    sets ``triangles``, and ``latent.triangles`` cleared where it sets ``ratio``; ``ConfigError``
+    naming ``origin`` where it sets both."""
+    if latent.get("triangles") is not None and latent.get("ratio") is not None:
+        raise ConfigError(f"{origin}: give latent.triangles or latent.ratio, not both")
+    cleared = {other: None for key, other in (("triangles", "ratio"), ("ratio", "triangles"))
+               if latent.get(key) is not None}
+    return dataclasses.replace(config, latent=dataclasses.replace(config.latent, **cleared)) if cleared else config
+
+
+def with_overrides(base: Config | str | Path | None, defaults: Config | None = None, **overrides: Any) -> Config:
+    """``base`` (a ``Config``, a TOML file, or ``None`` for ``defaults``, themselves by default
+    ``Config()``; a file's missing settings keep those of ``defaults``) with the non-``None``
+    ``overrides`` applied, each named after a field of one section (``triangles`` sets
+    ``latent.triangles``; command-line options and keyword arguments map this way). Setting
+    ``triangles`` clears a configured ``ratio`` and vice versa. Validated."""
+    config = load_config(base, defaults) if isinstance(base, (str, Path)) \
+        else dataclasses.replace(base or defaults or Config())
+    changes: dict[str, dict[str, Any]] = {}
+    for key, value in overrides.items():
+        if value is not None:
+            changes.setdefault(section_of(key), {})[key] = value
+    return config_from_dict(changes, base=config, origin="options")
+
+
+def section_of(key: str) -> str:
+    """The section of ``Config`` that holds the setting ``key`` (``"texture_size"`` ->
+    ``"latent"``); ``KeyError`` for an unknown key. Setting names are unique across sections,
+    so that options and keyword arguments can name them alone."""
+    return _SECTIONS[key]
+
+
+def setting_value(config: Config, key: str) -> Any:
+    """The value of the setting ``key`` in ``config``."""
+    return getattr(getattr(config, section_of(key)), key)
+
+
+def setting_help(key: str) -> str:
+    """The first sentence of the setting ``key``'s description in its section's docstring
+    (``Attributes:``), for ``--help`` texts and generated docstrings."""
+    doc = type(getattr(Config(), section_of(key))).__doc__ or ""
+    match = re.search(rf"^\s+{key}: (.*?)(?=^\s+\w+(?:, \w+)*: |\Z)", doc, flags=re.S | re.M)
+    if match is None:
+        raise KeyError(f"{key} has no description in its section's docstring")
+    text = " ".join(match.group(1).split())
+    return re.split(r"(?<=[^.]\.)\s|(?<=:)\s(?=``)", text, maxsplit=1)[0].rstrip(".:")
+
+
+_SECTIONS = {key.name: name for name, section in typing.get_type_hints(Config).items()
+             for key in dataclasses.fields(section)}

@@ -1,0 +1,44 @@
+"""``lookalike lod INPUT -o OUTDIR``: a chain of levels of detail, each prefiltered for its
+screen size; a thin layer over ``lookalike.jobs.lod``."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._options import add_run_arguments
+
+HELP = "a chain of levels of detail, each fitted to how the input looks at the size it is drawn at"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..jobs.lod import CHAIN_BUDGET
+
+    parser.add_argument("input", help="the asset (glTF/GLB, OBJ, PLY)")
+    parser.add_argument("-o", "--output", metavar="OUTDIR", required=True, help="folder for lod0/, lod1/, ... and "
+                        "lods.json")
+    parser.add_argument("--levels", metavar="N@PX,...", help="triangles@pixels per level, e.g. 8000@512,2000@128,"
+                        "500@32 (pixels: the bounding sphere's diameter on screen; default: simplify's ratio at 512 "
+                        "px, then a quarter of the triangles at half the size, down to about 100 triangles)")
+    parser.add_argument("--time-budget", metavar="T", default=f"{CHAIN_BUDGET:g}",
+                        help=f"wall time for the whole chain: 90s, 15m, 1h or seconds (default {CHAIN_BUDGET:g})")
+    parser.add_argument("--config", metavar="RUN.toml", help="settings file for every level")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_run_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import io
+    from ..jobs.lod import default_levels, lod, parse_levels
+    from ..jobs.simplify import SIMPLIFY
+    from ..settings import parse_duration
+
+    asset = io.load(args.input)
+    levels = parse_levels(args.levels) if args.levels else default_levels(asset.mesh.num_triangles,
+                                                                         SIMPLIFY.defaults.latent.ratio)
+    rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
+               resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
+               threads=args.threads)
+    for row in rows:
+        print(f"lod{row['level']}: {row['triangles']:,} triangles at {row['pixels']} px, {row['texture_size']}^2 "
+              f"textures: PSNR {row['psnr']:.2f} dB, FLIP {row['flip']:.4f} ({row['folder']}/report.html)")
+    return 130 if rows and rows[-1]["interrupted"] else 0

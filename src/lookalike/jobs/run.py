@@ -1,0 +1,480 @@
+"""The run that every application shares: from an input file to ``OUTDIR/model.glb``, its
+report and metrics (paper Sec. 4 and 6), in named phases:
+
+1. ``settings_of_run``: the application's defaults, a settings file, the keyword settings (or,
+   resumed, the checkpoint's); 2. ``load_input``; 3. ``starting_point``: the initial guess (or
+   the checkpoint's) and the checkpointer; 4. ``reference_views``: held-out, validation and
+   training views of the reference; 5. ``score_baselines``; 6. ``optimise``, within what the
+   time budget leaves; 7. ``compare_bind_pose`` (an animated input's ``compare_static``);
+   8. ``write_outputs``. A skinned input with clips is fitted over them (``jobs.animated``).
+
+How to add an application (``jobs/cards.py`` is the example): write ``jobs/NAME.py`` with
+(1) its initial guess, ``(input, cfg, count) -> InitialGuess`` (``lookalike.init``); (2) where
+the input is not a mesh our pipeline draws, its ``reference``, ``(input, cfg, moving) ->
+Reference`` (``lookalike.fit.reference``); (3) where the model is not a textured mesh, its
+``latent``, ``(input, start, cfg, moving) -> Latent`` (``lookalike.fit.latent``); (4) its
+``defaults``, a ``Config`` holding only what differs; (5) ``APP = Application(...)`` and
+``def NAME(input, outdir=None, **keywords): return run(APP, input, outdir, **keywords)`` with
+``NAME.__doc__`` from ``keywords_doc``; (6) ``commands/NAME.py`` from
+``commands._options``; (7) tests of its initial guess and of one short run. Where it needs a
+branch in this run, the run lacks a part: add a field to ``Application``, not the branch.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from .. import io
+from ..asset import Asset, Material
+from ..errors import ConfigError
+from ..fit.checkpoint import Checkpointer, read_checkpoint
+from ..fit.from_settings import loop_settings, objective
+from ..fit.latent import Latent
+from ..fit.loop import FitResult, Fitter
+from ..fit.reference import MeshReference, Reference, SkinnedReference
+from ..fit.skinned_mesh import SkinnedMesh
+from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
+from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
+from ..init.initial_guess import InitialGuess, target_triangle_count, uses_alpha
+from ..init.skin_weights import transfer_skin
+from ..io.atomic import write_text_atomic
+from ..limits import MAX_WORKERS
+from ..phases import Profile, phase, recording
+from ..report.heldout import HeldoutViews
+from ..report.record import MethodResult, RunRecord
+from ..settings import (Config, config_to_dict, refresh_interval, section_of, setting_help, setting_value, to_toml,
+                        with_overrides)
+from ..threads import CoreShare, set_threads
+from . import animated
+from .alpha_export import ALPHA_CANDIDATES, finished_alpha, training_start
+from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
+from .input_asset import prepare_input
+from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
+from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
+from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
+from .run_result import RunResult
+
+log = logging.getLogger(__name__)
+
+OUTPUT_TIME_FACTOR = 2.0
+"""The outputs are estimated to take this many times the slowest held-out scoring before the
+fit (scoring ours, and the report's pictures), once more for each further scoring after the fit
+(an animated run's moving picture, the bind-pose fit's), and for a model with trained alpha the
+validation renders of its candidate cutoffs (``lookalike.jobs.alpha_export``)."""
+
+OUTPUT_TIME_MARGIN = 5.0
+"""Plus these seconds (writing the glTF and the report's pictures)."""
+
+POOL_STREAM, TEXTURE_STREAM = 1, 2
+"""Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
+optimisation loop itself draws from ``default_rng(seed)``)."""
+
+
+def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
+    """The input drawn by our pipeline: posed per view where ``moving``, else still, with
+    ``render.layers`` depth-peeled layers."""
+    return SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.layers)
+
+
+def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent:
+    """The textured low-poly mesh that starts as ``start`` (with trained skinning weights where
+    ``moving``), in the frame of ``asset``'s bind pose."""
+    centre, radius = asset.mesh.bounding_sphere()
+    surface = {"centre": centre, "radius": radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
+               "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
+               "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
+               "texture_scales": cfg.latent.texture_scales}
+    return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
+
+
+def no_remarks(asset: Asset) -> list[str]:
+    return []
+
+
+@dataclass(frozen=True)
+class Application:
+    """What one application of the fit brings to the run they share (``run``).
+
+    Attributes:
+        command: its ``lookalike`` subcommand; a checkpoint resumes under the same one.
+        outdir_suffix: the default output folder is the input's name + this.
+        initial_guess: ``(input, cfg, count) -> InitialGuess``, ``count`` the target triangle
+            count (``None`` where ``cfg.io.init_mesh`` gives the mesh).
+        defaults: the settings a run starts from, before a settings file and the keywords.
+        start_label: the label its start is scored under beside the baselines, or ``None``
+            (then a start that is a classic bake is scored as "Classic bake").
+        remarks: ``input -> [str]``, what to say about the input (logged, and in the report).
+        reference: ``(input, cfg, moving) -> Reference``, what the views show.
+        latent: ``(input, start, cfg, moving) -> Latent``, the model the loop fits.
+    """
+
+    command: str
+    outdir_suffix: str
+    initial_guess: Callable[[Asset, Config, int | None], InitialGuess]
+    defaults: Config = field(default_factory=Config)
+    start_label: str | None = None
+    remarks: Callable[[Asset], list[str]] = no_remarks
+    reference: Callable[[Asset, Config, bool], Reference] = input_reference
+    latent: Callable[[Asset, Asset, Config, bool], Latent] = mesh_latent
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How one run goes, as opposed to what it makes (the settings, ``lookalike.settings``).
+
+    Attributes:
+        resume: continue the run whose ``checkpoint.pt`` is in the output folder bit-exactly,
+            with the settings and initial guess stored in it (settings given again are ignored,
+            and a warning names them; a new ``time_budget`` is this session's); the input must
+            be the same asset.
+        force: overwrite an existing output folder.
+        progress: show a progress bar.
+        profile: record where the time goes (``lookalike.phases``) into ``metrics.json``.
+        threads: pin the threads of every parallel part (``lookalike.threads``); ``None``
+            adapts them to other busy programs.
+        material_override: render the input with this material on every triangle (e.g. a
+            colour for untextured scans).
+        compare_static: for an animated input, also run the bind-pose fit (``latent.static``,
+            a budget of its own) into ``OUTDIR/bind-pose-fit/`` and score it beside ours.
+    """
+
+    resume: bool = False
+    force: bool = False
+    progress: bool = True
+    profile: bool = False
+    threads: int | None = None
+    material_override: Material | None = None
+    compare_static: bool = False
+
+
+OPTION_NAMES = tuple(f.name for f in dataclasses.fields(RunOptions))
+
+
+def split_keywords(keywords: dict) -> tuple[RunOptions, dict]:
+    """``keywords`` as ``(RunOptions, settings)``: the fields of ``RunOptions``, and settings
+    by name (``texture_size`` is ``latent.texture_size``; paths become strings). ``TypeError``
+    naming an unknown keyword, as Python does."""
+    options, settings = {}, {}
+    for key, value in keywords.items():
+        if key in OPTION_NAMES:
+            options[key] = value
+            continue
+        try:
+            section_of(key)
+        except KeyError:
+            raise TypeError(f"unexpected keyword argument {key!r}: neither a setting (lookalike.settings) nor "
+                            f"one of {', '.join(OPTION_NAMES)}") from None
+        settings[key] = str(value) if isinstance(value, Path) else value
+    return RunOptions(**options), settings
+
+
+@dataclass
+class _Session:
+    """One session of a run: what it was given, its clock and its stages' wall seconds."""
+
+    app: Application
+    options: RunOptions
+    input: str | Path | Asset
+    outdir: Path
+    started: float
+    recorder: Profile | None
+    timings: dict[str, float] = field(default_factory=dict)
+    seconds_before: float = 0.0
+    saved: dict | None = None
+
+    @property
+    def given(self) -> Asset | None:
+        return self.input if isinstance(self.input, Asset) else None
+
+    @property
+    def input_name(self) -> str:
+        return str(self.input) if self.given is None else str(self.given.source or self.given.name)
+
+    def seconds_used(self) -> float:
+        """Wall seconds of the run over all its sessions."""
+        return self.seconds_before + time.monotonic() - self.started
+
+    @contextlib.contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        """Record the wall seconds of the ``with`` block as ``timings[name]`` (and as a phase
+        of the recording profile, ``lookalike.phases``)."""
+        clock = time.monotonic()
+        with phase(name):
+            yield
+        self.timings[name] = time.monotonic() - clock
+
+
+def run(app: Application, input: str | Path | Asset, outdir: str | Path | None = None, *,
+        config: Config | str | Path | None = None, **keywords) -> RunResult:
+    """The run of ``app`` on ``input`` (any file ``lookalike.io.load`` reads, or an ``Asset``)
+    into ``outdir`` (default: the input's name + ``app.outdir_suffix``, in the current folder;
+    an existing non-empty folder is refused unless ``force`` or ``resume``). ``config``: a
+    ``Config`` or a TOML file of settings, over ``app.defaults``; ``keywords``: settings by
+    name, which override it, and the fields of ``RunOptions``.
+
+    Outputs appear only when complete (``jobs.outputs``); a run that fails leaves ``outdir``
+    as it found it (an interrupted run keeps its checkpoint). Raises ``ConfigError`` or
+    ``AssetError`` with a message naming the problem."""
+    options, settings = split_keywords(keywords)
+    name = input.name if isinstance(input, Asset) else Path(input).stem
+    outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{app.outdir_suffix}"
+    check_outdir(outdir, force=options.force, resume=options.resume)
+    if options.threads is not None:
+        if not 1 <= options.threads <= MAX_WORKERS:
+            raise ConfigError(f"--threads must lie in [1, {MAX_WORKERS}], not {options.threads}")
+        set_threads(options.threads)
+    session = _Session(app, options, input, outdir, time.monotonic(), Profile() if options.profile else None)
+    with left_as_found(outdir), (recording(session.recorder) if session.recorder else contextlib.nullcontext()):
+        return _run(session, config, settings)
+
+
+def _run(s: _Session, config, settings: dict) -> RunResult:
+    """``run`` once its output folder is checked: the phases in turn."""
+    cfg, budget = settings_of_run(s, config, settings)
+    with s.stage("load and initial guess"):
+        asset, notes, moving = load_input(s, cfg)
+        guess, checkpointer = starting_point(s, cfg, asset, moving)
+        reference = s.app.reference(asset, cfg, moving)
+        start = training_start(guess.start, cfg.latent.alpha_mode)
+        latent = s.app.latent(asset, start, cfg, moving)
+    with s.stage("reference views"):
+        heldout, validation, source = reference_views(cfg, asset, reference, moving)
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
+                   layers=cfg.render.layers)
+    methods = score_baselines(s, cfg, heldout, draw, guess, start)
+    fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(start)),
+                    validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
+                    checkpointer=checkpointer, cores=CoreShare())
+    if s.saved is not None and "latent" in s.saved:
+        fitter.load_state_dict(s.saved)
+    seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None)
+    fit, export = optimise(s, cfg, fitter, seconds, validation, draw)
+    interrupted = fit.interrupted
+    if moving and s.options.compare_static and not interrupted:
+        interrupted = compare_bind_pose(s, cfg, asset, heldout, draw, methods, notes)
+        if interrupted:  # our fit is done: a resume goes straight on to the bind-pose fit
+            checkpointer.save(fitter.state_dict())
+    with s.stage("scoring ours"):
+        methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
+    motion = None
+    if moving:
+        with s.stage("moving picture"):
+            small = cfg.render.resolution // 2
+            motion = animated.motion(reference, {"Ours": export}, heldout,
+                                     partial(render_asset, resolution=small, msaa=cfg.render.latent_msaa), small,
+                                     cfg.render.target_spp)
+    record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
+    record.motion = motion
+    metrics = write_outputs(s, cfg, export, record)
+    if not interrupted:
+        (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
+    baselines = {methods[0].key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
+    if s.app.start_label is not None:
+        baselines["start"] = start
+    return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
+                     interrupted=interrupted, baselines=baselines, command=s.app.command)
+
+
+def run_settings(app: Application, config: Config | str | Path | None = None, settings: dict | None = None) -> Config:
+    """The settings of a fresh run of ``app``: its defaults, then ``config`` (a ``Config`` or a
+    TOML file), then ``settings`` by name; validated."""
+    return with_overrides(config, defaults=app.defaults, **(settings or {}))
+
+
+def settings_of_run(s: _Session, config, settings: dict) -> tuple[Config, float]:
+    """The run's settings and this session's time budget: the checkpoint's settings where
+    resumed (``s.saved`` read, its seconds so far in ``s.seconds_before``), else
+    ``app.defaults`` < ``config`` < ``settings``, with the files named."""
+    checkpoint = s.outdir / CHECKPOINT_NAME
+    s.saved = read_checkpoint(checkpoint) if s.options.resume else None
+    if s.saved is None:
+        cfg = run_settings(s.app, config, settings)
+        cfg.io = dataclasses.replace(cfg.io, input=s.input_name, outdir=str(s.outdir))
+        return cfg, cfg.optim.time_budget
+    check_same_command(s.saved, checkpoint, s.app.command)
+    cfg = resumed_config(s.saved, checkpoint, {**settings, "config": config})
+    s.seconds_before = s.saved["seconds_used"]
+    budget = settings.get("time_budget")
+    return cfg, budget if budget is not None else cfg.optim.time_budget - s.seconds_before
+
+
+def load_input(s: _Session, cfg: Config) -> tuple[Asset, list[str], bool]:
+    """The input as the run sees it, the report's remarks on it, and whether it is fitted over
+    its animations."""
+    with phase("load"):
+        loaded = s.given if s.given is not None else io.load(s.input)
+    moving = animated.is_animated(loaded, cfg.latent.static)
+    asset, notes = prepare_input(loaded, s.options.material_override, moving)
+    for remark in s.app.remarks(asset):
+        log.warning("%s: %s", cfg.io.input or asset.name, remark)
+        notes.append(remark)
+    if moving and cfg.views.relight:
+        raise ConfigError("views.relight keeps one G-buffer per camera, and an animated input's geometry changes "
+                          "with every view's pose: turn it off, or simplify the bind pose with --static")
+    if moving and cfg.io.export_obj:
+        notes.append(obj_note := "model.obj holds the bind pose: OBJ has no skeleton (model.glb has it)")
+        log.warning(obj_note)
+    return asset, notes, moving
+
+
+def starting_point(s: _Session, cfg: Config, asset: Asset, moving: bool) -> tuple[InitialGuess, Checkpointer]:
+    """The initial guess (the checkpoint's where resumed, after checking that the input is the
+    same asset) and the checkpointer that stores it with the loop's state; a fresh run writes a
+    first checkpoint at once."""
+    checkpoint = s.outdir / CHECKPOINT_NAME
+    fingerprint = asset.fingerprint()
+    if s.saved is not None:
+        check_same_input(s.saved, checkpoint, fingerprint, s.input_name)
+        guess = s.saved["initial_guess"]
+    else:
+        count = None if cfg.io.init_mesh else target_triangle_count(cfg.latent.triangles, cfg.latent.ratio,
+                                                                    asset.mesh.num_triangles)
+        prepare_outdir(s.outdir, force=s.options.force, resume=s.options.resume)
+        guess = s.app.initial_guess(asset, cfg, count)
+        if moving:
+            with phase("skinning weights"):
+                guess = animated.animated_guess(asset, guess, cfg.latent.skin_candidates)
+    checkpointer = Checkpointer(checkpoint, cfg.optim.checkpoint_seconds, extra=lambda: {
+        "config": config_to_dict(cfg), "initial_guess": guess, "input_fingerprint": fingerprint,
+        CHECKPOINT_APPLICATION: s.app.command, "seconds_used": s.seconds_used()})
+    if s.saved is None:
+        checkpointer.save({})
+    return guess, checkpointer
+
+
+def reference_views(cfg: Config, asset: Asset, reference: Reference,
+                    moving: bool) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
+    """The held-out views (the report's), the validation views (``None`` without) and the
+    training views' source: a pool of reference images refreshed as the steps go, or fresh
+    renders at every step."""
+    centre, radius = reference.bounding_sphere()
+    sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None)
+    size, spp, views = cfg.render.resolution, cfg.render.target_spp, cfg.views
+    heldout = HeldoutViews(reference, sampler, views.heldout, views.heldout_seed, size, spp)
+    validation = (HeldoutViews(reference, sampler, views.validation, views.validation_seed, size, spp)
+                  if views.validation else None)
+    training = view_sampler(centre, radius, cfg.render.horizon_share,
+                            poses=animated.training_poses(asset, cfg) if moving else None)
+    if not views.pool_size:
+        return heldout, validation, FreshViews(reference, training, size, spp)
+    relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
+    pool = ViewPool(reference, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
+                    refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
+    return heldout, validation, pool
+
+
+def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess: InitialGuess,
+                    start: Asset) -> list[MethodResult]:
+    """The held-out scores of plain decimation (or the user's mesh) and of the application's
+    start (or, where it has no label of its own, the classic bake)."""
+    key, label = (("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh
+                  else ("decimated", "Plain decimation"))
+    with s.stage("scoring plain decimation"):
+        methods = [heldout.score(key, label, guess.baseline, draw, None)]
+    if s.app.start_label is not None:
+        with s.stage("scoring the start"):
+            methods.append(heldout.score("start", s.app.start_label, start, draw, cfg.latent.texture_size))
+    elif guess.baked is not None:
+        with s.stage("scoring the classic bake"):
+            methods.append(heldout.score("baked", "Classic bake", guess.baked, draw, cfg.latent.texture_size))
+    return methods
+
+
+def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_alpha: bool) -> float | None:
+    """The loop's share of this session's ``budget``: what is left after the set-up, less the
+    outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far); ``None``
+    where ``optim.iterations`` fixes the steps."""
+    if cfg.optim.iterations is not None:
+        return None
+    scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static)
+    if choose_alpha:
+        scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
+    scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
+    output_time = scorings * scoring + OUTPUT_TIME_MARGIN
+    return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
+
+
+def optimise(s: _Session, cfg: Config, fitter: Fitter, seconds: float | None, validation: HeldoutViews | None,
+             draw) -> tuple[FitResult, Asset]:
+    """The loop, and its best model as written (its alpha finished, ``jobs.alpha_export``)."""
+    with s.stage("optimisation"):
+        fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
+    with s.stage("alpha cutoff"):
+        score = None if validation is None else partial(validation.psnr, render=draw)
+        export = finished_alpha(fit.best.export(), cfg.latent.alpha_mode, score)
+    return fit, export
+
+
+def compare_bind_pose(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, draw,
+                      methods: list[MethodResult], notes: list[str]) -> bool:
+    """Run the bind-pose fit (``jobs.bind_pose``) and score it beside ours; whether it was
+    interrupted."""
+    with s.stage(BIND_POSE_STAGE):
+        model, interrupted = bind_pose_fit(partial(run, s.app), s.input, s.outdir, cfg, s.options)
+    if model is not None:
+        with s.stage("scoring the bind-pose fit"):
+            methods.append(heldout.score("bind_pose", "Bind-pose fit", transfer_skin(asset, model), draw,
+                                         cfg.latent.texture_size))
+        notes.append("bind-pose fit: the same run with --static (in bind-pose-fit/), its model given the "
+                     "input's weights at the closest points of its surface")
+    return interrupted
+
+
+def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, methods: list[MethodResult],
+               fit: FitResult, export: Asset, notes: list[str], interrupted: bool, moving: bool) -> RunRecord:
+    """What the report and the metrics say of the run."""
+    return RunRecord(
+        asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
+        methods=methods, input_triangles=asset.mesh.num_triangles, output_triangles=export.mesh.num_triangles,
+        texture_size=cfg.latent.texture_size, resolution=cfg.render.resolution,
+        loss_history=np.asarray(fit.losses, dtype=np.float64),
+        validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
+        validation_views=cfg.views.validation, iterations=fit.iterations, rollbacks=fit.rollbacks,
+        interrupted=interrupted, wall_time=s.seconds_used(),
+        seconds_per_iteration=fit.seconds / max(fit.iterations, 1), timings=s.timings,
+        config=config_to_dict(cfg), notes=notes,
+        view_labels=animated.pose_labels(asset, heldout.pose) if moving else None)
+
+
+def write_outputs(s: _Session, cfg: Config, export: Asset, record: RunRecord) -> dict:
+    """``model.glb`` (+ ``model.obj``), ``config.toml``, ``report.html`` and ``metrics.json``,
+    all or none (``jobs.outputs.staged_outputs``); returns the metrics."""
+    with staged_outputs(s.outdir) as staging:
+        with s.stage("export"):
+            write_model(export, staging, cfg.io.export_obj)
+        write_text_atomic(staging / "config.toml", to_toml(cfg))
+        if s.recorder is not None:
+            record.profile = s.recorder.as_dict()
+        with s.stage("report"):
+            return write_record(staging, record, s.started - s.seconds_before)
+
+
+KEYWORD_SETTINGS = ("triangles", "ratio", "texture_size", "resolution", "time_budget", "iterations", "seed",
+                    "init", "init_mesh", "alpha_mode", "static", "export_obj")
+"""The settings an application's docstring lists (any other setting is a keyword too)."""
+
+
+def keywords_doc(app: Application, summary: str, settings: tuple[str, ...] = KEYWORD_SETTINGS) -> str:
+    """A docstring for ``app``'s function: ``summary``, then each of ``settings`` with its help
+    and its default in ``app.defaults`` (``lookalike.settings.setting_help``), then the
+    ``RunOptions``; generated, so that what it says is what a run uses."""
+    lines = [summary, "", "Args:",
+             "    input: any file ``lookalike.io.load`` reads, or an ``Asset``.",
+             f"    outdir: output folder (default: the input's name + ``{app.outdir_suffix}``).",
+             "    config: a ``Config`` or a TOML file of settings (over this application's defaults).",
+             "", "Settings (keywords; every field of ``lookalike.settings.Config`` is one):"]
+    for key in settings:
+        lines.append(f"    {key}: {setting_help(key)} (default {setting_value(app.defaults, key)!r}).")
+    lines += ["", "Run options (keywords; ``RunOptions``): " + ", ".join(OPTION_NAMES) + ".", "",
+              "Returns a ``RunResult``. Raises ``ConfigError`` or ``AssetError`` naming the problem."]
+    return "\n".join(lines)

@@ -1,0 +1,55 @@
+"""The LOD chain: levels as given and by default, each level's settings, and a short chain run
+and resumed through the shared run."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from lookalike.errors import ConfigError
+from lookalike.jobs import lod as lod_job
+from lookalike.jobs.lod import Level, default_levels, level_settings, lod, parse_levels
+from lookalike.settings import config_from_dict, load_config
+from lookalike.shading.view_sampling import FRAMING
+from test_fit_simplify import TINY, bumpy_sphere
+
+
+def test_levels_are_read_finest_first_and_bad_ones_named():
+    assert parse_levels("500@32, 8000@512,2000@128") == [Level(8000, 512), Level(2000, 128), Level(500, 32)]
+    for bad in ("8000", "8000@", "x@512", "0@64", "100@4"):
+        with pytest.raises(ConfigError, match="TRIANGLES@PIXELS"):
+            parse_levels(bad)
+
+
+def test_the_default_chain_halves_the_size_and_quarters_the_triangles():
+    assert default_levels(100_000, 0.02) == [Level(2000, 512), Level(500, 256), Level(125, 128)]
+    assert default_levels(1000, 0.02) == [Level(100, 512)]
+
+
+def test_a_level_is_fitted_at_its_size_as_an_engine_draws_it():
+    settings = level_settings(Level(500, 32), 60.0)
+    assert settings["resolution"] == max(16, -(-32 * FRAMING // 1)) and settings["latent_msaa"] == 1
+    assert settings["target_spp"] == 8 and settings["texture_size"] == 128 and settings["time_budget"] == 60.0
+    assert level_settings(Level(8000, 512), 1.0)["texture_size"] == 2048
+
+
+def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tmp_path, monkeypatch):
+    config = config_from_dict({**TINY, "views": {"pool_size": 2, "heldout": 2, "batch_size": 1, "validation": 0},
+                               "optim": {"iterations": 2, "checkpoint_seconds": 1e9}})
+    levels = [Level(200, 48), Level(100, 24)]
+    rows = lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, progress=False)
+    assert [(r["level"], r["pixels"], r["triangles"]) for r in rows] == [(0, 48, 200), (1, 24, 100)]
+    assert json.loads((tmp_path / "chain" / "lods.json").read_text())["levels"] == rows
+    for row, level in zip(rows, levels):
+        cfg = load_config(tmp_path / "chain" / row["folder"] / "config.toml")
+        assert cfg.render.resolution == level_settings(level, 1.0)["resolution"] and cfg.render.latent_msaa == 1
+        assert cfg.render.target_spp == 8 and cfg.latent.triangles == level.triangles
+    with pytest.raises(ConfigError, match="not empty"):
+        lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, progress=False)
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a finished level ran again")
+
+    monkeypatch.setattr(lod_job, "run", no_run)
+    assert lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, resume=True, progress=False) == rows
