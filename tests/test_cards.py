@@ -3,6 +3,7 @@ approximated by fitted cards, written, scored and resumed as ``simplify``'s runs
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from functools import partial
 from pathlib import Path
@@ -103,6 +104,63 @@ def test_the_written_model_renders_in_our_pipeline_as_it_was_scored(clump_run):
     scored = result.metrics["heldout"]["ours"]
     assert again.psnr == pytest.approx(scored["psnr"], abs=0.05)
     assert again.silhouette_iou == pytest.approx(scored["silhouette_iou"], abs=2e-3)
+
+
+def test_the_written_model_scores_on_the_validation_views_what_the_run_chose_it_by(clump_run):
+    """The start and ours are compared as written, and ``model.glb`` read back scores on the
+    validation views what the run chose it by."""
+    folder, result = clump_run
+    cfg = load_config(folder / "out" / "config.toml")
+    reference = MeshReference(io.load(folder / "clumps.glb"), cfg.render.layers)
+    centre, radius = reference.bounding_sphere()
+    validation = HeldoutViews(reference, view_sampler(centre, radius), cfg.views.validation,
+                              cfg.views.validation_seed, cfg.render.resolution, cfg.render.target_spp)
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
+                   layers=cfg.render.layers)
+    written = result.metrics["validation"]["written"]
+    assert set(written) == {"start", "ours"}
+    assert validation.psnr(io.load(result.model), draw) == pytest.approx(max(written.values()), abs=0.05)
+    assert result.baselines["start"].materials[0].alpha_mode == "MASK"
+
+
+def test_a_fit_that_ends_below_its_start_returns_the_start_and_says_so(tmp_path, monkeypatch):
+    """Where the fit's model as written scores below the start (here: its cards made invisible),
+    the run writes the start, reports it as ours, and says so in one line."""
+    from lookalike.jobs.written_model import WrittenModel
+
+    finished = WrittenModel.finished
+
+    def invisible(self, best):
+        model = finished(self, best)
+        kd = model.materials[0].kd.data.clone()
+        kd[..., 3] = 0.0
+        material = dataclasses.replace(model.materials[0], kd=dataclasses.replace(model.materials[0].kd, data=kd))
+        return dataclasses.replace(model, materials=[material])
+
+    monkeypatch.setattr(WrittenModel, "finished", invisible)
+    result = cards(clumps(), tmp_path / "out", triangles=24, iterations=2,
+                   config=config_from_dict(TINY, base=CARDS_DEFAULTS), progress=False)
+    heldout, written = result.metrics["heldout"], result.metrics["validation"]["written"]
+    assert written["start"] > written["ours"]
+    assert heldout["ours"]["psnr"] == pytest.approx(heldout["start"]["psnr"], abs=1e-9)
+    assert "did not improve on its start" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_the_written_model_is_the_start_only_where_ours_does_not_beat_it():
+    from lookalike.jobs.written_model import WrittenModel
+
+    ours, start = clumps(seed=1), clumps(seed=2)
+    scores = {id(ours): 20.0, id(start): 21.0}
+
+    class Views:
+        def psnr(self, asset, draw):
+            return scores[id(asset)]
+
+    written = WrittenModel("blend", Views(), draw=None)
+    assert written.kept(ours, start) == (start, True) and written.scores == {"start": 21.0, "ours": 20.0}
+    scores[id(ours)] = 21.5
+    assert written.kept(ours, start) == (ours, False)
+    assert WrittenModel("blend", None, draw=None).kept(ours, start) == (ours, False)
 
 
 def test_the_masked_model_keeps_more_of_the_outline_than_plain_decimation(clump_run):

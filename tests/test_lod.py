@@ -6,13 +6,15 @@ from __future__ import annotations
 import json
 
 import pytest
+from pygltflib import GLTF2
 
 from lookalike.errors import ConfigError
 from lookalike.jobs import lod as lod_job
-from lookalike.jobs.lod import Level, default_levels, level_settings, lod, parse_levels
+from lookalike.jobs.lod import LEVEL, Level, default_levels, level_settings, lod, parse_levels, switch_distance
 from lookalike.settings import config_from_dict, load_config
 from lookalike.shading.view_sampling import FRAMING
 from test_fit_simplify import TINY, bumpy_sphere
+from test_io_gltf import assert_valid
 
 
 def test_levels_are_read_finest_first_and_bad_ones_named():
@@ -20,6 +22,8 @@ def test_levels_are_read_finest_first_and_bad_ones_named():
     for bad in ("8000", "8000@", "x@512", "0@64", "100@4"):
         with pytest.raises(ConfigError, match="TRIANGLES@PIXELS"):
             parse_levels(bad)
+    with pytest.raises(ConfigError, match="size of its own"):
+        parse_levels("800@64,200@64")
 
 
 def test_the_default_chain_halves_the_size_and_quarters_the_triangles():
@@ -27,20 +31,35 @@ def test_the_default_chain_halves_the_size_and_quarters_the_triangles():
     assert default_levels(1000, 0.02) == [Level(100, 512)]
 
 
+def test_the_switch_distance_puts_the_sphere_at_the_level_s_size():
+    """At the switch distance a sphere of radius 1 spans ``pixels`` of the viewport's height."""
+    import math
+
+    d = switch_distance(1.0, 128, fovy_degrees=60.0, viewport_height=1080)
+    assert 1080 * 2.0 / (2 * d * math.tan(math.radians(30.0))) == pytest.approx(128)
+
+
 def test_a_level_is_fitted_at_its_size_as_an_engine_draws_it():
     settings = level_settings(Level(500, 32), 60.0)
-    assert settings["resolution"] == max(16, -(-32 * FRAMING // 1)) and settings["latent_msaa"] == 1
-    assert settings["target_spp"] == 8 and settings["texture_size"] == 128 and settings["time_budget"] == 60.0
+    assert settings["resolution"] == max(16, -(-32 * FRAMING // 1))
+    assert settings["texture_size"] == 128 and settings["time_budget"] == 60.0
     assert level_settings(Level(8000, 512), 1.0)["texture_size"] == 2048
 
 
 def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tmp_path, monkeypatch):
     config = config_from_dict({**TINY, "views": {"pool_size": 2, "heldout": 2, "batch_size": 1, "validation": 0},
-                               "optim": {"iterations": 2, "checkpoint_seconds": 1e9}})
+                               "optim": {"iterations": 2, "checkpoint_seconds": 1e9}}, base=LEVEL.defaults)
     levels = [Level(200, 48), Level(100, 24)]
     rows = lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, progress=False)
     assert [(r["level"], r["pixels"], r["triangles"]) for r in rows] == [(0, 48, 200), (1, 24, 100)]
-    assert json.loads((tmp_path / "chain" / "lods.json").read_text())["levels"] == rows
+    chain = json.loads((tmp_path / "chain" / "lods.json").read_text())
+    radius = float(bumpy_sphere().mesh.bounding_sphere()[1])
+    assert chain["levels"] == rows and rows[0]["switch_distance"] == 0.0
+    assert rows[1]["switch_distance"] == pytest.approx(switch_distance(radius, (48 * 24) ** 0.5))
+    gltf = GLTF2().load(str(tmp_path / "chain" / "lods.glb"))
+    top = gltf.nodes[gltf.scenes[0].nodes[0]]
+    assert [gltf.nodes[i].name for i in top.extensions["MSFT_lod"]["ids"]] == [top.name.replace("LOD0", "LOD1")]
+    assert_valid(tmp_path / "chain" / "lods.glb")
     for row, level in zip(rows, levels):
         cfg = load_config(tmp_path / "chain" / row["folder"] / "config.toml")
         assert cfg.render.resolution == level_settings(level, 1.0)["resolution"] and cfg.render.latent_msaa == 1

@@ -10,14 +10,17 @@ never import each other, ``jobs`` composes them):
 
 - ``lookalike.commands`` the ``lookalike`` command, one module per subcommand
 - ``lookalike.bench``   benchmarks
-- ``lookalike.jobs``    applications: ``simplify``, ``cards``, ``bake``, ``demo``
+- ``lookalike.jobs``    the run every application shares (``run``) and the applications:
+  ``simplify``, ``cards``, ``lod``; ``bake``, ``demo``, ``batch``, the Blender judge
 - ``lookalike.report``  the run's record, held-out scores, pictures and the HTML report
 - ``lookalike.init``    initial guesses (decimation, UV atlas, material atlas, bake, billboard cloud)
 - ``lookalike.fit``     references, latent models, the objective, the loop, checkpoints
+- ``lookalike.blender`` Blender in a child process: Cycles renders, Blender's own bake
 - ``lookalike.shading`` BSDF, cameras, lights and the deferred rendering pipeline
 - ``lookalike.io``      file formats (glTF, OBJ, PLY), registered by extension; atomic writes
 - ``lookalike.render``  differentiable rasterizer with nvdiffrast's contracts
 - ``lookalike.asset``   Mesh, Material, Skin, Asset and differentiable mesh operations
+- ``lookalike.settings`` every setting of a run, each default written once, and its TOML form
 - ``lookalike.colour``  sRGB encoding and the paper's tone map
 
 Importing lookalike changes nothing in the host process (its environment, its C heap), so that

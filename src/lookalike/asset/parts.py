@@ -23,8 +23,18 @@ def triangle_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
     t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
     if len(t_pos_idx) == 0:
         return np.zeros(0, dtype=np.int64)
-    _, corner = np.unique(np.asarray(v_pos), axis=0, return_inverse=True)
-    corner = corner.reshape(-1)[t_pos_idx]                               # [T, 3] welded corners
+    return _corner_parts(_welded(v_pos, t_pos_idx)[1])
+
+
+def _welded(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct positions ``[C, 3]`` of ``v_pos`` and each triangle's corners among them,
+    ``[T, 3]`` int64 (equal ``v_pos`` rows are one corner)."""
+    positions, corner = np.unique(np.asarray(v_pos), axis=0, return_inverse=True)
+    return positions, corner.reshape(-1)[np.asarray(t_pos_idx, dtype=np.int64)]
+
+
+def _corner_parts(corner: np.ndarray) -> np.ndarray:
+    """``triangle_parts`` of triangles given by their welded corners ``[T, 3]`` (``_welded``)."""
     count = int(corner.max()) + 1
     edges = np.concatenate([corner[:, [0, 1]], corner[:, [1, 2]]])
     graph = scipy.sparse.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(count, count))
@@ -60,31 +70,139 @@ def triangle_parts_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarra
 
 
 AGGREGATE_PARTS = 20
-"""An input is aggregate geometry when it takes at least this many parts to hold half its
-triangles (foliage, hair, chains; a scan with a few loose crumbs takes one)."""
+"""An input is aggregate geometry when at least this many of its parts are card-like (see
+``aggregate_traits``): foliage and hair have hundreds, while a scan with a few loose crumbs or a
+model with a handful of open panels has too few for cards to pay off."""
 
-AGGREGATE_ALPHA_SHARE = 0.25
-"""...or when alpha-tested or blended materials cover at least this share of its area, over at
-least ``AGGREGATE_PARTS`` parts (leaves drawn as alpha cut-outs)."""
+AGGREGATE_AREA_SHARE = 0.5
+"""...and those card-like parts hold at least this share of its surface area, so that they,
+not a solid body with some small bits attached, are what the input looks like."""
+
+AGGREGATE_SMALL = 0.15
+"""A part is small when the diagonal of its box along its principal axes is under this fraction
+of the asset's bounding-box diagonal: a leaf on a plant, a tuft of hair; cards stand for many
+such parts together, each too small to keep its shape at a low triangle count."""
+
+AGGREGATE_THIN = 0.15
+"""A part is thin when its second largest extent along its principal axes is under this
+fraction of its largest: a grass blade or a strand, which decimation collapses into a line
+however long it is."""
 
 
 def aggregate_traits(asset) -> str | None:
     """What makes ``asset`` look like aggregate geometry, in a few words (e.g. ``"4,012
-    disjoint parts, 61 % of the area alpha-tested"``), or ``None`` where it does not (see
-    ``AGGREGATE_PARTS`` and ``AGGREGATE_ALPHA_SHARE``)."""
+    disjoint parts, 4,000 of them alpha-tested or small or thin open surfaces, holding 83 % of
+    the area"``), or ``None`` where it does not.
+
+    A part is card-like when it is drawn with an alpha-using material (any of its triangles: a
+    card already, whatever its size), or when it is an open surface (an edge of its welded
+    corners is used by one of its triangles only: a leaf, a blade) that is small
+    (``AGGREGATE_SMALL``) or thin (``AGGREGATE_THIN``). A closed part (every edge shared by two
+    triangles) is solid and never card-like unless alpha-tested.
+    The input is aggregate when at least ``AGGREGATE_PARTS`` parts are card-like and they hold
+    at least ``AGGREGATE_AREA_SHARE`` of the area. A skinned input (a skin with per-vertex
+    influences) never is: a character's parts move with its joints, which cards cannot follow.
+
+    Cost: ``triangle_parts``, one sort of the edges, then per-part sums over the corners of the
+    open or alpha-tested parts only, where they could make the input aggregate; no loop over
+    parts or triangles.
+    """
     mesh = asset.mesh
-    v_pos, tri = mesh.v_pos.detach().numpy(), mesh.t_pos_idx.numpy()
-    parts = triangle_parts(v_pos, tri)
-    if len(parts) == 0:
+    if asset.skin is not None and mesh.v_joints is not None:
         return None
-    sizes = np.sort(np.bincount(parts))[::-1]
-    to_half = int(np.searchsorted(np.cumsum(sizes), 0.5 * len(parts))) + 1
-    corners = v_pos[tri].astype(np.float64)
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    alpha = np.array([m.uses_alpha for m in asset.materials], bool)[mesh.t_mat_idx.numpy()]
-    alpha_share = float(area[alpha].sum() / max(area.sum(), 1e-30))
-    many = len(sizes) >= AGGREGATE_PARTS
-    if not (to_half >= AGGREGATE_PARTS or (many and alpha_share >= AGGREGATE_ALPHA_SHARE)):
+    tri = mesh.t_pos_idx.detach().cpu().numpy().astype(np.int64)
+    if len(tri) == 0:
         return None
-    traits = f"{len(sizes):,} disjoint parts"
-    return traits + (f", {100 * alpha_share:.0f} % of the area alpha-tested" if alpha_share > 0 else "")
+    positions, corner = _welded(mesh.v_pos.detach().cpu().numpy(), tri)
+    part = _corner_parts(corner)
+    parts = int(part.max()) + 1
+    if parts < AGGREGATE_PARTS:
+        return None
+    positions = positions.astype(np.float64)
+    at = positions[corner]
+    area = 0.5 * np.linalg.norm(np.cross(at[:, 1] - at[:, 0], at[:, 2] - at[:, 0]), axis=1)
+    part_area = np.bincount(part, area, parts)
+    uses_alpha = np.array([m.uses_alpha for m in asset.materials], bool)[mesh.t_mat_idx.cpu().numpy()]
+    alpha_tested = np.bincount(part, uses_alpha, parts) > 0
+    open_surface = _open_parts(corner, part, parts) & ~alpha_tested
+    card_like = open_surface | alpha_tested
+    total = max(float(part_area.sum()), 1e-30)
+    if card_like.sum() < AGGREGATE_PARTS or part_area[card_like].sum() < AGGREGATE_AREA_SHARE * total:
+        return None                                                      # too few open or alpha-tested parts
+    used = np.zeros(len(positions), bool)
+    used[corner.reshape(-1)] = True
+    diagonal = float(np.linalg.norm(positions[used].max(0) - positions[used].min(0)))
+    open_surface[open_surface] = _small_or_thin_parts(positions, corner, part, open_surface, diagonal)
+    card_like = open_surface | alpha_tested
+    count = int(card_like.sum())
+    share = float(part_area[card_like].sum() / total)
+    if count < AGGREGATE_PARTS or share < AGGREGATE_AREA_SHARE:
+        return None
+    return (f"{parts:,} disjoint parts, {count:,} of them alpha-tested or small or thin open surfaces, "
+            f"holding {100 * share:.0f} % of the area")
+
+
+def _open_parts(corner: np.ndarray, part: np.ndarray, parts: int) -> np.ndarray:
+    """``[P]`` bool: the part has a boundary edge, one of its welded corners ``corner [T, 3]``
+    used by one triangle only (edges of a degenerate triangle's repeated corner aside)."""
+    edges = np.sort(corner[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    proper = np.flatnonzero(edges[:, 0] != edges[:, 1])
+    key = edges[proper, 0] * (int(corner.max()) + 1) + edges[proper, 1]
+    order = np.argsort(key)
+    key = key[order]
+    single = np.ones(len(key), bool)                                     # unlike both neighbours once sorted
+    single[1:] &= key[1:] != key[:-1]
+    single[:-1] &= key[:-1] != key[1:]
+    return np.bincount(part[proper[order[single]] // 3], minlength=parts) > 0
+
+
+def _small_or_thin_parts(positions: np.ndarray, corner: np.ndarray, part: np.ndarray, chosen: np.ndarray,
+                         diagonal: float) -> np.ndarray:
+    """``[chosen.sum()]`` bool, of each part where ``chosen [P]``: the part is small (the diagonal
+    of its box along its principal axes, the eigenvectors of its corners' covariance, is under
+    ``AGGREGATE_SMALL`` of ``diagonal``, the asset's) or thin (its second largest extent along
+    those axes is under ``AGGREGATE_THIN`` of its largest). Principal axes make both
+    independent of how a part is turned.
+
+    A part whose axis-aligned box diagonal is small even times sqrt(3) is small without them:
+    no extent exceeds the part's diameter, and no box diagonal is under it.
+    """
+    label, points, groups = _corners_of(positions, corner, part, chosen)
+    box = np.stack([_group_extent(label, points[:, i], groups) for i in range(3)], 1)
+    shaped = np.sqrt(3) * np.linalg.norm(box, axis=1) < AGGREGATE_SMALL * diagonal
+    rest = chosen.copy()
+    rest[chosen] = ~shaped
+    if rest.any():
+        label, points, groups = _corners_of(positions, corner, part, rest)
+        mean = np.stack([np.bincount(label, points[:, i], groups) for i in range(3)], 1)
+        offset = points - (mean / np.bincount(label, minlength=groups)[:, None])[label]
+        covariance = np.empty((groups, 3, 3))
+        for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)):
+            covariance[:, i, j] = covariance[:, j, i] = np.bincount(label, offset[:, i] * offset[:, j], groups)
+        axes = np.linalg.eigh(covariance)[1]                            # [G, 3, 3], one axis a column
+        extent = np.sort(np.stack([_group_extent(label, np.einsum("ci,ci->c", offset, axes[label, :, k]), groups)
+                                   for k in range(3)], 1), axis=1)
+        small = np.linalg.norm(extent, axis=1) < AGGREGATE_SMALL * diagonal
+        shaped[~shaped] = small | (extent[:, 1] < AGGREGATE_THIN * extent[:, 2])
+    return shaped
+
+
+def _corners_of(positions: np.ndarray, corner: np.ndarray, part: np.ndarray,
+                chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The welded corners of the parts where ``chosen [P]``: each one's group ``[C']`` (the rank
+    of its part among the chosen), its position ``[C', 3]``, and the number of groups."""
+    groups = int(chosen.sum())
+    group = np.full(len(chosen), -1, dtype=np.int64)
+    group[chosen] = np.arange(groups)
+    corner_group = np.full(len(positions), -1, dtype=np.int64)
+    corner_group[corner.reshape(-1)] = np.repeat(group[part], 3)
+    used = np.flatnonzero(corner_group >= 0)
+    return corner_group[used], positions[used], groups
+
+
+def _group_extent(label: np.ndarray, values: np.ndarray, groups: int) -> np.ndarray:
+    """``[G]`` largest minus smallest of ``values`` in each group ``label``."""
+    low, high = np.full(groups, np.inf), np.full(groups, -np.inf)
+    np.minimum.at(low, label, values)
+    np.maximum.at(high, label, values)
+    return high - low

@@ -11,14 +11,15 @@ HELP = "a chain of levels of detail, each fitted to how the input looks at the s
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..jobs.lod import CHAIN_BUDGET
+    from ..jobs.lod import CHAIN_BUDGET, LEVEL, MIN_TRIANGLES
 
     parser.add_argument("input", help="the asset (glTF/GLB, OBJ, PLY)")
     parser.add_argument("-o", "--output", metavar="OUTDIR", required=True, help="folder for lod0/, lod1/, ... and "
                         "lods.json")
     parser.add_argument("--levels", metavar="N@PX,...", help="triangles@pixels per level, e.g. 8000@512,2000@128,"
-                        "500@32 (pixels: the bounding sphere's diameter on screen; default: simplify's ratio at 512 "
-                        "px, then a quarter of the triangles at half the size, down to about 100 triangles)")
+                        "500@32 (pixels: the bounding sphere's diameter on screen; default: "
+                        f"{LEVEL.defaults.latent.ratio:g} of the input's triangles at 512 px, then a quarter of the "
+                        f"triangles at half the size, down to about {MIN_TRIANGLES} triangles)")
     parser.add_argument("--time-budget", metavar="T", default=f"{CHAIN_BUDGET:g}",
                         help=f"wall time for the whole chain: 90s, 15m, 1h or seconds (default {CHAIN_BUDGET:g})")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file for every level")
@@ -28,13 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .. import io
-    from ..jobs.lod import default_levels, lod, parse_levels
-    from ..jobs.simplify import SIMPLIFY
+    from ..jobs.lod import LEVEL, default_levels, lod, parse_levels
     from ..settings import parse_duration
 
     asset = io.load(args.input)
     levels = parse_levels(args.levels) if args.levels else default_levels(asset.mesh.num_triangles,
-                                                                         SIMPLIFY.defaults.latent.ratio)
+                                                                         LEVEL.defaults.latent.ratio)
     rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
                resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
                threads=args.threads)

@@ -32,6 +32,8 @@ before), on the node that held the skinned mesh in the file read (``Skin.mesh_no
 a leaf; else a new root node), with no transform (glTF ignores a skinned mesh node's transform).
 Weights whose rows sum to 1 to float32 rounding are written as given, others renormalised;
 influences are written in sets of 4 (JOINTS_k / WEIGHTS_k), the last padded with weight 0.
+
+``GlbBuilder`` and ``add_mesh`` also serve files of several meshes (``gltf_lod_chain``).
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ _TYPES = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4", 16: "MAT4"}
 _WRAP = {"wrap": 10497, "clamp": 33071}
 
 
-class _GlbBuilder:
+class GlbBuilder:
     """Accumulates the JSON document and the binary chunk of a GLB file."""
 
     def __init__(self):
@@ -66,6 +68,7 @@ class _GlbBuilder:
         self.length = 0
         self.extensions: set[str] = set()
         self.texture_cache: dict[tuple, int] = {}
+        self.held: list = []  # what texture_cache keys take the id() of: kept alive so no id is reused
 
     def view(self, data: bytes, target: int | None = None) -> int:
         """Append ``data`` (4-byte aligned) as a bufferView; returns its index."""
@@ -124,9 +127,17 @@ class _GlbBuilder:
         return (struct.pack("<4sII", b"glTF", 2, total) + struct.pack("<I4s", len(text), b"JSON") + text
                 + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
 
+    def write(self, path: Path) -> None:
+        """Write the GLB container to ``path``; ``AssetError`` where the file cannot be written."""
+        try:
+            path.write_bytes(self.glb())
+        except OSError as e:
+            raise AssetError(path, f"cannot write file: {e.strerror or e}") from None
 
-def _texture_info(builder: _GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
+
+def _texture_info(builder: GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
     """A glTF textureInfo for ``texture`` encoded as ``pixels``, with KHR_texture_transform."""
+    builder.held.append(texture.data)
     info = {"index": builder.texture(pixels, texture.wrap, (id(texture.data), channel))}
     if texture.uv_set:
         info["texCoord"] = texture.uv_set
@@ -151,7 +162,7 @@ def _same_layout(a: Texture, b: Texture) -> bool:
     return bool(np.array_equal(a.transform.detach().numpy(), b.transform.detach().numpy()))
 
 
-def _material(builder: _GlbBuilder, material: Material, has_uv: bool) -> dict:
+def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
     """glTF material JSON for ``material`` (textures written to ``builder``)."""
     def constant_or_mean(texture: Texture) -> np.ndarray | None:
         value = constant_texel(texture)
@@ -262,7 +273,7 @@ def _normalized_weights(weights: np.ndarray) -> np.ndarray:
     return np.where(off, weights / np.where(off, sums, 1.0), weights).astype(np.float32)
 
 
-def _skin(builder: _GlbBuilder, asset: Asset) -> list[dict]:
+def _skin(builder: GlbBuilder, asset: Asset) -> list[dict]:
     """Write skin 0 and the animations to ``builder``; returns the JSON of the skin's nodes
     (the caller appends the mesh node). Joints, inverse bind matrices, node TRS and animation
     samplers are written as held (float32), unchanged from a file read with one skin. glTF joints
@@ -304,12 +315,11 @@ def _skin(builder: _GlbBuilder, asset: Asset) -> list[dict]:
     return nodes
 
 
-@writer(".glb")
-def write_glb(asset: Asset, path: Path) -> None:
-    """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
-    path = Path(path)
+def add_mesh(builder: GlbBuilder, asset: Asset, name: str, skinned: bool = False) -> int:
+    """Append ``asset``'s mesh (a primitive per material its triangles use, named ``name``) and
+    those materials to ``builder``; returns the mesh's index. ``skinned`` writes JOINTS/WEIGHTS in
+    the frame of the skin's inverse bind matrices (the caller writes the skin)."""
     mesh = asset.mesh.detach()
-    skinned = asset.skin is not None and mesh.v_joints is not None
     v_nrm, t_nrm_idx = mesh.normals()
     n_tris = mesh.num_triangles
     corner_keys = [t.numpy().reshape(-1, 1) for t in (mesh.t_pos_idx, t_nrm_idx, *(t for _, t in mesh.uv))]
@@ -333,7 +343,6 @@ def write_glb(asset: Asset, path: Path) -> None:
         positions, normals, tangents, indices = _to_mesh_frame(
             asset.skin.mesh_to_world.detach().double().numpy(), positions, normals, tangents, indices)
 
-    builder = _GlbBuilder()
     attributes = {"POSITION": builder.accessor(positions, _FLOAT, _ARRAY_BUFFER, bounds=True),
                   "NORMAL": builder.accessor(normals, _FLOAT, _ARRAY_BUFFER)}
     if tangents is not None:
@@ -354,14 +363,25 @@ def write_glb(asset: Asset, path: Path) -> None:
             attributes[f"WEIGHTS_{s}"] = builder.accessor(weights[:, 4 * s:4 * s + 4], _FLOAT, _ARRAY_BUFFER)
 
     t_mat_idx = mesh.t_mat_idx.numpy()
+    first_material = len(builder.doc.get("materials", []))
     primitives, used_materials = [], []
     for m_index in np.unique(t_mat_idx):
         used_materials.append(int(m_index))
-        primitives.append({"attributes": attributes, "mode": 4, "material": len(used_materials) - 1,
+        primitives.append({"attributes": attributes, "mode": 4, "material": first_material + len(used_materials) - 1,
                            "indices": builder.accessor(indices[t_mat_idx == m_index].reshape(-1), _UNSIGNED_INT,
                                                        _ELEMENT_ARRAY_BUFFER)})
-    builder.doc["materials"] = [_material(builder, materials[i], has_uv) for i in used_materials]
-    builder.doc["meshes"] = [{"name": asset.name, "primitives": primitives}]
+    written = [_material(builder, materials[i], has_uv) for i in used_materials]
+    builder.doc.setdefault("materials", []).extend(written)
+    builder.doc.setdefault("meshes", []).append({"name": name, "primitives": primitives})
+    return len(builder.doc["meshes"]) - 1
+
+
+@writer(".glb")
+def write_glb(asset: Asset, path: Path) -> None:
+    """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
+    skinned = asset.skin is not None and asset.mesh.v_joints is not None
+    builder = GlbBuilder()
+    add_mesh(builder, asset, asset.name, skinned)
     if skinned:
         nodes = _skin(builder, asset)
         roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0]
@@ -376,8 +396,4 @@ def write_glb(asset: Asset, path: Path) -> None:
     builder.doc["nodes"] = nodes
     builder.doc["scenes"] = [{"nodes": roots}]
     builder.doc["scene"] = 0
-    try:
-        path.write_bytes(builder.glb())
-    except OSError as e:
-        raise AssetError(path, f"cannot write file: {e.strerror or e}") from None
-
+    builder.write(Path(path))

@@ -1,2 +1,4 @@
-"""Applications of the method: each module composes a reference, an initial guess, a latent
-model, the optimisation loop and the outputs (``simplify``, ``bake``, ``demo``, ``convert``)."""
+"""Applications of the method on the run they share (``run``: settings, input, initial guess,
+views, baselines, the loop, outputs): ``simplify``, ``cards``, ``lod``; and the jobs around them:
+``bake`` (the classic pipeline), ``demo``, ``batch`` (many assets on Ray), ``judge`` (scores
+in Blender Cycles)."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -51,27 +52,58 @@ def with_alpha_mode(asset: Asset, mode: str) -> Asset:
     return dataclasses.replace(asset, materials=materials)
 
 
-def finished_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> Asset:
-    """``model`` as written for ``latent.alpha_mode`` ``mode``: alpha-tested for ``"mask"``;
-    a ``MASK`` model at the cutoff of ``CUTOFFS`` (or, for ``"mask"``, with its soft alpha
-    dithered, ``dithered_alpha``) that ``score`` (e.g. validation PSNR; higher is better) rates
-    best, ties to the model's own cutoff (kept where ``score`` is ``None``); every alpha-using
-    material's colour filled under unseen texels (``filled_colour``). Opaque models are returned
-    as they are."""
+@dataclass(frozen=True)
+class AlphaChoice:
+    """How the alpha of a ``MASK`` model is written: at ``cutoff`` (``None``: its own), or
+    ``dither``ed (``dithered_alpha``, cutoff 0.5)."""
+
+    cutoff: float | None = None
+    dither: bool = False
+
+
+def alpha_choices(model: Asset, mode: str) -> list[AlphaChoice]:
+    """The ways ``model`` may be written for ``latent.alpha_mode`` ``mode``: its own cutoff
+    first, then ``CUTOFFS``, then (for ``"mask"``) the dither; one (as it is) where nothing is
+    alpha-tested."""
+    masked = mode == "mask" or any(m.alpha_mode == "MASK" for m in model.materials)
+    if not masked or not any(m.uses_alpha for m in model.materials):
+        return [AlphaChoice()]
+    own = model.materials[0].alpha_cutoff
+    choices = [AlphaChoice(c) for c in sorted({own, *CUTOFFS}, key=lambda c: (c != own, c))]
+    return choices + ([AlphaChoice(dither=True)] if mode == "mask" else [])
+
+
+def written_alpha(model: Asset, mode: str, choice: AlphaChoice) -> Asset:
+    """``model`` as written for ``latent.alpha_mode`` ``mode`` with ``choice``: alpha-tested
+    for ``"mask"``, at the chosen cutoff or dithered; every alpha-using material's colour
+    filled under unseen texels (``filled_colour``). Opaque models are returned as they are."""
     if not any(m.uses_alpha for m in model.materials):
         return model
     if mode == "mask":
         model = with_alpha_mode(model, "MASK")
-    if score is not None and any(m.alpha_mode == "MASK" for m in model.materials):
-        own = model.materials[0].alpha_cutoff
-        candidates = [_at_cutoff(model, c) for c in sorted({own, *CUTOFFS}, key=lambda c: (c != own, c))]
-        if mode == "mask":
-            candidates.append(_dithered(model))
-        scored = [(score(candidate), -i) for i, candidate in enumerate(candidates)]
-        model = candidates[-max(scored)[1]]
+    if choice.dither:
+        model = _dithered(model)
+    elif choice.cutoff is not None:
+        model = _at_cutoff(model, choice.cutoff)
     materials = [dataclasses.replace(m, kd=dataclasses.replace(m.kd, data=filled_colour(m.kd.data, _seen_from(m))))
                  if m.uses_alpha else m for m in model.materials]
     return dataclasses.replace(model, materials=materials)
+
+
+def chosen_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> AlphaChoice:
+    """The choice of ``alpha_choices`` whose written model ``score`` (e.g. validation PSNR;
+    higher is better) rates best, ties to the earlier (the model's own cutoff first); the first
+    where ``score`` is ``None``."""
+    choices = alpha_choices(model, mode)
+    if score is None or len(choices) == 1:
+        return choices[0]
+    scored = [(score(written_alpha(model, mode, choice)), -i) for i, choice in enumerate(choices)]
+    return choices[-max(scored)[1]]
+
+
+def finished_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> Asset:
+    """``model`` as written with the alpha choice ``score`` rates best (``chosen_alpha``)."""
+    return written_alpha(model, mode, chosen_alpha(model, mode, score))
 
 
 BAYER_ORDER = 3

@@ -2,13 +2,14 @@
 Sec. 5.2): a level seen at 64 pixels is fitted to what the input looks like at 64 pixels.
 
 A level is a triangle count and a screen size: the pixels that the bounding sphere's diameter
-covers where the level is drawn. Each level is the shared run (``jobs.run``) of ``simplify``'s
-application with the settings of its size (``level_settings``): views that show the sphere at
-that size, the reference supersampled ``SUPERSAMPLING`` x ``SUPERSAMPLING`` per pixel, the model
-drawn with one sample per pixel and mipmapped lookups, as an engine draws it, and textures
-sized to the level. Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a
+covers where the level is drawn. Each level is the shared run (``jobs.run``) of ``LEVEL``:
+``simplify``'s initial guess, with its defaults (the reference supersampled 8 x 8 per pixel, the
+model drawn with one sample per pixel and mipmapped lookups, as an engine draws it) and the
+settings of its size (``level_settings``: views that show the sphere at that size, textures
+sized to the level). Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a
 chain run again resumes an interrupted level and keeps the finished ones. The time budget is
-the chain's, split over the levels by their pixel counts. ``lods.json`` lists the levels.
+the chain's, split over the levels by their pixel counts. ``lods.json`` lists the levels;
+``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``).
 """
 
 from __future__ import annotations
@@ -18,25 +19,34 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import io
 from ..asset import Asset
 from ..errors import ConfigError
 from ..io.atomic import write_text_atomic
-from ..settings import Config, with_overrides
+from ..io.gltf_lod_chain import write_lod_chain
+from ..limits import MAX_TEXTURE_SIZE
+from ..settings import Config, RenderConfig
 from ..shading.view_sampling import FRAMING
 from .outdir import CHECKPOINT_NAME, check_outdir
-from .outputs import METRICS_NAME
-from .run import run
-from .simplify import SIMPLIFY
-
-SUPERSAMPLING = 8
-"""Reference samples per pixel and axis: enough that a small level's target is free of aliasing."""
+from .outputs import METRICS_NAME, MODEL_NAME
+from .run import Application, run
+from .simplify import build_initial_guess
 
 TEXELS_PER_PIXEL = 4
 """Texture side per screen pixel of the level (a power of two, at least ``MIN_TEXTURE_SIZE``)."""
 
+VIEWPORT_HEIGHT = 1080
+"""The viewport height, in pixels, that ``lods.json``'s switch distances are given for."""
+
+FOVY_DEGREES = 60.0
+"""The vertical field of view that ``lods.json``'s switch distances are given for."""
+
 MIN_TEXTURE_SIZE = 64
 MIN_TRIANGLES = 100
 """The default chain's coarsest level keeps at least this many triangles."""
+CHAIN_NAME = "lods.glb"
+"""The chain in one file, as ``MSFT_lod`` lays it out (``io.gltf_lod_chain``)."""
+
 CHAIN_BUDGET = 900.0
 """The whole chain's default time budget, in seconds."""
 
@@ -58,7 +68,10 @@ def parse_levels(text: str) -> list[Level]:
         if not (count.isdigit() and pixels.isdigit() and int(count) > 0 and int(pixels) >= 8):
             raise ConfigError(f"--levels: {part.strip()!r} is not TRIANGLES@PIXELS (e.g. 2000@128, pixels >= 8)")
         levels.append(Level(int(count), int(pixels)))
-    return sorted(levels, key=lambda level: -level.pixels)
+    levels.sort(key=lambda level: -level.pixels)
+    if len({level.pixels for level in levels}) < len(levels):
+        raise ConfigError(f"--levels: two levels of one size in {text!r}: each level needs a size of its own")
+    return levels
 
 
 def default_levels(input_triangles: int, ratio: float) -> list[Level]:
@@ -70,14 +83,39 @@ def default_levels(input_triangles: int, ratio: float) -> list[Level]:
     return levels
 
 
+def switch_coverages(levels: list[Level]) -> list[float]:
+    """``MSFT_screencoverage`` of the chain (``io.gltf_lod_chain``): level ``k`` gives way to
+    level ``k + 1`` where the sphere covers the geometric mean of their sizes, the last level to
+    nothing at half its size; as fractions of ``VIEWPORT_HEIGHT`` (at most 1)."""
+    sizes = [level.pixels for level in levels]
+    bounds = [math.sqrt(a * b) for a, b in zip(sizes, sizes[1:])] + [sizes[-1] / 2]
+    return [min(1.0, bound / VIEWPORT_HEIGHT) for bound in bounds]
+
+
+def switch_distance(radius: float, pixels: float, fovy_degrees: float = FOVY_DEGREES,
+                    viewport_height: int = VIEWPORT_HEIGHT) -> float:
+    """The camera distance at which a sphere of ``radius`` covers ``pixels`` of a viewport
+    ``viewport_height`` pixels high under the vertical field of view ``fovy``:
+    ``d = viewport_height * radius / (pixels * tan(fovy / 2))`` (the sphere's diameter ``2 r``
+    spans ``2 d tan(fovy / 2)`` world units of height at that distance); a level is drawn from
+    there on out, until the next level's distance."""
+    return viewport_height * radius / (pixels * math.tan(math.radians(fovy_degrees) / 2))
+
+
+LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=build_initial_guess,
+                    defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1)))
+"""One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
+per pixel (enough that a small level's target is free of aliasing), the model drawn with one
+sample per pixel, as an engine draws it."""
+
+
 def level_settings(level: Level, seconds: float) -> dict:
     """The settings of ``level``'s run: the picture framing the sphere at ``level.pixels``
-    across (``FRAMING``), supersampled reference, one sample per pixel for the model, textures
-    of ``TEXELS_PER_PIXEL`` texels per pixel, ``seconds`` of budget."""
+    across (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per pixel (a power of two),
+    ``seconds`` of budget."""
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(level.pixels * TEXELS_PER_PIXEL)))
     return {"triangles": level.triangles, "resolution": max(16, math.ceil(level.pixels * FRAMING)),
-            "target_spp": SUPERSAMPLING, "latent_msaa": 1, "texture_size": min(texture, 4096),
-            "time_budget": seconds}
+            "texture_size": min(texture, MAX_TEXTURE_SIZE), "time_budget": seconds}
 
 
 def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, config: Config | str | Path | None = None,
@@ -88,25 +126,36 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
     kept and an interrupted one resumed, else ``outdir`` is refused where it holds anything,
     unless ``force``."""
     outdir = Path(outdir)
+    asset = input if isinstance(input, Asset) else io.load(input)
+    radius = float(asset.mesh.bounding_sphere()[1])
     resume = options.pop("resume", False)
     if not resume:
         check_outdir(outdir, force=options.get("force", False), resume=False)
     weights = [max(level.pixels, 64) ** 2 for level in levels]
+    starts = [0.0] + [switch_distance(radius, c * VIEWPORT_HEIGHT) for c in switch_coverages(levels)[:-1]]
     rows = []
     for k, (level, weight) in enumerate(zip(levels, weights)):
         folder = outdir / f"lod{k}"
         settings = level_settings(level, time_budget * weight / sum(weights))
         if not (resume and _finished(folder)):
-            run(SIMPLIFY, input, folder, config=config, **settings,
+            run(LEVEL, asset, folder, config=config, **settings,
                 **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
         metrics = json.loads((folder / METRICS_NAME).read_text())
+        ours = metrics["heldout"]["ours"]
         rows.append({"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
-                     "texture_size": with_overrides(config, defaults=SIMPLIFY.defaults, **settings).latent.texture_size,
-                     "folder": folder.name, "psnr": metrics["heldout"]["ours"]["psnr"],
-                     "flip": metrics["heldout"]["ours"]["flip"], "interrupted": metrics["interrupted"]})
+                     "texture_size": settings["texture_size"], "switch_distance": starts[k],
+                     "folder": folder.name, "psnr": ours["psnr"], "flip": ours["flip"],
+                     "interrupted": metrics["interrupted"]})
         if metrics["interrupted"]:
             break
-    write_text_atomic(outdir / "lods.json", json.dumps({"levels": rows}, indent=2))
+    else:
+        write_lod_chain([io.load(outdir / row["folder"] / MODEL_NAME) for row in rows], outdir / CHAIN_NAME,
+                        asset.name, switch_coverages(levels))
+    chain = {"switch_distance": f"where a level starts to be drawn: viewport_height * radius / (pixels * "
+                                f"tan(fovy / 2)) for a viewport {VIEWPORT_HEIGHT} pixels high and fovy "
+                                f"{FOVY_DEGREES:g} degrees, pixels the coverage where the level above gives way",
+             "radius": radius, "coverages": switch_coverages(levels), "levels": rows}
+    write_text_atomic(outdir / "lods.json", json.dumps(chain, indent=2))
     return rows
 
 

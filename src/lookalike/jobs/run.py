@@ -56,13 +56,14 @@ from ..settings import (Config, config_to_dict, refresh_interval, section_of, se
                         with_overrides)
 from ..threads import CoreShare, set_threads
 from . import animated
-from .alpha_export import ALPHA_CANDIDATES, finished_alpha, training_start
+from .alpha_export import ALPHA_CANDIDATES, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .input_asset import prepare_input
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
+from .written_model import WrittenModel
 
 log = logging.getLogger(__name__)
 
@@ -98,6 +99,7 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
 
 
 def no_remarks(asset: Asset) -> list[str]:
+    """Nothing to say about the input."""
     return []
 
 
@@ -251,14 +253,17 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         heldout, validation, source = reference_views(cfg, asset, reference, moving)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers)
-    methods = score_baselines(s, cfg, heldout, draw, guess, start)
+    written = WrittenModel(cfg.latent.alpha_mode, validation, draw)
+    with s.stage("alpha of the start"):
+        start_written = written.start(start)
+    methods = score_baselines(s, cfg, heldout, draw, guess, start_written)
     fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(start)),
-                    validate=None if validation is None else lambda model: validation.psnr(model.export(), draw),
+                    validate=None if validation is None else written.validate,
                     checkpointer=checkpointer, cores=CoreShare())
     if s.saved is not None and "latent" in s.saved:
         fitter.load_state_dict(s.saved)
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None)
-    fit, export = optimise(s, cfg, fitter, seconds, validation, draw)
+    fit, export = optimise(s, fitter, seconds, written, start_written, notes)
     interrupted = fit.interrupted
     if moving and s.options.compare_static and not interrupted:
         interrupted = compare_bind_pose(s, cfg, asset, heldout, draw, methods, notes)
@@ -266,21 +271,15 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
             checkpointer.save(fitter.state_dict())
     with s.stage("scoring ours"):
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
-    motion = None
-    if moving:
-        with s.stage("moving picture"):
-            small = cfg.render.resolution // 2
-            motion = animated.motion(reference, {"Ours": export}, heldout,
-                                     partial(render_asset, resolution=small, msaa=cfg.render.latent_msaa), small,
-                                     cfg.render.target_spp)
+    motion = moving_picture(s, cfg, reference, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
-    record.motion = motion
+    record.motion, record.written = motion, written.scores
     metrics = write_outputs(s, cfg, export, record)
     if not interrupted:
         (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
     baselines = {methods[0].key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
     if s.app.start_label is not None:
-        baselines["start"] = start
+        baselines["start"] = start_written
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
 
@@ -392,26 +391,32 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
 
 def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_alpha: bool) -> float | None:
     """The loop's share of this session's ``budget``: what is left after the set-up, less the
-    outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far); ``None``
+    outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far, plus the
+    validation scorings that choose what is written); ``None``
     where ``optim.iterations`` fixes the steps."""
     if cfg.optim.iterations is not None:
         return None
     scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static)
     if choose_alpha:
         scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
+    scorings += 2 * cfg.views.validation / cfg.views.heldout  # ours and the start compared as written
     scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
     output_time = scorings * scoring + OUTPUT_TIME_MARGIN
     return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
 
 
-def optimise(s: _Session, cfg: Config, fitter: Fitter, seconds: float | None, validation: HeldoutViews | None,
-             draw) -> tuple[FitResult, Asset]:
-    """The loop, and its best model as written (its alpha finished, ``jobs.alpha_export``)."""
+def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: WrittenModel, start: Asset,
+             notes: list[str]) -> tuple[FitResult, Asset]:
+    """The loop, and what the run writes (``jobs.written_model``): its best model as written, or
+    the start where that scores better on the validation views (said in ``notes``)."""
     with s.stage("optimisation"):
         fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
     with s.stage("alpha cutoff"):
-        score = None if validation is None else partial(validation.psnr, render=draw)
-        export = finished_alpha(fit.best.export(), cfg.latent.alpha_mode, score)
+        export, is_start = written.kept(written.finished(fit.best.export()), start)
+    if is_start:
+        notes.append(remark := f"the fit did not improve on its start as written (validation PSNR "
+                     f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB): model.glb is the start")
+        log.warning(remark)
     return fit, export
 
 
@@ -428,6 +433,15 @@ def compare_bind_pose(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutVi
         notes.append("bind-pose fit: the same run with --static (in bind-pose-fit/), its model given the "
                      "input's weights at the closest points of its surface")
     return interrupted
+
+
+def moving_picture(s: _Session, cfg: Config, reference: Reference, export: Asset, heldout: HeldoutViews):
+    """An animated run's moving picture of the reference and ours, at half the resolution."""
+    with s.stage("moving picture"):
+        small = cfg.render.resolution // 2
+        return animated.motion(reference, {"Ours": export}, heldout,
+                               partial(render_asset, resolution=small, msaa=cfg.render.latent_msaa), small,
+                               cfg.render.target_spp)
 
 
 def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, methods: list[MethodResult],

@@ -171,36 +171,62 @@ def leaf_grid(rows: int = LEAF_ROWS, cols: int = LEAF_COLS) -> tuple[np.ndarray,
     return a.reshape(-1), s.reshape(-1), t_idx
 
 
+def leaf_bases(rng: np.random.Generator, ctrl: np.ndarray, leaves: int, start: float = LEAF_START,
+               twig: float = TWIG) -> tuple[np.ndarray, np.ndarray]:
+    """Bases ``[N, 3]`` of ``leaves`` leaves on the curves ``ctrl [B, 3, 3]`` (each chosen with
+    probability proportional to its chord length, at t = start + (1 - start) sqrt(xi), offset
+    uniformly within a ball of radius ``twig``) and the curves' unit tangents ``[N, 3]`` there."""
+    carrier = np.linalg.norm(ctrl[:, 2] - ctrl[:, 0], axis=1)
+    which = rng.choice(len(carrier), size=leaves, p=carrier / carrier.sum())
+    t = start + (1 - start) * np.sqrt(rng.uniform(size=leaves))
+    point, tangent = bezier(ctrl[which], t)
+    ball = unit(rng.normal(size=(leaves, 3))) * rng.uniform(size=(leaves, 1)) ** (1 / 3)
+    return point + twig * ball, tangent
+
+
+def leaf_frames(rng: np.random.Generator, base: np.ndarray, tangent: np.ndarray, outward: float = OUTWARD,
+                upward: float = UPWARD, along: float = ALONG, jitter: float = JITTER, roll: float = ROLL) -> np.ndarray:
+    """Frames ``[N, 3, 3]`` (rows: across x, along d, normal z) of leaves at ``base [N, 3]`` on
+    curves with unit tangents ``tangent [N, 3]``: d = |outward o + upward e_y + along T + jitter g|
+    (o the horizontal direction away from the y axis, g ~ N(0, I)), the normal e_y projected
+    perpendicular to d and rolled about d by an angle ~ N(0, roll)."""
+    y = np.array([0.0, 1.0, 0.0])
+    away = unit(base * [1.0, 0.0, 1.0])
+    d = unit(outward * away + upward * y + along * tangent + jitter * rng.normal(size=(len(base), 3)))
+    n0 = unit(y - d[:, 1:2] * d)
+    angle = rng.normal(0.0, roll, (len(base), 1))
+    n = np.cos(angle) * n0 + np.sin(angle) * np.cross(d, n0)
+    return np.stack([np.cross(d, n), d, n], axis=1)
+
+
 def leaf_mesh(rng: np.random.Generator, ctrl: np.ndarray, leaves: int = LEAVES) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``leaves`` leaves on the branches ``ctrl [B, 3, 3]`` (all rows but the trunk, row 0, each
     chosen with probability proportional to its chord length): ``v_pos [N P, 3]``, ``t_pos_idx
     [N 2 LEAF_ROWS LEAF_COLS, 3]`` and ``v_tex [N P, 2]``, one UV row per vertex (so the UV
     triangles are ``t_pos_idx`` too)."""
-    carrier = np.linalg.norm(ctrl[1:, 2] - ctrl[1:, 0], axis=1)
-    which = 1 + rng.choice(len(carrier), size=leaves, p=carrier / carrier.sum())
-    t = LEAF_START + (1 - LEAF_START) * np.sqrt(rng.uniform(size=leaves))
-    point, tangent = bezier(ctrl[which], t)
-    ball = unit(rng.normal(size=(leaves, 3))) * rng.uniform(size=(leaves, 1)) ** (1 / 3)
-    base = point + TWIG * ball                                             # [N, 3]
-
-    y = np.array([0.0, 1.0, 0.0])
-    outward = unit(base * [1.0, 0.0, 1.0])
-    d = unit(OUTWARD * outward + UPWARD * y + ALONG * tangent + JITTER * rng.normal(size=(leaves, 3)))
-    n0 = unit(y - d[:, 1:2] * d)
-    roll = rng.normal(0.0, ROLL, (leaves, 1))
-    n = np.cos(roll) * n0 + np.sin(roll) * np.cross(d, n0)
-    frame = np.stack([np.cross(d, n), d, n], axis=1)                       # [N, 3, 3]: rows x, y, z
-
-    a, s, t_idx = leaf_grid()
+    base, tangent = leaf_bases(rng, ctrl[1:], leaves)                      # [N, 3]
+    frame = leaf_frames(rng, base, tangent)                                # [N, 3, 3]: rows x, y, z
     length = LEAF_LENGTH * rng.uniform(1 - LEAF_SIZE_SPREAD, 1 + LEAF_SIZE_SPREAD, (leaves, 1))
-    half_width = 0.5 * LEAF_ASPECT * length
     bend, curl = rng.uniform(*LEAF_BEND, (leaves, 1)), rng.uniform(*LEAF_CURL, (leaves, 1))
+    cell = rng.integers(0, len(VARIANTS), (leaves, 1))
+    return leaf_strips(base, frame, length, 0.5 * LEAF_ASPECT * length, bend, curl, cell)
+
+
+def leaf_strips(base: np.ndarray, frame: np.ndarray, length: np.ndarray, half_width: np.ndarray,
+                bend: np.ndarray | float, curl: np.ndarray | float, cell: np.ndarray, atlas: tuple[int, int] = (2, 2),
+                rows: int = LEAF_ROWS, cols: int = LEAF_COLS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """N bent ``rows x cols`` grids (leaves, cards, blades; ``P = (rows + 1) (cols + 1)``
+    vertices each) at ``base [N, 3]`` in ``frame [N, 3, 3]`` (rows x, y, z), of ``length`` and
+    ``half_width`` (``[N, 1]``), bent as (x, y, z) = (a w, s L, bend L s^2 + curl w a^2), each
+    textured with cell ``cell [N, 1]`` (row-major) of an ``atlas`` of (rows, columns) cells, its
+    tip at the top: ``v_pos [N P, 3]``, ``t_pos_idx [N 2 rows cols, 3]`` and ``v_tex [N P, 2]``, one UV row
+    per vertex (so the UV triangles are ``t_pos_idx`` too)."""
+    a, s, t_idx = leaf_grid(rows, cols)
     local = np.stack([a * half_width, s * length, bend * length * s ** 2 + curl * half_width * a ** 2], axis=-1)
     v_pos = (base[:, None] + np.einsum("npk,nkd->npd", local, frame)).reshape(-1, 3)
-
-    row, col = np.divmod(rng.integers(0, len(VARIANTS), (leaves, 1)), 2)
-    v_tex = np.stack([(col + (a + 1) / 2) / 2, (row + 1 - s) / 2], axis=-1).reshape(-1, 2)
-    t_pos_idx = (t_idx[None] + len(a) * np.arange(leaves)[:, None, None]).reshape(-1, 3)
+    row, col = np.divmod(cell, atlas[1])
+    v_tex = np.stack([(col + (a + 1) / 2) / atlas[1], (row + 1 - s) / atlas[0]], axis=-1).reshape(-1, 2)
+    t_pos_idx = (t_idx[None] + len(a) * np.arange(len(base))[:, None, None]).reshape(-1, 3)
     return v_pos, t_pos_idx, v_tex
 
 
@@ -262,9 +288,18 @@ def shrub(seed: int = 0, leaves: int = LEAVES, branches: int = BRANCHES) -> Asse
                      torch.from_numpy(np.concatenate([b_tex_idx, l_idx + len(b_tex)])).long())],
                 t_mat_idx=torch.cat([torch.zeros(len(b_idx), dtype=torch.int64),
                                      torch.ones(len(l_idx), dtype=torch.int64)]))
-    bark = Material(name="bark", kd=Texture(torch.from_numpy(bark_texture())),
+    return Asset(mesh=mesh, materials=[bark_material(), cutout_material("leaves", leaf_texture())])
+
+
+def bark_material() -> Material:
+    """Opaque, rough bark coloured by the tiling ``bark_texture()``."""
+    return Material(name="bark", kd=Texture(torch.from_numpy(bark_texture())),
                     ks=Texture.constant([0.0, BARK_ROUGHNESS, 0.0]))
-    leaf = Material(name="leaves", kd=Texture(torch.from_numpy(leaf_texture()), wrap="clamp"),
-                    ks=Texture.constant([0.0, LEAF_ROUGHNESS, 0.0]), alpha_mode="MASK", alpha_cutoff=0.5,
+
+
+def cutout_material(name: str, texture: np.ndarray, roughness: float = LEAF_ROUGHNESS) -> Material:
+    """Alpha-tested (``MASK``, cutoff 0.5), double-sided material coloured and cut out by
+    ``texture [H, W, 4]`` (an atlas: clamped at its border), as leaves and cards are drawn."""
+    return Material(name=name, kd=Texture(torch.from_numpy(texture), wrap="clamp"),
+                    ks=Texture.constant([0.0, roughness, 0.0]), alpha_mode="MASK", alpha_cutoff=0.5,
                     double_sided=True)
-    return Asset(mesh=mesh, materials=[bark, leaf])

@@ -117,6 +117,9 @@ class RunRecord:
         view_labels: what each held-out view shows besides its camera (an animated input's
             clip and time, e.g. ``"Walk at 0.42 s"``), or ``None``.
         motion: the animated comparison of an animated input, or ``None``.
+        written: ``{"start": PSNR, "ours": PSNR}`` on the validation views of the start and
+            of the fit's best model as written, by which the run chose what it wrote (empty
+            without validation views).
     """
 
     asset_name: str
@@ -142,6 +145,7 @@ class RunRecord:
     profile: dict | None = None
     view_labels: list[str] | None = None
     motion: Motion | None = None
+    written: dict[str, float] = field(default_factory=dict)
 
     @property
     def baseline(self) -> MethodResult:
@@ -172,7 +176,7 @@ class RunRecord:
             "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
             "final_loss": float(finite[-1]) if len(finite) else None,
             "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],
-                           "psnr": [float(v) for v in validation[:, 1]]},
+                           "psnr": [float(v) for v in validation[:, 1]], "written": dict(self.written)},
             "heldout": {
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),

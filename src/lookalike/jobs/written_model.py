@@ -1,0 +1,57 @@
+"""The model a run writes, chosen as the user receives it: the start and every state of the
+fit are scored on the validation views as they would be written (alpha-tested at the chosen
+cutoff, dithered, or blended: ``jobs.alpha_export``), so that the best state is the best
+*written* state, and a fit that ends below its start returns its start. Without validation
+views, the fit's best state is written as it is chosen by the loop (nothing to compare on)."""
+
+from __future__ import annotations
+
+from ..asset import Asset
+from ..fit.latent import Latent
+from ..report.heldout import AssetRenderer, HeldoutViews
+from .alpha_export import AlphaChoice, chosen_alpha, written_alpha
+
+
+class WrittenModel:
+    """Scores and chooses models as written for ``latent.alpha_mode`` ``mode`` on
+    ``validation`` (``None``: no validation views), drawn by ``draw``.
+
+    Attributes:
+        choice: the alpha choice of the start, with which every state of the fit is scored.
+        scores: ``{"start": PSNR, "ours": PSNR}`` of the written models on the validation
+            views, once ``kept`` has compared them.
+    """
+
+    def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer):
+        self.mode, self.validation, self.draw = mode, validation, draw
+        self.choice = AlphaChoice()
+        self.scores: dict[str, float] = {}
+
+    def score(self, asset: Asset) -> float:
+        """Mean PSNR of ``asset`` (as it is) on the validation views."""
+        return self.validation.psnr(asset, self.draw)
+
+    def _scorer(self):
+        return None if self.validation is None else self.score
+
+    def start(self, start: Asset) -> Asset:
+        """``start`` as written, its alpha choice the best on the validation views (kept as
+        ``choice``)."""
+        self.choice = chosen_alpha(start, self.mode, self._scorer())
+        return written_alpha(start, self.mode, self.choice)
+
+    def validate(self, latent: Latent) -> float:
+        """The loop's validator: the state of ``latent`` as written with the start's choice."""
+        return self.score(written_alpha(latent.export(), self.mode, self.choice))
+
+    def finished(self, best: Asset) -> Asset:
+        """The fit's best model as written, its alpha choice made again for it."""
+        return written_alpha(best, self.mode, chosen_alpha(best, self.mode, self._scorer()))
+
+    def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
+        """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
+        the validation views (both as written): a fit that did not improve returns its start."""
+        if self.validation is None:
+            return ours, False
+        self.scores = {"start": self.score(start), "ours": self.score(ours)}
+        return (start, True) if self.scores["start"] >= self.scores["ours"] else (ours, False)
