@@ -21,7 +21,7 @@ def postfix(iteration: int, total: int | None, loss: float, scores: tuple[float,
 
 class ProgressBar:
     """The loop's bar. With a fixed step count it counts steps; under a time budget it counts
-    the budget's seconds elapsed since the bar started, min(elapsed, seconds_available) (the
+    the budget's seconds elapsed since the bar started, at most the budget rounded as shown (the
     step count is re-planned as the pace changes, the seconds are not), so its ETA only ever
     counts down. The postfix shows the steps either way.
 
@@ -50,7 +50,7 @@ class ProgressBar:
         """Show a finished step (arguments as ``postfix``) and advance the count."""
         self.bar.set_postfix(postfix(iteration, total, loss, scores), refresh=False)
         self.bar.update(1 if self.seconds_available is None
-                        else min(self.clock() - self.start, self.seconds_available) - self.bar.n)
+                        else min(self.clock() - self.start, self.bar.total) - self.bar.n)
 
     def write(self, message: str) -> None:
         """Print ``message`` above the bar."""
