@@ -72,3 +72,22 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
 
     monkeypatch.setattr(lod_job, "run", no_run)
     assert lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, resume=True, progress=False) == rows
+
+
+def test_simplify_prefilters_one_model_for_a_screen_size(tmp_path, capsys):
+    """``simplify --screen-size PX`` runs with a level's settings for that size; a size too small
+    is a one-line error."""
+    from lookalike import io
+    from lookalike.cli import main
+
+    io.save(bumpy_sphere(), tmp_path / "ball.glb")
+    (tmp_path / "run.toml").write_text("[views]\npool_size = 2\nheldout = 2\nvalidation = 0\nbatch_size = 1\n")
+    assert main(["simplify", str(tmp_path / "ball.glb"), "-o", str(tmp_path / "out"), "--screen-size", "32",
+                 "--triangles", "100", "--iterations", "1", "--config", str(tmp_path / "run.toml"), "--quiet"]) == 0
+    cfg = load_config(tmp_path / "out" / "config.toml")
+    expected = level_settings(Level(100, 32), 1.0)
+    assert (cfg.render.resolution, cfg.latent.texture_size) == (expected["resolution"], expected["texture_size"])
+    assert (cfg.render.target_spp, cfg.render.latent_msaa) == (LEVEL.defaults.render.target_spp, 1) != (2, 2)
+    capsys.readouterr()
+    assert main(["simplify", str(tmp_path / "ball.glb"), "-o", str(tmp_path / "small"), "--screen-size", "3"]) == 2
+    assert "at least 8 pixels" in capsys.readouterr().err

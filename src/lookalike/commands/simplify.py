@@ -16,6 +16,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_fit_arguments(parser, SIMPLIFY.defaults)
     parser.add_argument("--init-mesh", metavar="LOD", help="start from this low-poly mesh (e.g. an existing LOD that "
                         "looks wrong) instead of our decimation; its UVs and textures are kept where they form an atlas")
+    parser.add_argument("--screen-size", type=int, metavar="PX", help="prefilter for this size on screen (the "
+                        "bounding sphere's diameter in pixels), as each level of lookalike lod is: views at that size, "
+                        "the reference supersampled, the model drawn with one sample per pixel, textures sized to it "
+                        "(unless --resolution or --texture-size say otherwise)")
     pose = parser.add_mutually_exclusive_group()
     pose.add_argument("--static", action="store_true", help="for a skinned, animated input: simplify its bind "
                         "pose into a still model (without this, the model and its skinning weights are fitted over the "
@@ -38,8 +42,13 @@ def run(args: argparse.Namespace) -> int:
         from ..blender import require_judge
 
         require_judge()
+    keywords = run_keywords(args)
+    if args.screen_size is not None:
+        from ..jobs.lod import screen_size_settings
+
+        keywords = {**screen_size_settings(args.screen_size), **{k: v for k, v in keywords.items() if v is not None}}
     result = simplify(args.input, args.output, init_mesh=args.init_mesh, static=True if args.static else None,
-                      compare_static=args.compare_static, **run_keywords(args))
+                      compare_static=args.compare_static, **keywords)
     print(result.summary())
     if args.judge is not None and not result.interrupted:
         from ..jobs.judge import judge_run, judge_summary, reference_of_run

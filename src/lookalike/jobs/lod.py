@@ -42,6 +42,8 @@ FOVY_DEGREES = 60.0
 """The vertical field of view that ``lods.json``'s switch distances are given for."""
 
 MIN_TEXTURE_SIZE = 64
+MIN_PIXELS = 8
+"""The smallest screen size a level may be fitted for."""
 MIN_TRIANGLES = 100
 """The default chain's coarsest level keeps at least this many triangles."""
 CHAIN_NAME = "lods.glb"
@@ -65,8 +67,9 @@ def parse_levels(text: str) -> list[Level]:
     levels = []
     for part in text.split(","):
         count, _, pixels = part.strip().partition("@")
-        if not (count.isdigit() and pixels.isdigit() and int(count) > 0 and int(pixels) >= 8):
-            raise ConfigError(f"--levels: {part.strip()!r} is not TRIANGLES@PIXELS (e.g. 2000@128, pixels >= 8)")
+        if not (count.isdigit() and pixels.isdigit() and int(count) > 0 and int(pixels) >= MIN_PIXELS):
+            raise ConfigError(f"--levels: {part.strip()!r} is not TRIANGLES@PIXELS (e.g. 2000@128, pixels >= "
+                              f"{MIN_PIXELS})")
         levels.append(Level(int(count), int(pixels)))
     levels.sort(key=lambda level: -level.pixels)
     if len({level.pixels for level in levels}) < len(levels):
@@ -109,13 +112,22 @@ per pixel (enough that a small level's target is free of aliasing), the model dr
 sample per pixel, as an engine draws it."""
 
 
+def screen_size_settings(pixels: int) -> dict:
+    """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
+    framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
+    pixel (a power of two), the reference supersampled and the model drawn with one sample per
+    pixel (``LEVEL.defaults``). ``ConfigError`` below ``MIN_PIXELS``."""
+    if pixels < MIN_PIXELS:
+        raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
+    texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
+    return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
+            "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa}
+
+
 def level_settings(level: Level, seconds: float) -> dict:
-    """The settings of ``level``'s run: the picture framing the sphere at ``level.pixels``
-    across (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per pixel (a power of two),
-    ``seconds`` of budget."""
-    texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(level.pixels * TEXELS_PER_PIXEL)))
-    return {"triangles": level.triangles, "resolution": max(16, math.ceil(level.pixels * FRAMING)),
-            "texture_size": min(texture, MAX_TEXTURE_SIZE), "time_budget": seconds}
+    """The settings of ``level``'s run: those of its size (``screen_size_settings``), its
+    triangles and ``seconds`` of budget."""
+    return {**screen_size_settings(level.pixels), "triangles": level.triangles, "time_budget": seconds}
 
 
 def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, config: Config | str | Path | None = None,
