@@ -55,9 +55,11 @@ def test_the_command_sets_up_its_process_before_it_parses(monkeypatch):
 
 
 def test_the_command_keeps_freed_memory_and_a_writable_kernel_cache():
-    """Where only the temporary folder can be written, ``main`` points Numba's cache there."""
+    """Where only the private temporary folder can be written (not the install, wherever the
+    checkout lies, nor the user's cache), ``main`` points Numba's cache there."""
     script = ("import json, os, lookalike.cli, lookalike.heap, lookalike.kernel_cache as k\n"
-              "k._writable = lambda folder: folder.is_relative_to(k.tempfile.gettempdir())\n"
+              "private = k.Path(k.tempfile.gettempdir()) / f'lookalike-kernels-{os.getuid()}'\n"
+              "k._writable = lambda folder: folder.is_relative_to(private)\n"
               "try:\n    lookalike.cli.main(['--version'])\nexcept SystemExit:\n    pass\n"
               "print(json.dumps([lookalike.heap._applied, os.environ.get('NUMBA_CACHE_DIR'), k.CACHE]))")
     environ = {key: value for key, value in os.environ.items() if key not in ("NUMBA_CACHE_DIR", "LOOKALIKE_HEAP")}
