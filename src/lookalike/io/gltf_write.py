@@ -68,7 +68,6 @@ class GlbBuilder:
         self.length = 0
         self.extensions: set[str] = set()
         self.texture_cache: dict[tuple, int] = {}
-        self.held: list = []  # what texture_cache keys take the id() of: kept alive so no id is reused
 
     def view(self, data: bytes, target: int | None = None) -> int:
         """Append ``data`` (4-byte aligned) as a bufferView; returns its index."""
@@ -101,7 +100,8 @@ class GlbBuilder:
 
     def texture(self, pixels: np.ndarray, wrap: str, key: tuple) -> int:
         """Index of a texture holding ``pixels [H, W, C]`` (values in [0, 1], already encoded),
-        written once per ``key``."""
+        written once per ``key`` (a tensor in it counts by identity, and the key keeps it alive,
+        so a texture freed while the file is built cannot pass its identity to another)."""
         if key not in self.texture_cache:
             image = {"bufferView": self.view(encode_png(pixels)), "mimeType": "image/png"}
             self.doc.setdefault("images", []).append(image)
@@ -137,8 +137,7 @@ class GlbBuilder:
 
 def _texture_info(builder: GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
     """A glTF textureInfo for ``texture`` encoded as ``pixels``, with KHR_texture_transform."""
-    builder.held.append(texture.data)
-    info = {"index": builder.texture(pixels, texture.wrap, (id(texture.data), channel))}
+    info = {"index": builder.texture(pixels, texture.wrap, (texture.data, channel))}
     if texture.uv_set:
         info["texCoord"] = texture.uv_set
     if texture.transform is not None:
