@@ -280,3 +280,14 @@ def test_bad_budgets_and_sizes_are_config_errors():
     invisible = Asset(mesh=asset.mesh, materials=[Material(kd=Texture.constant([1, 1, 1, 0]), alpha_mode="BLEND")])
     with pytest.raises(ConfigError, match="transparent all over"):
         billboard_cloud(invisible, triangles=6, texture_size=64, rng=np.random.default_rng(0))
+
+
+def test_triangles_edge_on_to_their_card_bake_no_undefined_texels():
+    """A tree's bark has triangles seen edge-on from their card; they add nothing to its
+    texels, which stay finite (their barycentrics are not)."""
+    from lookalike.jobs.foliage import broadleaf_tree
+
+    cloud = billboard_cloud(broadleaf_tree(3), 500, 1024, np.random.default_rng((0, 2)))
+    for material in cloud.asset.materials:
+        for texture in (material.kd, material.ks, material.normal):
+            assert torch.isfinite(texture.data).all()

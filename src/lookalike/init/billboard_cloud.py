@@ -599,7 +599,8 @@ def bake_cards(asset: Asset, moments: TriangleMoments, card: np.ndarray, planes:
     with dr.DepthPeeler(None, pos, tri, (pixels, pixels), grad_db=False) as peeler:
         for _ in range(MAX_LAYERS):
             rast = peeler.rasterize_next_layer()[0].reshape(-1, 4)
-            pixel = np.flatnonzero((rast[:, 3] > 0).numpy() & (transmit > TRANSMITTANCE_LEFT))
+            seen = (rast[:, 3] > 0) & torch.isfinite(rast[:, :2]).all(dim=1)   # an edge-on triangle: no area, no hit
+            pixel = np.flatnonzero(seen.numpy() & (transmit > TRANSMITTANCE_LEFT))
             if len(pixel) == 0:
                 break
             found = rast[torch.from_numpy(pixel)]
