@@ -77,9 +77,11 @@ def test_colour_is_filled_only_under_texels_no_lookup_reaches():
 
 def test_alpha_mode_setting_leaves_opaque_materials_alone():
     asset = Asset(scattered_quads(2), [Material(alpha_mode="MASK"), Material()])
-    trained = training_start(asset, "mask")
+    trained = training_start(asset, "mask", 0.0)
     assert [m.alpha_mode for m in trained.materials] == ["BLEND", "OPAQUE"]
-    assert training_start(asset, "auto") is asset
+    annealed = training_start(asset, "mask", 0.75)
+    assert [(m.alpha_mode, m.coverage_ramp) for m in annealed.materials] == [("MASK", 1.0), ("OPAQUE", 0.0)]
+    assert training_start(asset, "auto", 0.75) is asset
     opaque = finished_alpha(Asset(scattered_quads(2), [Material()]), "mask", None)
     assert opaque.materials[0].alpha_mode == "OPAQUE"
 

@@ -400,6 +400,7 @@ class FlatLatent(torch.nn.Module):
     def __init__(self):
         super().__init__()
         self.value = torch.nn.Parameter(torch.tensor(0.9))
+        self.fractions = []
 
     def parameter_groups(self):
         return {"colour": [self.value]}
@@ -414,6 +415,9 @@ class FlatLatent(torch.nn.Module):
     def clamp_(self):
         with torch.no_grad():
             self.value.clamp_(0.0, 0.6)
+
+    def at_progress(self, fraction):
+        self.fractions.append(fraction)
 
     def regularizers(self):
         return {"size": self.value ** 2}
@@ -448,3 +452,4 @@ def test_the_loop_optimises_any_latent_by_its_own_groups_and_clamps():
     result = fit.run(progress=False)
     assert float(result.best.value) == pytest.approx(0.25, abs=0.03) and not result.best.value.requires_grad
     assert result.losses[-1] < 1e-3 < result.losses[0]
+    assert latent.fractions == [k / 150 for k in range(150)]   # the latent follows the run's schedule, step by step

@@ -8,8 +8,13 @@ import math
 import pytest
 import torch
 
+import lookalike.render as dr
 from lookalike.asset import Asset, Material, Mesh, Texture
+from lookalike.render.msaa import upsample_over
+from lookalike.render.window import Window
 from lookalike.shading import Camera, PointLight, render
+from lookalike.shading.pipeline import (Frame, LayerCount, background_image, box_downsample, edge_topology,
+                                        mesh_buffers, shade_layer_msaa, texture_sampler)
 
 NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
 
@@ -102,3 +107,50 @@ def test_peeled_composite_gradients_match_finite_differences(wrt):
     assert image(alpha, positions)[..., 3].min() == 1   # the back card fills the view
     inputs = (alpha, positions)
     assert torch.autograd.gradcheck(image, inputs, fast_mode=True, atol=1e-5)
+
+
+def full_frame_composite(asset, camera, light, size: int, spp: int, layers: int, background) -> torch.Tensor:
+    """The oracle of the windowed peel: every one of ``layers`` layers rasterized, shaded,
+    composited and antialiased over the whole frame, empty ones included, with no early stop
+    (``render``'s early stops and windows must not change a value)."""
+    full = (size * spp, size * spp)
+    buffers = mesh_buffers(asset, camera)
+    frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
+    whole = Window.whole(*full)
+    shaded = []
+    with dr.DepthPeeler(None, buffers.clip, buffers.tri, full) as peeler:
+        for _ in range(layers):
+            rast, rast_db = peeler.rasterize_next_layer()
+            colour = shade_layer_msaa(frame, rast, rast_db, rast[..., 3] > 0, spp, whole)
+            shaded.append((rast, colour))
+    accum = background_image(background, 1, size, size, spp, buffers.clip)
+    for rast, colour in reversed(shaded):
+        accum = dr.antialias(upsample_over(accum, colour, rast[..., 3], spp).contiguous(), rast, buffers.clip,
+                             buffers.tri, topology_hash=edge_topology(asset, buffers))
+    return box_downsample(accum, spp).flip(1)
+
+
+def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composite():
+    """Five blended cards (alpha < 1, so no sample is ever hidden) overlap at most four deep:
+    ``render`` with 8 layers stops after the deepest covered layer and works in windows, and
+    its image (stochastic MSAA, same draws) equals every layer composited over the whole frame,
+    bit for bit; ``LayerCount`` reports the layers used."""
+    generator = torch.Generator().manual_seed(11)
+    count, size, spp = 5, 40, 2
+    centres = torch.cat([0.5 * torch.rand(count, 2, generator=generator) - 0.45,
+                         torch.randperm(count, generator=generator).float()[:, None] * 0.3 - 0.6], dim=1)
+    materials = [glowing(torch.rand(3, generator=generator).tolist(), 0.3 + 0.1 * i) for i in range(count)]
+    asset = Asset(joined([card(centres[i], 0.35, material=i) for i in range(count)]), materials)
+    camera, light = front_camera(), PointLight(torch.tensor([[0.0, 0.0, 4.0]]), torch.ones(1, 3))
+    background = torch.tensor([0.1, 0.2, 0.3])
+    used = LayerCount()
+    torch.manual_seed(0)
+    image = render(asset, camera, light, size, spp=spp, layers=8, background=background, msaa=True, layer_count=used)
+    torch.manual_seed(0)
+    expected = full_frame_composite(asset, camera, light, size, spp, 8, background)
+    assert torch.equal(image, expected)
+    with dr.DepthPeeler(None, camera.clip(asset.mesh.v_pos), asset.mesh.t_pos_idx.int(), (size * spp,) * 2) as peeler:
+        covered = [bool((peeler.rasterize_next_layer()[0][..., 3] > 0).any()) for _ in range(8)]
+    deepest = covered.index(False)
+    assert 2 <= deepest < 8 and not any(covered[deepest:])
+    assert (used.renders, used.layers, used.deepest, used.mean) == (1, deepest, deepest, deepest)

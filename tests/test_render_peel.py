@@ -60,3 +60,34 @@ def test_peeler_needs_its_with_block():
     peeler = dr.DepthPeeler(None, pos, tri, (8, 8))
     with pytest.raises(RuntimeError, match="with"):
         peeler.rasterize_next_layer()
+
+
+@pytest.mark.parametrize("block", [1, 2])
+def test_windowed_layers_are_the_windows_of_the_full_layers(block):
+    """``rasterize_next_window`` gives, bit for bit, the window of ``rasterize_next_layer``'s
+    images (values and gradients) that holds every covered pixel with a margin, each window
+    inside the previous one, and ``None`` once no fragment is left."""
+    pos, tri, _ = stacked_quads(4)
+    pos = (pos * torch.tensor([0.6, 0.5, 1.0, 1.0]) + torch.tensor([0.1, -0.2, 0.0, 0.0])).requires_grad_()
+    size = 36
+    with dr.DepthPeeler(None, pos, tri, (size, size)) as full, dr.DepthPeeler(None, pos, tri, (size, size)) as part:
+        outer = None
+        for _ in range(6):
+            rast, rast_db = full.rasterize_next_layer()
+            window, part_rast, part_db = part.rasterize_next_window(block)
+            if not (rast[..., 3] > 0).any():
+                assert window is None and part_rast.numel() == 0
+                break
+            assert window.top % block == 0 and window.height % block == 0 and window.width < size
+            assert torch.equal(window.crop(rast), part_rast) and torch.equal(window.crop(rast_db), part_db)
+            outside = window.paste(torch.zeros_like(part_rast), rast)
+            assert not (outside[..., 3] > 0).any()
+            if outer is not None:
+                assert outer.top <= window.top and window.top + window.height <= outer.top + outer.height
+            weights = torch.randn(rast.shape)
+            full_grad, = torch.autograd.grad((rast * weights).sum() + rast_db.sum(), pos)
+            part_grad, = torch.autograd.grad((part_rast * window.crop(weights)).sum() + part_db.sum(), pos)
+            torch.testing.assert_close(part_grad, full_grad, rtol=1e-6, atol=1e-6)
+            outer = window
+        else:
+            pytest.fail("four quads ran out of layers")

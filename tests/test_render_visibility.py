@@ -14,6 +14,7 @@ import lookalike.render as dr
 from lookalike.render import visibility
 from lookalike.render.visibility import TILE, visible_triangles
 from lookalike.render.visibility_python import visibility_python
+from lookalike.render.window import Window
 
 
 def perspective(fovy: float = 1.0, near: float = 0.1, far: float = 100.0) -> torch.Tensor:
@@ -131,7 +132,8 @@ def test_bad_inputs_raise_clear_errors():
         dr.rasterize(None, pos, torch.tensor([[0.0, 1.0, 2.0]]), (4, 4))
 
 
-def test_view_parallel_and_tile_parallel_paths_agree():
+@pytest.mark.parametrize("clip", [(0, 69, 0, 39), (5, 50, 3, 30)])
+def test_view_parallel_and_tile_parallel_paths_agree(clip):
     pos, tri = random_scene(3, 300)
     pos = pos.numpy()
     tri = tri.int().numpy()
@@ -139,18 +141,31 @@ def test_view_parallel_and_tile_parallel_paths_agree():
     end = np.full(3, tri.shape[0], np.int64)
     min_depth = np.full((3, 40, 70), -np.inf, np.float32)
     screen, code = visibility.project_vertices(pos, 70, 40)
+    clip = np.array(clip, np.int64)
     results = []
     for by_tiles in (False, True):
         tri_id = np.zeros((3, 40, 70), np.int32)
         depth = np.full((3, 40, 70), np.inf, np.float32)
         if by_tiles:
-            bbox, bin_start, bin_tris = visibility._bin_triangles(pos, screen, code, tri, begin, end, 70, 40)
+            bbox, bin_start, bin_tris = visibility._bin_triangles(pos, screen, code, tri, begin, end, 70, 40, clip)
             visibility._rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, 70, 40, min_depth, tri_id, depth)
         else:
-            visibility._rasterize_views(pos, screen, code, tri, begin, end, 70, 40, min_depth, tri_id, depth)
+            visibility._rasterize_views(pos, screen, code, tri, begin, end, 70, 40, clip, min_depth, tri_id, depth)
         results.append((tri_id, depth))
     assert (results[0][0] == results[1][0]).all() and (results[0][1] == results[1][1]).all()
-    assert (results[0][0] > 0).mean() > 0.2
+    assert (results[0][0] > 0).mean() > 0.1
+
+
+def test_a_window_draws_only_its_pixels_as_the_twin_does():
+    pos, tri = random_scene(2, 200)
+    window = Window(7, 11, 20, 33, 40, 70)
+    ids, depth = visible_triangles(pos.numpy(), tri.int().numpy(), np.array([[0, 200], [0, 200]]), 40, 70,
+                                   window=window)
+    twin_ids, twin_depth = visibility_python(pos, tri, (40, 70), window=window)
+    full_ids, full_depth = visible_triangles(pos.numpy(), tri.int().numpy(), np.array([[0, 200], [0, 200]]), 40, 70)
+    assert (ids == twin_ids.numpy()).mean() > 0.99
+    assert (window.crop(ids) == window.crop(full_ids)).all() and (window.crop(depth) == window.crop(full_depth)).all()
+    assert ids.sum() == window.crop(ids).sum() and np.isinf(depth).sum() == depth.size - (window.crop(ids) > 0).sum()
 
 
 @njit

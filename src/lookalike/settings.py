@@ -50,6 +50,7 @@ LOSSES = ("l1-tonemapped", "l2-tonemapped", "l2", "smape", "relative-l2")
 INITS = ("bake", "source", "average", "random")
 WARM_INITS = ("bake", "source")
 ALPHA_EXPORTS = ("auto", "mask", "blend")
+POSITION_STEPS = ("uniform", "local")
 
 
 @dataclass
@@ -103,9 +104,14 @@ class LatentConfig:
         alpha_mode: how a model with trained alpha is written: ``"auto"`` as the input's
             materials do (``BLEND`` if one blends, else ``MASK``), ``"mask"`` (alpha-tested at a
             cutoff the fit chooses on its validation views: engines draw it without sorting) or
-            ``"blend"``. ``"auto"`` trains the mode it writes; ``"mask"`` and ``"blend"`` train
-            soft (blended) alpha, which moves coverage where a straight-through mask does not
+            ``"blend"``. ``"auto"`` trains the mode it writes; ``"blend"`` trains soft
+            (blended) alpha, which moves coverage where a straight-through mask does not;
+            ``"mask"`` starts as blended and narrows to the alpha test over ``mask_anneal``
             (``lookalike.jobs.alpha_export``).
+        mask_anneal: for ``alpha_mode = "mask"``, the share of the run over which the coverage
+            ramp narrows from blended alpha (width 1) to the hard alpha test (0), linearly
+            (``Material.coverage_ramp``): the fit's last part trains the model as engines draw
+            it. 0 trains blended alpha throughout and thresholds it at the end.
     """
 
     triangles: int | None = None
@@ -117,6 +123,7 @@ class LatentConfig:
     static: bool = False
     skin_candidates: int = 8
     alpha_mode: str = "auto"
+    mask_anneal: float = 0.75
 
 
 @dataclass
@@ -239,6 +246,10 @@ class OptimConfig:
         checkpoint_seconds: write ``OUTDIR/checkpoint.pt`` at most this often.
         rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
         max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
+        position_steps: ``"uniform"``: every vertex steps by ``lr_positions``; ``"local"``: a
+            vertex steps by ``lr_positions`` times its local size against ``LOCAL_STEP_SIZE``
+            (at most 1; ``lookalike.fit.position_steps``), so that a small card moves as far
+            for its size as a large one.
     """
 
     time_budget: float = 600.0
@@ -259,6 +270,7 @@ class OptimConfig:
     checkpoint_seconds: float = 60.0
     rollback_lr_factor: float = 0.5
     max_rollbacks: int = 8
+    position_steps: str = "uniform"
 
 
 @dataclass
@@ -345,6 +357,9 @@ class Config:
             (0 <= opt.laplacian_min_fraction <= 1, "optim.laplacian_min_fraction must lie in [0, 1]"),
             (opt.laplacian_decay_fraction > 0, "optim.laplacian_decay_fraction must be positive"),
             (0 < opt.rollback_lr_factor < 1, "optim.rollback_lr_factor must lie in (0, 1)"),
+            (opt.position_steps in POSITION_STEPS,
+             f"optim.position_steps must be one of {', '.join(POSITION_STEPS)}, not {opt.position_steps!r}"),
+            (0 <= lat.mask_anneal <= 1, f"latent.mask_anneal must lie in [0, 1], not {lat.mask_anneal}"),
         ]
         for ok, message in checks:
             if not ok:

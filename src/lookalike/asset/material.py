@@ -69,6 +69,11 @@ class Material:
         normal: tangent-space normal map, 3 channels, or ``None`` (flat).
         alpha_mode: ``"OPAQUE"``, ``"MASK"`` or ``"BLEND"``.
         alpha_cutoff: threshold for ``"MASK"``.
+        coverage_ramp: ``"MASK"`` while a fit trains it: the width ``w`` of the ramp over
+            which coverage rises around the cutoff ``c``, ``clamp((alpha - c) / w + 1/2, 0, 1)``
+            (at ``w = 1``, ``c = 1/2`` it is alpha itself, as blended); 0, as glTF draws it
+            and as every written model has it, is the hard test. A fit narrows it to 0 so that
+            the alpha test is trained in, not imposed at the end (``lookalike.fit.textured_mesh``).
         double_sided: render back faces (with flipped normals).
         emissive: optional emission texture, 3 channels (linear), rendered additively.
         occlusion: optional ambient occlusion texture, 1 channel, strength applied; kept and
@@ -81,6 +86,7 @@ class Material:
     normal: Texture | None = None
     alpha_mode: str = "OPAQUE"
     alpha_cutoff: float = 0.5
+    coverage_ramp: float = 0.0
     double_sided: bool = False
     emissive: Texture | None = None
     occlusion: Texture | None = None

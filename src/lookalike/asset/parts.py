@@ -7,6 +7,8 @@ one corner), so a part whose vertices are split at UV or normal seams stays one 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse
 from scipy.sparse.csgraph import connected_components
@@ -89,6 +91,64 @@ fraction of its largest: a grass blade or a strand, which decimation collapses i
 however long it is."""
 
 
+@dataclass
+class PartSurvey:
+    """The disjoint parts of an asset's triangles and what ``card_like_parts`` reads of them.
+
+    Attributes (T triangles, C welded corners, P parts):
+        positions: ``[C, 3]`` float64 distinct positions; corner: ``[T, 3]`` int64 each
+            triangle's corners among them.
+        part: ``[T]`` int64 part label (as ``triangle_parts``); area: ``[P]`` float64 surface area.
+        alpha_tested: ``[P]`` bool, a triangle of the part uses an alpha material.
+        open_surface: ``[P]`` bool, the part has a boundary edge and is not alpha-tested.
+    """
+
+    positions: np.ndarray
+    corner: np.ndarray
+    part: np.ndarray
+    area: np.ndarray
+    alpha_tested: np.ndarray
+    open_surface: np.ndarray
+
+
+def survey_parts(asset, least_parts: int = 1) -> PartSurvey | None:
+    """The ``PartSurvey`` of ``asset``'s mesh as stored, or ``None`` where it has no triangles
+    or fewer than ``least_parts`` parts (the rest of the work skipped). One survey serves the
+    aggregate hint and the cards' split of an input into a kept mesh and cards, so both classify
+    parts by one rule.
+
+    Cost: ``triangle_parts``, then one sort of the edges (``_open_parts``)."""
+    mesh = asset.mesh
+    tri = mesh.t_pos_idx.detach().cpu().numpy().astype(np.int64)
+    if len(tri) == 0:
+        return None
+    positions, corner = _welded(mesh.v_pos.detach().cpu().numpy(), tri)
+    part = _corner_parts(corner)
+    parts = int(part.max()) + 1
+    if parts < least_parts:
+        return None
+    positions = positions.astype(np.float64)
+    at = positions[corner]
+    area = 0.5 * np.linalg.norm(np.cross(at[:, 1] - at[:, 0], at[:, 2] - at[:, 0]), axis=1)
+    uses_alpha = np.array([m.uses_alpha for m in asset.materials], bool)[mesh.t_mat_idx.cpu().numpy()]
+    alpha_tested = np.bincount(part, uses_alpha, parts) > 0
+    return PartSurvey(positions=positions, corner=corner, part=part, area=np.bincount(part, area, parts),
+                      alpha_tested=alpha_tested, open_surface=_open_parts(corner, part, parts) & ~alpha_tested)
+
+
+def card_like_parts(survey: PartSurvey) -> np.ndarray:
+    """``[P]`` bool: the part is card-like, alpha-tested or an open surface that is small
+    (``AGGREGATE_SMALL``) or thin (``AGGREGATE_THIN``); the others are solid (the rule of
+    ``aggregate_traits``). Cost: per-part sums over the corners of the open parts only."""
+    used = np.zeros(len(survey.positions), bool)
+    used[survey.corner.reshape(-1)] = True
+    diagonal = float(np.linalg.norm(survey.positions[used].max(0) - survey.positions[used].min(0)))
+    shaped = survey.open_surface.copy()
+    if shaped.any():
+        shaped[shaped] = _small_or_thin_parts(survey.positions, survey.corner, survey.part, shaped, diagonal)
+    return shaped | survey.alpha_tested
+
+
 def aggregate_traits(asset) -> str | None:
     """What makes ``asset`` look like aggregate geometry, in a few words (e.g. ``"4,012
     disjoint parts, 4,000 of them alpha-tested or small or thin open surfaces, holding 83 % of
@@ -98,47 +158,30 @@ def aggregate_traits(asset) -> str | None:
     card already, whatever its size), or when it is an open surface (an edge of its welded
     corners is used by one of its triangles only: a leaf, a blade) that is small
     (``AGGREGATE_SMALL``) or thin (``AGGREGATE_THIN``). A closed part (every edge shared by two
-    triangles) is solid and never card-like unless alpha-tested.
+    triangles) is solid and never card-like unless alpha-tested (``card_like_parts``).
     The input is aggregate when at least ``AGGREGATE_PARTS`` parts are card-like and they hold
     at least ``AGGREGATE_AREA_SHARE`` of the area. A skinned input (a skin with per-vertex
     influences) never is: a character's parts move with its joints, which cards cannot follow.
 
-    Cost: ``triangle_parts``, one sort of the edges, then per-part sums over the corners of the
-    open or alpha-tested parts only, where they could make the input aggregate; no loop over
-    parts or triangles.
+    Cost: ``survey_parts``, then per-part sums over the corners of the open parts only, where
+    the open or alpha-tested parts could make the input aggregate; no loop over parts or
+    triangles.
     """
-    mesh = asset.mesh
-    if asset.skin is not None and mesh.v_joints is not None:
+    if asset.skin is not None and asset.mesh.v_joints is not None:
         return None
-    tri = mesh.t_pos_idx.detach().cpu().numpy().astype(np.int64)
-    if len(tri) == 0:
+    survey = survey_parts(asset, AGGREGATE_PARTS)
+    if survey is None:
         return None
-    positions, corner = _welded(mesh.v_pos.detach().cpu().numpy(), tri)
-    part = _corner_parts(corner)
-    parts = int(part.max()) + 1
-    if parts < AGGREGATE_PARTS:
-        return None
-    positions = positions.astype(np.float64)
-    at = positions[corner]
-    area = 0.5 * np.linalg.norm(np.cross(at[:, 1] - at[:, 0], at[:, 2] - at[:, 0]), axis=1)
-    part_area = np.bincount(part, area, parts)
-    uses_alpha = np.array([m.uses_alpha for m in asset.materials], bool)[mesh.t_mat_idx.cpu().numpy()]
-    alpha_tested = np.bincount(part, uses_alpha, parts) > 0
-    open_surface = _open_parts(corner, part, parts) & ~alpha_tested
-    card_like = open_surface | alpha_tested
-    total = max(float(part_area.sum()), 1e-30)
-    if card_like.sum() < AGGREGATE_PARTS or part_area[card_like].sum() < AGGREGATE_AREA_SHARE * total:
+    total = max(float(survey.area.sum()), 1e-30)
+    candidate = survey.open_surface | survey.alpha_tested
+    if candidate.sum() < AGGREGATE_PARTS or survey.area[candidate].sum() < AGGREGATE_AREA_SHARE * total:
         return None                                                      # too few open or alpha-tested parts
-    used = np.zeros(len(positions), bool)
-    used[corner.reshape(-1)] = True
-    diagonal = float(np.linalg.norm(positions[used].max(0) - positions[used].min(0)))
-    open_surface[open_surface] = _small_or_thin_parts(positions, corner, part, open_surface, diagonal)
-    card_like = open_surface | alpha_tested
+    card_like = card_like_parts(survey)
     count = int(card_like.sum())
-    share = float(part_area[card_like].sum() / total)
+    share = float(survey.area[card_like].sum() / total)
     if count < AGGREGATE_PARTS or share < AGGREGATE_AREA_SHARE:
         return None
-    return (f"{parts:,} disjoint parts, {count:,} of them alpha-tested or small or thin open surfaces, "
+    return (f"{len(survey.area):,} disjoint parts, {count:,} of them alpha-tested or small or thin open surfaces, "
             f"holding {100 * share:.0f} % of the area")
 
 

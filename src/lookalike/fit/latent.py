@@ -48,6 +48,11 @@ class Latent(Protocol):
         """Project the trainable tensors onto their valid ranges, in place."""
         ...
 
+    def at_progress(self, fraction: float | None) -> None:
+        """Follow the run's schedules (e.g. a narrowing alpha test) at ``fraction`` of the
+        run's steps done (``None`` while the run's length is unknown); called before each step."""
+        ...
+
     def regularizers(self) -> dict[str, torch.Tensor]:
         """Scalar regulariser terms by name (differentiable)."""
         ...

@@ -171,6 +171,7 @@ class Fitter:
         with phase("views"):
             batch = self.source.sample(self.rng, self.settings.views_per_step)
         self._set_learning_rates()
+        self.latent.at_progress(None if p.total is None else p.iteration / max(p.total, 1))
         self.optimizer.zero_grad(set_to_none=True)
         with phase("forward"):
             terms = self.objective(self.latent, batch, self.rng, p.iteration, p.total)

@@ -101,6 +101,9 @@ class SkinnedMesh(torch.nn.Module):
     def clamp_(self) -> None:
         self.surface.clamp_()
 
+    def at_progress(self, fraction: float | None) -> None:
+        self.surface.at_progress(fraction)
+
     def regularizers(self) -> dict[str, torch.Tensor]:
         return self.surface.regularizers()
 

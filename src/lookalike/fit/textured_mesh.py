@@ -24,6 +24,7 @@ from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import render, render_coverage
 from ..settings import ClampConfig
+from .position_steps import local_step_scale
 from .slope_normals import normal_to_slopes, slopes_to_normal
 from .texture_pyramid import TexturePyramid
 
@@ -33,7 +34,8 @@ class TexturedMesh(torch.nn.Module):
 
     Parameters (float32), in groups ``"positions"`` (``v_pos``) and ``"textures"`` (the levels
     of the three texture pyramids):
-        v_pos: ``[V, 3]`` positions in the unit frame.
+        v_pos: ``[V, 3]`` positions in the unit frame, divided by ``position_steps`` where
+            given (so that Adam steps each vertex by its own scale, ``lookalike.fit.position_steps``).
         kd: ``TexturePyramid`` of ``[S, S, 4]`` base colour + alpha when alpha is trained, else
             ``[S, S, 3]`` (alpha is then 1).
         ks: ``TexturePyramid`` of ``[S, S, 3]`` (gamma, roughness, metalness).
@@ -53,7 +55,8 @@ class TexturedMesh(torch.nn.Module):
     smoothing groups, fixed at the start; the normals themselves are recomputed from the current
     positions at every render, ``lookalike.asset.normals.split_normals``), ``v_tex [VT, 2]``
     float32 and ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32, and
-    ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions.
+    ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions,
+    ``position_steps [V, 1]`` float32 or ``None`` (every vertex steps alike).
 
     Args:
         mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0 and its
@@ -72,13 +75,18 @@ class TexturedMesh(torch.nn.Module):
         emissive: initial ``[S, S, 3]`` linear emission, or ``None`` (no emission).
         occlusion: ``[S, S, 1]`` (or ``[1, 1, 1]``) ambient occlusion to carry, or ``None``.
         layers: depth-peeled layers its renders composite (``lookalike.shading.pipeline``).
+        position_steps: ``[V, 1]`` step scale of each vertex, or ``None``.
+        mask_anneal: the share of the run over which a ``"MASK"`` material's coverage ramp
+            narrows from ``coverage_ramp`` to the hard test (``at_progress``); 0 keeps it.
+        coverage_ramp: the ramp's width at the start (``Material.coverage_ramp``).
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
                  centre: torch.Tensor, radius: float | torch.Tensor, limits: ClampConfig = ClampConfig(),
                  msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp",
                  texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
-                 occlusion: torch.Tensor | None = None, layers: int = 1):
+                 occlusion: torch.Tensor | None = None, layers: int = 1,
+                 position_steps: torch.Tensor | None = None, mask_anneal: float = 0.0, coverage_ramp: float = 0.0):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -88,18 +96,23 @@ class TexturedMesh(torch.nn.Module):
         self.register_buffer("t_nrm_idx", (mesh.t_pos_idx if mesh.t_nrm_idx is None else mesh.t_nrm_idx).clone())
         self.register_buffer("v_tex", mesh.v_tex.clone())
         self.register_buffer("t_tex_idx", mesh.t_tex_idx.clone())
-        self.v_pos = torch.nn.Parameter((mesh.v_pos.float() - centre) / radius)
+        self.register_buffer("position_steps", None if position_steps is None else position_steps.float().clone())
+        unit = (mesh.v_pos.float() - centre) / radius
+        self.v_pos = torch.nn.Parameter(unit if position_steps is None else unit / self.position_steps)
         self.kd = TexturePyramid(kd, texture_scales)
         self.ks = TexturePyramid(ks, texture_scales)
         self.normal = TexturePyramid(normal_to_slopes(normal.float()), texture_scales)
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
-        self.register_buffer("rest_delta", self.laplacian.differentials(self.v_pos.detach()))
+        self.register_buffer("rest_delta", self.laplacian.differentials(unit))
         self.limits = limits
         self.msaa = msaa
         self.alpha_mode = alpha_mode
         self.double_sided = double_sided
         self.wrap = wrap
         self.layers = layers
+        self.mask_anneal = mask_anneal
+        self.start_ramp = coverage_ramp
+        self.coverage_ramp = coverage_ramp
         self.emissive_scale = 1.0 if emissive is None else max(float(emissive.detach().max()), 1.0)
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
@@ -121,13 +134,17 @@ class TexturedMesh(torch.nn.Module):
     @classmethod
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
-                   texture_scales: tuple[float, ...] = (1.0,), layers: int = 1) -> TexturedMesh:
+                   texture_scales: tuple[float, ...] = (1.0,), layers: int = 1, position_steps: str = "uniform",
+                   mask_anneal: float = 0.0) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
         are held as one value, the mean of the start's texels. Normals are lifted to face out
         by at least ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind),
-        and every texel is clamped into ``limits``. ``layers``: see the class."""
+        and every texel is clamped into ``limits``. ``layers``, ``mask_anneal``: see the class;
+        ``position_steps``: ``"local"`` steps each vertex by its local size
+        (``lookalike.fit.position_steps``), ``"uniform"`` all alike. A trained ``"MASK"``
+        material's ``coverage_ramp`` is where the ramp starts."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
         ks = material.ks.data
@@ -138,15 +155,19 @@ class TexturedMesh(torch.nn.Module):
                   for name, texels in (("kd", kd), ("ks", ks)))
         mesh = Mesh(v_pos=asset.mesh.v_pos, t_pos_idx=asset.mesh.t_pos_idx, uv=[asset.mesh.uv[0]],
                     t_nrm_idx=asset.mesh.t_nrm_idx)
+        steps = local_step_scale(mesh.v_pos, mesh.t_pos_idx, float(radius)) if position_steps == "local" else None
         latent = cls(mesh, kd, ks, _facing_outwards(normal, limits), centre, radius, limits=limits,
                      msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
-                     layers=layers, **_emission_and_occlusion(material, size))
+                     layers=layers, position_steps=steps, mask_anneal=mask_anneal,
+                     coverage_ramp=material.coverage_ramp if train_alpha else 0.0,
+                     **_emission_and_occlusion(material, size))
         return latent
 
     def get_extra_state(self) -> dict:
         return {"alpha_mode": self.alpha_mode, "double_sided": self.double_sided, "wrap": self.wrap,
-                "msaa": self.msaa, "layers": self.layers, "limits": dataclasses.asdict(self.limits)}
+                "msaa": self.msaa, "layers": self.layers, "limits": dataclasses.asdict(self.limits),
+                "mask_anneal": self.mask_anneal, "start_ramp": self.start_ramp, "coverage_ramp": self.coverage_ramp}
 
     def set_extra_state(self, state: dict) -> None:
         self.alpha_mode = state["alpha_mode"]
@@ -154,6 +175,9 @@ class TexturedMesh(torch.nn.Module):
         self.wrap = state["wrap"]
         self.msaa = state["msaa"]
         self.layers = state.get("layers", 1)
+        self.mask_anneal = state.get("mask_anneal", 0.0)
+        self.start_ramp = state.get("start_ramp", 0.0)
+        self.coverage_ramp = state.get("coverage_ramp", 0.0)
         self.limits = ClampConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in state["limits"].items()})
         self._bound_textures()
 
@@ -168,9 +192,19 @@ class TexturedMesh(torch.nn.Module):
             groups["emissive"] = list(self.emissive.parameters())
         return groups
 
+    def unit_positions(self) -> torch.Tensor:
+        """``[V, 3]`` positions in the unit frame: ``v_pos``, times ``position_steps`` where given."""
+        return self.v_pos if self.position_steps is None else self.v_pos * self.position_steps
+
     def world_positions(self) -> torch.Tensor:
-        """``[V, 3]`` positions in the input's frame: centre + radius * v_pos (differentiable)."""
-        return self.centre + self.radius * self.v_pos
+        """``[V, 3]`` positions in the input's frame: centre + radius * unit positions (differentiable)."""
+        return self.centre + self.radius * self.unit_positions()
+
+    def at_progress(self, fraction: float | None) -> None:
+        """Follow the run's schedule at ``fraction`` of it (``None`` until its length is known,
+        taken as 0): the coverage ramp ``w = start * max(0, 1 - fraction / mask_anneal)``."""
+        if self.mask_anneal > 0:
+            self.coverage_ramp = self.start_ramp * max(0.0, 1.0 - (fraction or 0.0) / self.mask_anneal)
 
     def base_color(self) -> torch.Tensor:
         """``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained)."""
@@ -187,9 +221,10 @@ class TexturedMesh(torch.nn.Module):
         """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
         return slopes_to_normal(self.normal())
 
-    def as_asset(self) -> Asset:
+    def as_asset(self, coverage_ramp: float | None = None) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
-        parameters (``export`` gives a detached one)."""
+        parameters (``export`` gives a detached one), its alpha test at ``coverage_ramp``
+        (``None``: the schedule's current one)."""
         mesh = Mesh(v_pos=self.world_positions(), t_pos_idx=self.t_pos_idx, uv=[(self.v_tex, self.t_tex_idx)],
                     t_nrm_idx=self.t_nrm_idx)
         material = Material(
@@ -198,6 +233,7 @@ class TexturedMesh(torch.nn.Module):
             ks=Texture(self.ks(), wrap=self.wrap),
             normal=Texture(self.unit_normal(), wrap=self.wrap),
             alpha_mode=self.alpha_mode,
+            coverage_ramp=self.coverage_ramp if coverage_ramp is None else coverage_ramp,
             double_sided=self.double_sided,
             emissive=None if self.emissive is None else Texture(self.emission(), wrap=self.wrap),
             occlusion=None if self.occlusion is None else Texture(self.occlusion, wrap=self.wrap),
@@ -206,7 +242,8 @@ class TexturedMesh(torch.nn.Module):
 
     @torch.no_grad()
     def export(self) -> Asset:
-        return self.as_asset()
+        """The model as written: detached, its alpha test hard (as glTF draws it)."""
+        return self.as_asset(coverage_ramp=0.0)
 
     def render(self, camera: Camera, light: PointLight, resolution: int, pose: Poses | None = None) -> torch.Tensor:
         """One shading sample per pixel, at a random one of its ``msaa`` x ``msaa``
@@ -233,7 +270,7 @@ class TexturedMesh(torch.nn.Module):
         return render_coverage(Mesh(v_pos=v_pos, t_pos_idx=self.t_pos_idx), camera, (resolution, resolution), self.msaa)
 
     def regularizers(self) -> dict[str, torch.Tensor]:
-        return {"laplacian": self.laplacian.loss(self.v_pos, self.rest_delta)}
+        return {"laplacian": self.laplacian.loss(self.unit_positions(), self.rest_delta)}
 
     def regularizer_scales(self) -> dict[str, float]:
         """``{"laplacian": mean_i |delta'_i|^2}``, the absolute Laplacian energy of the initial

@@ -41,7 +41,8 @@ the one of ``ROTATIONS`` angles evenly spread over 90 degrees that gives the sma
 
 Atlas. One chart per card, ``ceil(scale * side)`` texels along each side (area proportional to
 the card's, aspect kept), shelf-packed tallest first with ``CHART_GAP`` texels between charts
-(half that at the atlas border), ``scale`` the largest that fits (bisection). A quad's corners
+(half that at the atlas border; shelves beside a top-left square ``reserved`` for a mesh kept
+with the cards start right of it), ``scale`` the largest that fits (bisection). A quad's corners
 sit on its chart's outer texel edges, ``u`` to the right and ``v`` up the image (glTF UVs, row 0
 at the top), so seen from ``+n`` the chart shows the card upright and our tangent frame of the
 quad (``lookalike.asset.tangents``) is ``(u, v, n)``.
@@ -128,14 +129,17 @@ class CardCloud:
 
     Attributes (Q cards, T triangles of the input):
         asset: the quads, 4 own vertices and 2 triangles each (card ``q`` is vertices
-            ``4q .. 4q+3``, triangles ``2q, 2q+1``), UV set 0 the card atlas, one material
+            ``4q .. 4q+3``, triangles ``2q, 2q+1``), then the ``kept`` triangles of a mesh kept
+            beside them (``lookalike.init.trunk_and_cards``), UV set 0 the atlas, one material
             ``"lookalike"`` (kd ``[S, S, 4]``, ks ``[S, S, 3]``, normal ``[S, S, 3]``, emissive and
             occlusion where the input has them; ``"BLEND"``, double-sided, clamped textures).
         normals: ``[Q, 3]`` float64 unit normals of the card planes (pointing to the side the
             bake looked from).
         offsets: ``[Q]`` float64 plane offsets ``d``: the plane is ``normals[q] . x = d[q]``.
-        card_of_triangle: ``[T]`` int64 card each input triangle went to.
+        card_of_triangle: ``[T]`` int64 card each input triangle went to, -1 where it went to
+            the kept mesh.
         notes: remarks for the report.
+        kept: the number of triangles of the kept mesh, the last ones of ``asset`` (0: all cards).
     """
 
     asset: Asset
@@ -143,6 +147,7 @@ class CardCloud:
     offsets: np.ndarray
     card_of_triangle: np.ndarray
     notes: list[str] = field(default_factory=list)
+    kept: int = 0
 
 
 @dataclass
@@ -164,7 +169,8 @@ class CardPlanes:
     depth: np.ndarray
 
 
-def billboard_cloud(asset: Asset, triangles: int, texture_size: int, rng: np.random.Generator) -> CardCloud:
+def billboard_cloud(asset: Asset, triangles: int, texture_size: int, rng: np.random.Generator,
+                    reserved: int = 0) -> CardCloud:
     """The billboard cloud of ``asset`` within a budget of ``triangles`` (see the module
     docstring).
 
@@ -174,6 +180,9 @@ def billboard_cloud(asset: Asset, triangles: int, texture_size: int, rng: np.ran
             fewer triangles).
         texture_size: side S of the square atlas.
         rng: draws the k-means seeds.
+        reserved: the atlas's top-left ``reserved x reserved`` texels hold no chart (they are
+            left to a mesh kept beside the cards, ``lookalike.init.trunk_and_cards``); the
+            textures there are the nearest charts' colours.
     Returns:
         ``CardCloud``.
     Raises:
@@ -200,7 +209,7 @@ def billboard_cloud(asset: Asset, triangles: int, texture_size: int, rng: np.ran
         moments = triangle_moments(v_pos[t_pos_idx] - centre)
         card, notes = cluster_triangles(moments, triangle_parts(v_pos, t_pos_idx), cards, rng)
         planes = fit_planes(moments, card)
-        charts = pack_charts(planes.extent, texture_size)
+        charts = pack_charts(planes.extent, texture_size, reserved)
     with phase("bake cards"):
         textures, bake_notes = bake_cards(asset, moments, card, planes, charts, texture_size)
     material = Material(name="lookalike", kd=Texture(textures["kd"], wrap="clamp"),
@@ -502,18 +511,23 @@ def chart_sizes(extent: np.ndarray, scale: float) -> np.ndarray:
     return np.maximum(np.ceil(extent * scale), 1).astype(np.int64)
 
 
-def shelf_pack(sizes: np.ndarray, order: np.ndarray, size: int) -> np.ndarray | None:
+def shelf_pack(sizes: np.ndarray, order: np.ndarray, size: int, reserved: int = 0) -> np.ndarray | None:
     """``[Q, 2]`` int64 (column, row) of each chart's top-left texel when the charts of ``sizes
     [Q, 2]`` (width, height) are placed in ``order`` left to right on shelves (a new shelf below
     the tallest chart of the last when a row is full) in a ``size x size`` image, ``CHART_GAP``
-    texels between charts and half that at the border; ``None`` where they do not fit."""
+    texels between charts and half that at the border, the top-left ``reserved x reserved``
+    texels left free (shelves that start above its bottom start right of it); ``None`` where
+    they do not fit."""
     widths, heights = (sizes[:, 0] + CHART_GAP).tolist(), (sizes[:, 1] + CHART_GAP).tolist()
     place = [(0, 0)] * len(sizes)
-    x = y = shelf = 0
+    x, y, shelf = reserved, 0, 0
     half = CHART_GAP // 2
     for i in order.tolist():
         if x + widths[i] > size:
-            x, y, shelf = 0, y + shelf, 0
+            y, shelf = y + shelf, 0
+            x = reserved if y < reserved else 0
+        if x + widths[i] > size and shelf == 0 and y < reserved:
+            x, y = 0, reserved                                          # too wide beside the reserved square
         if x + widths[i] > size or y + heights[i] > size:
             return None
         place[i] = (x + half, y + half)
@@ -522,23 +536,24 @@ def shelf_pack(sizes: np.ndarray, order: np.ndarray, size: int) -> np.ndarray | 
     return np.array(place, np.int64).reshape(-1, 2)
 
 
-def pack_charts(extent: np.ndarray, size: int) -> np.ndarray:
+def pack_charts(extent: np.ndarray, size: int, reserved: int = 0) -> np.ndarray:
     """``[Q, 4]`` int64 charts ``(column, row, width, height)`` in texels of the cards of sides
-    ``extent [Q, 2]`` (world units) in a ``size x size`` atlas: ``chart_sizes`` at the largest
-    ``scale`` for which ``shelf_pack`` (tallest first) fits them, found by bisection.
+    ``extent [Q, 2]`` (world units) in a ``size x size`` atlas whose top-left ``reserved x
+    reserved`` texels stay free: ``chart_sizes`` at the largest ``scale`` for which
+    ``shelf_pack`` (tallest first) fits them, found by bisection.
 
     Raises:
         ConfigError: not even 1-texel charts fit.
     """
     order = np.lexsort((np.arange(len(extent)), -extent[:, 1]))
-    fit = shelf_pack(chart_sizes(extent, 0.0), order, size)
+    fit = shelf_pack(chart_sizes(extent, 0.0), order, size, reserved)
     if fit is None:
         raise ConfigError(f"a {size}x{size} texture cannot hold {len(extent)} cards with {CHART_GAP} texels "
                           "between them: raise the texture size or lower the triangle budget")
     low, high = 0.0, size / math.sqrt(float((extent[:, 0] * extent[:, 1]).sum()))   # high never fits
     for _ in range(40):
         middle = 0.5 * (low + high)
-        place = shelf_pack(chart_sizes(extent, middle), order, size)
+        place = shelf_pack(chart_sizes(extent, middle), order, size, reserved)
         if place is None:
             high = middle
         else:

@@ -1,10 +1,13 @@
 """How a model whose alpha was trained is written (``latent.alpha_mode``).
 
 - Training: ``"auto"`` trains the start's own mode (the input's: ``MASK`` with a
-  straight-through gradient, ``lookalike.shading.surface``); ``"mask"`` and ``"blend"`` train
-  blended, soft alpha, because a straight-through mask learns little from a billboard cloud's
-  projected alpha where the same run blended improves (``docs/benchmarks.md``): coverage that
-  the cards must move lives in partial alpha.
+  straight-through gradient, ``lookalike.shading.surface``); ``"blend"`` trains blended, soft
+  alpha, because a straight-through mask learns little from a billboard cloud's projected
+  alpha where the same run blended improves (``docs/benchmarks.md``): coverage that the cards
+  must move lives in partial alpha. ``"mask"`` starts the same way, as a ramp of coverage
+  around the cutoff as wide as blending, and narrows it to the hard test over
+  ``latent.mask_anneal`` of the run (``Material.coverage_ramp``), so that the model is fitted
+  as it will be drawn; with ``mask_anneal`` 0 it trains blended and is thresholded at the end.
 - The alpha of a ``MASK`` model: the cutoff of ``CUTOFFS`` (or the model's own) whose model
   scores the best PSNR on the run's validation views; ``"mask"`` turns the soft model into an
   alpha-tested one that way, or by an ordered dither of its soft alpha (a screen door that keeps
@@ -36,20 +39,31 @@ ALPHA_CANDIDATES = len(CUTOFFS) + 2
 cutoffs, the model's own, the dither)."""
 
 
-def training_start(asset: Asset, mode: str) -> Asset:
+def training_start(asset: Asset, mode: str, mask_anneal: float) -> Asset:
     """``asset`` as the fit trains it for ``latent.alpha_mode`` ``mode``: its alpha-using
-    materials blended for ``"mask"`` and ``"blend"``, as it is for ``"auto"``. Opaque
-    materials stay opaque."""
-    return asset if mode == "auto" else with_alpha_mode(asset, "BLEND")
+    materials alpha-tested at 0.5 with a coverage ramp of width 1 (as blended at first; the fit
+    narrows it, ``latent.mask_anneal``) for ``"mask"``, or blended for ``"mask"`` without
+    annealing and for ``"blend"``; as it is for ``"auto"``. Opaque materials stay opaque."""
+    if mode == "auto":
+        return asset
+    if mode == "mask" and mask_anneal > 0:
+        return with_alpha_mode(asset, "MASK", alpha_cutoff=0.5, coverage_ramp=1.0)
+    return with_alpha_mode(asset, "BLEND")
 
 
-def with_alpha_mode(asset: Asset, mode: str) -> Asset:
+def with_alpha_mode(asset: Asset, mode: str, **fields) -> Asset:
     """``asset`` with its alpha-using materials set to glTF alpha mode ``mode`` (``"MASK"``,
-    ``"BLEND"``); opaque materials stay opaque."""
+    ``"BLEND"``) and the other ``Material`` ``fields`` given; opaque materials stay opaque."""
     if not any(m.uses_alpha for m in asset.materials):
         return asset
-    materials = [dataclasses.replace(m, alpha_mode=mode) if m.uses_alpha else m for m in asset.materials]
+    materials = [dataclasses.replace(m, alpha_mode=mode, **fields) if m.uses_alpha else m for m in asset.materials]
     return dataclasses.replace(asset, materials=materials)
+
+
+def annealed_alpha(asset: Asset) -> bool:
+    """Whether a fit from ``asset`` (as ``training_start`` gives it) trains its alpha test in:
+    an alpha-tested material with a coverage ramp."""
+    return any(m.alpha_mode == "MASK" and m.coverage_ramp > 0 for m in asset.materials)
 
 
 @dataclass(frozen=True)
@@ -75,8 +89,9 @@ def alpha_choices(model: Asset, mode: str) -> list[AlphaChoice]:
 
 def written_alpha(model: Asset, mode: str, choice: AlphaChoice) -> Asset:
     """``model`` as written for ``latent.alpha_mode`` ``mode`` with ``choice``: alpha-tested
-    for ``"mask"``, at the chosen cutoff or dithered; every alpha-using material's colour
-    filled under unseen texels (``filled_colour``). Opaque models are returned as they are."""
+    for ``"mask"``, at the chosen cutoff or dithered, the test hard (``coverage_ramp`` 0, as
+    glTF draws it); every alpha-using material's colour filled under unseen texels
+    (``filled_colour``). Opaque models are returned as they are."""
     if not any(m.uses_alpha for m in model.materials):
         return model
     if mode == "mask":
@@ -85,7 +100,8 @@ def written_alpha(model: Asset, mode: str, choice: AlphaChoice) -> Asset:
         model = _dithered(model)
     elif choice.cutoff is not None:
         model = _at_cutoff(model, choice.cutoff)
-    materials = [dataclasses.replace(m, kd=dataclasses.replace(m.kd, data=filled_colour(m.kd.data, _seen_from(m))))
+    materials = [dataclasses.replace(m, kd=dataclasses.replace(m.kd, data=filled_colour(m.kd.data, _seen_from(m))),
+                                     coverage_ramp=0.0)
                  if m.uses_alpha else m for m in model.materials]
     return dataclasses.replace(model, materials=materials)
 

@@ -4,14 +4,17 @@ Trees, bushes, grass, hair, chains: their look emerges from thousands of small d
 which decimation melts into blobs or loses. ``cards`` starts from a billboard cloud instead
 (``lookalike.init.billboard_cloud``: the input's parts clustered by position and orientation,
 one textured quad per cluster, or one per part where the budget allows, its base colour and
-alpha baked by projection) and fits the cards' vertices, base colour + alpha, specular and
-normal map against renders of the input, with ``render.layers`` depth-peeled layers composited
-back to front, both sides of each card lit. The loss is the paper's for this application,
-squared L2 on tone-mapped colour. ``model.glb`` is alpha-tested (``MASK``, at a cutoff chosen on
-the validation views: engines draw it without sorting) or blended (``alpha_mode="blend"``),
-double-sided, its colour filled under unseen texels (``lookalike.jobs.alpha_export``).
-Everything else is the shared run (``jobs.run``); the report scores plain decimation and the
-billboard cloud the fit started from beside ours.
+alpha baked by projection), with the large solid parts (a trunk, a pot) kept beside the cards
+as a decimated mesh where the budget allows (``lookalike.init.trunk_and_cards``), and fits the
+vertices, base colour + alpha, specular and normal map against renders of the input, with
+``render.layers`` depth-peeled layers composited back to front, both sides of each card lit.
+Each vertex steps by its own size (``lookalike.fit.position_steps``). The loss is the paper's
+for this application, squared L2 on tone-mapped colour. ``model.glb`` is alpha-tested
+(``MASK``, its test trained in over the run and its cutoff chosen on the validation views:
+engines draw it without sorting) or blended (``alpha_mode="blend"``), double-sided, its colour
+filled under unseen texels (``lookalike.jobs.alpha_export``). Everything else is the shared run
+(``jobs.run``); the report scores plain decimation and the start beside ours, and what it
+writes is never below the start as written (``jobs.written_model``).
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import numpy as np
 from ..asset import Asset
 from ..errors import ConfigError
 from ..init import decimate
-from ..init.billboard_cloud import billboard_cloud
+from ..init.trunk_and_cards import trunk_and_cards
 from ..init.initial_guess import InitialGuess, decimation_baseline
 from ..phases import phase
 from ..settings import Config, LatentConfig, OptimConfig, RenderConfig, ViewsConfig
@@ -34,26 +37,29 @@ CARDS_DEFAULTS = Config(
     latent=LatentConfig(ratio=0.01, alpha_mode="mask"),
     render=RenderConfig(layers=8),
     views=ViewsConfig(pool_size=32),
-    optim=OptimConfig(loss="l2-tonemapped", lr_positions=0.01, lr_textures=0.03),
+    optim=OptimConfig(loss="l2-tonemapped", lr_positions=0.002, lr_textures=0.03, position_steps="local"),
 )
 """Where a ``cards`` run's settings start: a smaller share of the input's triangles (the
 paper's trees keep 0.4-0.8 %), 8 depth-peeled layers as the paper peels, squared L2 on
-tone-mapped colour, the large steps of a coarse start (a billboard cloud moves far, and its
-projected bake is only a rough picture of the cards' final look), a pool of 32 views (each
-reference view of peeled foliage costs several single-layer ones), alpha-tested output."""
+tone-mapped colour, a pool of 32 views (each reference view of peeled foliage costs several
+single-layer ones), alpha-tested output; the texels' large steps of a coarse start (the
+projected bake is only a rough picture of the cards' final look), and vertices stepping by at
+most a mesh's cold-start rate, less on cards smaller than ``LOCAL_STEP_SIZE`` (a card that moves
+by more than about a hundredth of its size per step tears from the leaves it stands for)."""
 
 
 def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
-    """The billboard cloud of ``asset`` with ``count`` triangles (``count // 2`` cards) and
-    ``cfg.latent.texture_size`` textures, and plain decimation to the same count as the
-    baseline. Raises ``ConfigError`` for settings that do not apply (``io.init_mesh``,
-    ``latent.init`` other than ``"bake"``)."""
+    """The billboard cloud of ``asset`` with ``count`` triangles and ``cfg.latent.texture_size``
+    textures, its large solid parts (a trunk, a pot) kept beside the cards as a decimated mesh
+    where the budget allows (``lookalike.init.trunk_and_cards``), and plain decimation to the
+    same count as the baseline. Raises ``ConfigError`` for settings that do not apply
+    (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
     if cfg.io.init_mesh or count is None:
         raise ConfigError("cards starts from its own billboard cloud: io.init_mesh does not apply")
     if cfg.latent.init != "bake":
         raise ConfigError(f"cards bakes its cards by projection: latent.init must be 'bake', not {cfg.latent.init!r}")
     with phase("billboard cloud"):
-        cloud = billboard_cloud(asset, count, cfg.latent.texture_size,
+        cloud = trunk_and_cards(asset, count, cfg.latent.texture_size,
                                 np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
     with phase("decimation"):
         decimated = decimate(asset.mesh, count)

@@ -56,7 +56,7 @@ from ..settings import (Config, config_to_dict, refresh_interval, section_of, se
                         with_overrides)
 from ..threads import CoreShare, set_threads
 from . import animated
-from .alpha_export import ALPHA_CANDIDATES, training_start
+from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .input_asset import prepare_input
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
@@ -94,7 +94,8 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
     surface = {"centre": centre, "radius": radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
                "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
                "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
-               "texture_scales": cfg.latent.texture_scales}
+               "texture_scales": cfg.latent.texture_scales, "position_steps": cfg.optim.position_steps,
+               "mask_anneal": cfg.latent.mask_anneal}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
 
 
@@ -247,13 +248,13 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         asset, notes, moving = load_input(s, cfg)
         guess, checkpointer = starting_point(s, cfg, asset, moving)
         reference = s.app.reference(asset, cfg, moving)
-        start = training_start(guess.start, cfg.latent.alpha_mode)
+        start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
         latent = s.app.latent(asset, start, cfg, moving)
     with s.stage("reference views"):
         heldout, validation, source = reference_views(cfg, asset, reference, moving)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers)
-    written = WrittenModel(cfg.latent.alpha_mode, validation, draw)
+    written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start))
     with s.stage("alpha of the start"):
         start_written = written.start(start)
     methods = score_baselines(s, cfg, heldout, draw, guess, start_written)

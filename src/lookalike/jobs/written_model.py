@@ -14,7 +14,8 @@ from .alpha_export import AlphaChoice, chosen_alpha, written_alpha
 
 class WrittenModel:
     """Scores and chooses models as written for ``latent.alpha_mode`` ``mode`` on
-    ``validation`` (``None``: no validation views), drawn by ``draw``.
+    ``validation`` (``None``: no validation views), drawn by ``draw``; ``annealed``: the fit
+    trains its alpha test in (``latent.mask_anneal``), at the start's cutoff.
 
     Attributes:
         choice: the alpha choice of the start, with which every state of the fit is scored.
@@ -22,8 +23,8 @@ class WrittenModel:
             views, once ``kept`` has compared them.
     """
 
-    def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer):
-        self.mode, self.validation, self.draw = mode, validation, draw
+    def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False):
+        self.mode, self.validation, self.draw, self.annealed = mode, validation, draw, annealed
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
 
@@ -41,8 +42,9 @@ class WrittenModel:
         return written_alpha(start, self.mode, self.choice)
 
     def validate(self, latent: Latent) -> float:
-        """The loop's validator: the state of ``latent`` as written with the start's choice."""
-        return self.score(written_alpha(latent.export(), self.mode, self.choice))
+        """The loop's validator: the state of ``latent`` as written with the start's choice,
+        or at its own cutoff where the fit trains the alpha test in (``annealed``)."""
+        return self.score(written_alpha(latent.export(), self.mode, AlphaChoice() if self.annealed else self.choice))
 
     def finished(self, best: Asset) -> Asset:
         """The fit's best model as written, its alpha choice made again for it."""

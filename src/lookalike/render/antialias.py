@@ -16,6 +16,7 @@ from .antialias_kernels import MAX_WALK, outline_crossings
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .inputs import check_rast_ids, check_triangles
 from .topology import EdgeTopology, antialias_construct_topology_hash
+from .window import Window
 
 __all__ = ["OutlineBlend", "antialias", "antialias_construct_topology_hash", "outline_blend"]
 
@@ -91,6 +92,7 @@ def outline_walk_python(
     start_tri: torch.Tensor,
     height: int,
     width: int,
+    window: Window | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The silhouette edge between each pixel pair (plain-torch twin of the walk in
     :func:`.antialias_kernels.outline_crossings`, same rule, all pairs stepped together).
@@ -101,14 +103,15 @@ def outline_walk_python(
         silhouette: ``[B, T, 3]`` bool.
         front, other, start_tri: ``[M]`` int64 from :func:`neighbour_pairs_python`.
         height, width: image size.
+        window: the window of a larger frame the images are (``None``: the whole frame).
 
     Returns:
         ``(edge_tri [M], edge [M])`` int64, -1 where the pair has no outline between it.
     """
     pos = pos.detach().double()
     view = front // (height * width)
-    p_front = pixel_ndc(front, height, width, torch.float64)[:, None]  # [M, 1, 3]
-    p_other = pixel_ndc(other, height, width, torch.float64)[:, None]
+    p_front = pixel_ndc(front, height, width, torch.float64, window)[:, None]  # [M, 1, 3]
+    p_other = pixel_ndc(other, height, width, torch.float64, window)[:, None]
     t, entry, s_in = start_tri.clone(), torch.full_like(front, -1), torch.zeros(front.shape, dtype=torch.float64)
     walking = torch.ones_like(front, dtype=torch.bool)
     edge_tri, edge = torch.full_like(front, -1), torch.full_like(front, -1)
@@ -170,6 +173,7 @@ def antialias(
     tri: torch.Tensor,
     topology_hash: EdgeTopology | None = None,
     pos_gradient_boost: float = 1.0,
+    window: Window | None = None,
 ) -> torch.Tensor:
     """Blend pixel colours across silhouette edges by analytic coverage (nvdiffrast's
     ``dr.antialias``, extended to outlines made of sub-pixel triangles):
@@ -182,13 +186,17 @@ def antialias(
         tri: ``[T, 3]`` int32/int64.
         topology_hash: from :func:`antialias_construct_topology_hash` (built if None).
         pos_gradient_boost: factor on the gradient to ``pos``.
+        window: where ``color`` and ``rast`` are a ``Window`` of a larger frame (an extension
+            of nvdiffrast's contract): pixel centres are the frame's. The result equals that
+            window of the frame's antialiased image when no pixel within one of the window's
+            border is covered (``covered_window`` leaves such a margin).
 
     Returns:
         ``[B, H, W, C]`` antialiased colour.
     """
     if color.dim() != 4 or rast.shape[:3] != color.shape[:3]:
         raise ValueError(f"color must be [B, H, W, C] matching rast {tuple(rast.shape)}, got {tuple(color.shape)}")
-    return outline_blend(rast, pos, tri, topology_hash, pos_gradient_boost).apply(color)
+    return outline_blend(rast, pos, tri, topology_hash, pos_gradient_boost, window).apply(color)
 
 
 def outline_blend(
@@ -197,6 +205,7 @@ def outline_blend(
     tri: torch.Tensor,
     topology_hash: EdgeTopology | None = None,
     pos_gradient_boost: float = 1.0,
+    window: Window | None = None,
 ) -> OutlineBlend:
     """The blend ``antialias`` applies to images rasterized as ``rast`` (see ``OutlineBlend``).
 
@@ -220,7 +229,7 @@ def outline_blend(
 
     ``alpha`` depends on the edge's two vertices only, so gradients reach their ``x, y, w``
     (scaled by ``pos_gradient_boost``); interior edges, whose neighbour continues the surface,
-    give no position gradient.
+    give no position gradient. ``window``: see ``antialias``.
     """
     n_views, height, width = rast.shape[:3]
     views = pos if pos.dim() == 3 else pos.expand(n_views, -1, -1)
@@ -238,17 +247,19 @@ def outline_blend(
         tri.numpy(),
         topology.neighbour.numpy(),
         topology.opposite.numpy(),
+        window,
     )
     front, other, horizontal, edge_tri, edge = (torch.from_numpy(a) for a in crossings)
     verts = triangle_vertices_xyw(views, tri, front // (height * width), edge_tri)  # [M, 3, 3]
     c = edge_coefficients(*verts.unbind(1))[torch.arange(edge.shape[0]), edge]  # the found edge's, [M, 3]
     # an edge is handled by the pairs running across it: horizontal pairs for edges closer
     # to vertical (normal (c.x / W, c.y / H) in pixel units mostly along x), vertical otherwise
+    frame = Window.whole(height, width) if window is None else window
     normal = c.detach()[:, :2].abs()
-    keep = (normal[:, 0] / width >= normal[:, 1] / height) == horizontal
+    keep = (normal[:, 0] / frame.frame_width >= normal[:, 1] / frame.frame_height) == horizontal
     front, other, c = front[keep], other[keep], c[keep]
-    e_front = (c * pixel_ndc(front, height, width, c.dtype)).sum(-1)
-    e_other = (c * pixel_ndc(other, height, width, c.dtype)).sum(-1)
+    e_front = (c * pixel_ndc(front, height, width, c.dtype, window)).sum(-1)
+    e_other = (c * pixel_ndc(other, height, width, c.dtype, window)).sum(-1)
     span = e_front - e_other
     alpha = (e_front / torch.where(span == 0, torch.ones_like(span), span)).clamp(0.0, 1.0)[:, None]  # [K, 1]
 

@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..kernel_cache import CACHE
+from .window import Window
 
 MAX_WALK = 16
 """Most triangles a pixel-pair segment is followed through before it is given up."""
@@ -85,15 +86,18 @@ def _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy):
 
 
 @njit(cache=CACHE, parallel=True)
-def _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, hit_tri, hit_edge):
+def _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, window, hit_tri, hit_edge):
+    """``window = (top, left, frame_height, frame_width)``: the images are rows ``top ..`` and
+    columns ``left ..`` of a frame of that size, whose pixel centres the segments join."""
+    top, left, frame_height, frame_width = window
     for m in prange(front.shape[0]):
         hit_tri[m] = -1
         hit_edge[m] = -1
         b = front[m] // (height * width)
-        fx = (2.0 * (front[m] % width) + 1.0) / width - 1.0
-        fy = (2.0 * ((front[m] // width) % height) + 1.0) / height - 1.0
-        ox = (2.0 * (other[m] % width) + 1.0) / width - 1.0
-        oy = (2.0 * ((other[m] // width) % height) + 1.0) / height - 1.0
+        fx = (2.0 * (left + front[m] % width) + 1.0) / frame_width - 1.0
+        fy = (2.0 * (top + (front[m] // width) % height) + 1.0) / frame_height - 1.0
+        ox = (2.0 * (left + other[m] % width) + 1.0) / frame_width - 1.0
+        oy = (2.0 * (top + (other[m] // width) % height) + 1.0) / frame_height - 1.0
         t, entry, s_in = start_tri[m], -1, 0.0
         for _ in range(MAX_WALK):
             best_s, best_k = math.inf, -1
@@ -118,7 +122,8 @@ def _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width,
 
 
 def outline_crossings(
-    rast: np.ndarray, xyw: np.ndarray, tri: np.ndarray, neighbour: np.ndarray, opposite: np.ndarray
+    rast: np.ndarray, xyw: np.ndarray, tri: np.ndarray, neighbour: np.ndarray, opposite: np.ndarray,
+    window: Window | None = None,
 ):
     """Adjacent pixel pairs with an outline between them, and the silhouette edge it runs along.
 
@@ -139,6 +144,8 @@ def outline_crossings(
             ``EdgeTopology``), for the silhouette test of the edges the walk crosses
             (``_is_silhouette``; only those, because a large view's walks cross a small share
             of its edges).
+        window: the window of a larger frame that ``rast`` is (``None``: the whole frame);
+            the segments join that frame's pixel centres.
 
     Returns:
         ``(front [M], other [M], horizontal [M], edge_tri [M], edge [M])``: flat pixel
@@ -159,7 +166,9 @@ def outline_crossings(
     start_tri = rast.reshape(-1, 4)[front, 3].astype(np.int64) - 1
     hit_tri = np.empty(total, np.int64)
     hit_edge = np.empty(total, np.int64)
-    _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, hit_tri, hit_edge)
+    frame = Window.whole(height, width) if window is None else window
+    _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width,
+          (frame.top, frame.left, frame.frame_height, frame.frame_width), hit_tri, hit_edge)
     hit = hit_edge >= 0
     return front[hit], other[hit], horizontal[hit], hit_tri[hit], hit_edge[hit]
 

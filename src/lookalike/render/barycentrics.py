@@ -26,6 +26,7 @@ import numpy as np
 import torch
 
 from . import barycentrics_kernels
+from .window import Window
 
 
 def edge_coefficients(v0: torch.Tensor, v1: torch.Tensor, v2: torch.Tensor) -> torch.Tensor:
@@ -34,11 +35,16 @@ def edge_coefficients(v0: torch.Tensor, v1: torch.Tensor, v2: torch.Tensor) -> t
     return torch.stack([torch.cross(v1, v2, dim=-1), torch.cross(v2, v0, dim=-1), torch.cross(v0, v1, dim=-1)], -2)
 
 
-def pixel_ndc(flat_pixel: torch.Tensor, height: int, width: int, dtype: torch.dtype) -> torch.Tensor:
+def pixel_ndc(flat_pixel: torch.Tensor, height: int, width: int, dtype: torch.dtype,
+              window: Window | None = None) -> torch.Tensor:
     """``[N, 3]`` homogeneous NDC pixel centres ``(px, py, 1)`` of flat pixel indices
-    ``flat_pixel [N]`` int64 into ``[B, H, W]`` images."""
+    ``flat_pixel [N]`` int64 into ``[B, H, W]`` images; where those images are ``window`` of a
+    larger frame, the centres are the frame's pixels'."""
     ix = flat_pixel % width
     iy = (flat_pixel // width) % height
+    if window is not None:
+        ix, iy = ix + window.left, iy + window.top
+        height, width = window.frame_height, window.frame_width
     px = (2 * ix + 1).to(dtype) / width - 1
     py = (2 * iy + 1).to(dtype) / height - 1
     return torch.stack([px, py, torch.ones_like(px)], -1)
@@ -124,18 +130,20 @@ def constant_triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor, tri_id:
 
 
 class _PixelBarycentrics(torch.autograd.Function):
-    """``(coef [B,T,9], tri_id [B,H,W] int32 numpy, depth [B,H,W] float32 numpy, use_db)``
-    -> ``(rast, rast_db)``; gradients reach ``coef`` only."""
+    """``(coef [B,T,9], tri_id [B,H,W] int32 numpy, depth [B,H,W] float32 numpy, window
+    (top, left, frame_height, frame_width), use_db)`` -> ``(rast, rast_db)``; gradients reach
+    ``coef`` only."""
 
     @staticmethod
-    def forward(ctx, coef, tri_id, depth, use_db):
+    def forward(ctx, coef, tri_id, depth, window, use_db):
         n_views, height, width = tri_id.shape
         rast = coef.new_empty(n_views, height, width, 4)
         rast_db = coef.new_empty(n_views, height, width, 4)
         coef_np = coef.detach().contiguous().numpy()
-        barycentrics_kernels.barycentrics_forward(coef_np, tri_id, depth, rast.numpy(), rast_db.numpy())
+        barycentrics_kernels.barycentrics_forward(coef_np, tri_id, depth, window, rast.numpy(), rast_db.numpy())
         ctx.save_for_backward(coef)
         ctx.tri_id = tri_id
+        ctx.window = window
         ctx.use_db = use_db
         if not use_db:
             ctx.mark_non_differentiable(rast_db)
@@ -150,15 +158,19 @@ class _PixelBarycentrics(torch.autograd.Function):
         use_db = ctx.use_db and grad_db is not None
         grad_db = grad_rast if not use_db else grad_db.contiguous()
         barycentrics_kernels.barycentrics_backward(
-            coef.detach().contiguous().numpy(), ctx.tri_id, grad_rast.numpy(), grad_db.numpy(), use_db, grad_coef.numpy()
+            coef.detach().contiguous().numpy(), ctx.tri_id, ctx.window, grad_rast.numpy(), grad_db.numpy(), use_db,
+            grad_coef.numpy()
         )
-        return grad_coef, None, None, None
+        return grad_coef, None, None, None, None
 
 
 def pixel_barycentrics(
-    pos: torch.Tensor, tri: torch.Tensor, tri_id: np.ndarray, depth: np.ndarray, with_db_gradient: bool = True
+    pos: torch.Tensor, tri: torch.Tensor, tri_id: np.ndarray, depth: np.ndarray, with_db_gradient: bool = True,
+    window: Window | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]`` of whole images.
+    """``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]`` of whole images, or of
+    the ``window`` of a larger frame that ``tri_id`` and ``depth`` are (pixel centres and
+    derivatives then the frame's).
 
     Args:
         pos: ``[B, V, 4]`` clip-space positions (CPU; gradients flow to ``x, y, w``).
@@ -169,4 +181,6 @@ def pixel_barycentrics(
     """
     differentiable = torch.is_grad_enabled() and pos.requires_grad
     coef = triangle_coefficients(pos, tri) if differentiable else constant_triangle_coefficients(pos, tri, tri_id)
-    return _PixelBarycentrics.apply(coef, tri_id, depth, with_db_gradient)
+    frame = Window.whole(*tri_id.shape[1:]) if window is None else window
+    return _PixelBarycentrics.apply(coef, tri_id, depth, (frame.top, frame.left, frame.frame_height, frame.frame_width),
+                                    with_db_gradient)

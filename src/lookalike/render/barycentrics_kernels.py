@@ -14,8 +14,10 @@ from ..kernel_cache import CACHE
 
 
 @njit(cache=CACHE, parallel=True)
-def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
-    """Fill ``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]``.
+def barycentrics_forward(coef, tri_id, depth, window, rast, rast_db):
+    """Fill ``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]``, the images being
+    rows ``top ..`` and columns ``left ..`` of a ``frame_height x frame_width`` frame, ``window =
+    (top, left, frame_height, frame_width)``, whose pixel centres and size they use.
 
     ``coef [B, T, 9]`` holds per triangle ``(c_0, c_1, s)`` with ``c_i = v_j x v_k`` and
     ``s = c_0 + c_1 + c_2`` (``v = (x, y, w)``); at ``p = (px, py, 1)``: ``u = c_0.p / s.p``,
@@ -23,10 +25,11 @@ def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
     ``tri_id [B,H,W]`` int32 (triangle + 1, 0 = none), ``depth [B,H,W]`` float32.
     """
     n_views, height, width = tri_id.shape
-    kx, ky = 2.0 / width, 2.0 / height
+    top, left, frame_height, frame_width = window
+    kx, ky = 2.0 / frame_width, 2.0 / frame_height
     for row in prange(n_views * height):
         b, iy = row // height, row % height
-        py = (2 * iy + 1) / height - 1.0
+        py = (2 * (top + iy) + 1) / frame_height - 1.0
         for ix in range(width):
             t = tri_id[b, iy, ix] - 1
             if t < 0:
@@ -34,7 +37,7 @@ def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
                     rast[b, iy, ix, k] = 0.0
                     rast_db[b, iy, ix, k] = 0.0
                 continue
-            px = (2 * ix + 1) / width - 1.0
+            px = (2 * (left + ix) + 1) / frame_width - 1.0
             s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
             u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
             v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
@@ -49,10 +52,10 @@ def barycentrics_forward(coef, tri_id, depth, rast, rast_db):
 
 
 @njit(cache=CACHE, parallel=True)
-def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
+def barycentrics_backward(coef, tri_id, window, grad_rast, grad_db, use_db, grad_coef):
     """Accumulate into ``grad_coef [B, T, 9]`` (zeroed) the gradient of
     :func:`barycentrics_forward` given ``grad_rast [B,H,W,4]`` (channels 0, 1 used) and
-    ``grad_db [B,H,W,4]`` (used when ``use_db``).
+    ``grad_db [B,H,W,4]`` (used when ``use_db``); ``window`` as there.
 
     Per pixel, with ``S = s.p``: the db terms give direct gradients to ``c_0x, c_0y, c_1x,
     c_1y`` (``k/S``), to ``s_x, s_y`` (``-k u/S``, ``-k v/S``) and to ``S`` and ``u, v``;
@@ -60,15 +63,16 @@ def barycentrics_backward(coef, tri_id, grad_rast, grad_db, use_db, grad_coef):
     ``S = s.p`` sends ``g_S p`` to ``s``.
     """
     n_views, height, width = tri_id.shape
-    kx, ky = 2.0 / width, 2.0 / height
+    top, left, frame_height, frame_width = window
+    kx, ky = 2.0 / frame_width, 2.0 / frame_height
     for b in prange(n_views):
         for iy in range(height):
-            py = (2 * iy + 1) / height - 1.0
+            py = (2 * (top + iy) + 1) / frame_height - 1.0
             for ix in range(width):
                 t = tri_id[b, iy, ix] - 1
                 if t < 0:
                     continue
-                px = (2 * ix + 1) / width - 1.0
+                px = (2 * (left + ix) + 1) / frame_width - 1.0
                 s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
                 u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
                 v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s

@@ -4,12 +4,14 @@ kernel (:mod:`.visibility`) finds each pixel's triangle, then the compiled baryc
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
 from .inputs import check_triangles, per_view_positions
 from .visibility import visible_triangles
+from .window import Window, covered_window
 
 
 def rasterize(
@@ -45,7 +47,7 @@ def rasterize(
     depth wins (lower triangle index on ties).  Gradients of ``u, v`` and ``rast_db`` flow
     to ``x, y, w`` of ``pos``; depth and id carry no gradient.
     """
-    rast, rast_db, _ = rasterize_layer(pos, tri, resolution, ranges, grad_db, None)
+    rast, rast_db, _, _ = rasterize_layer(pos, tri, resolution, ranges, grad_db, None)
     return rast, rast_db
 
 
@@ -56,10 +58,18 @@ def rasterize_layer(
     ranges: torch.Tensor | None,
     grad_db: bool,
     min_depth: torch.Tensor | None,
-) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    within: Window | None = None,
+    block: int | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, Window | None]:
     """:func:`rasterize` keeping only fragments deeper than ``min_depth [B,H,W] float32``
-    (None: no limit); also returns the layer's ``depth [B,H,W] float32`` (+inf = none),
-    bit-exact, to pass as the next layer's ``min_depth``."""
+    (None: no limit) and drawing only the pixels of the window ``within`` (None: all; outside
+    it ``min_depth`` must be ``+inf``).
+
+    Returns ``(rast, rast_db, depth, window)``: ``depth [B,H,W] float32`` is the layer's
+    (+inf = none), bit-exact, to pass as the next layer's ``min_depth``. With ``block``,
+    ``window`` is ``covered_window(ids, block)`` (``None`` where nothing is covered, with
+    ``rast`` and ``rast_db`` then ``[B, 0, 0, 4]``) and ``rast``, ``rast_db`` are that window
+    of the frame's, computed there only; without, the whole frame's."""
     height, width = int(resolution[0]), int(resolution[1])
     if height <= 0 or width <= 0:
         raise ValueError(f"resolution must be positive, got {resolution}")
@@ -74,6 +84,12 @@ def rasterize_layer(
         height,
         width,
         None if min_depth is None else min_depth.cpu().numpy(),
+        within,
     )
-    rast, rast_db = pixel_barycentrics(views, tri, tri_id, depth, grad_db)
-    return rast, rast_db, torch.from_numpy(depth)
+    window = Window.whole(height, width) if block is None else covered_window(torch.from_numpy(tri_id), block)
+    if window is None:
+        empty = views.new_zeros(views.shape[0], 0, 0, 4)
+        return empty, empty.clone(), torch.from_numpy(depth), None
+    rast, rast_db = pixel_barycentrics(views, tri, np.ascontiguousarray(window.crop(tri_id)),
+                                       np.ascontiguousarray(window.crop(depth)), grad_db, window)
+    return rast, rast_db, torch.from_numpy(depth), window

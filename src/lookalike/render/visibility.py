@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..kernel_cache import CACHE
+from .window import Window
 
 TILE = 32
 """Side of a screen tile in pixels."""
@@ -226,6 +227,13 @@ def _projected_bbox(pos, screen, code, b, i0, i1, i2, width, height):
 
 
 @njit(cache=CACHE, inline="always")
+def _clip_box(x0, x1, y0, y1, clip):
+    """The inclusive box ``x0..x1, y0..y1`` within ``clip = [x0, x1, y0, y1]`` (empty, ``x0 >
+    x1`` or ``y0 > y1``, where they do not meet)."""
+    return max(x0, clip[0]), min(x1, clip[1]), max(y0, clip[2]), min(y1, clip[3])
+
+
+@njit(cache=CACHE, inline="always")
 def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
     """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
     ``x0..x1, y0..y1`` and keep it where it is nearest: ``depth`` (float32 z/w) and
@@ -256,25 +264,26 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
 
 
 @njit(cache=CACHE, parallel=True)
-def _rasterize_views(pos, screen, code, tri, tri_begin, tri_end, width, height, min_depth, tri_id, depth):
+def _rasterize_views(pos, screen, code, tri, tri_begin, tri_end, width, height, clip, min_depth, tri_id, depth):
     """One view per parallel job: each walks its triangles in ascending order (so with the
-    strict depth test the lower index wins ties).  Used when there are at least as many
-    views as threads."""
+    strict depth test the lower index wins ties), drawing within ``clip`` (see
+    ``_clip_box``).  Used when there are at least as many views as threads."""
     for b in prange(pos.shape[0]):
         planes = np.empty(12, np.float64)
         for t in range(tri_begin[b], tri_end[b]):
             x0, x1, y0, y1 = _projected_bbox(pos, screen, code, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            x0, x1, y0, y1 = _clip_box(x0, x1, y0, y1, clip)
             if x0 <= x1 and y0 <= y1:
                 _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth)
 
 
 @njit(cache=CACHE, parallel=True)
-def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height):
+def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height, clip):
     """Bound each view's triangles and bin them into screen tiles.
 
-    ``screen``, ``code``: from :func:`project_vertices`.
+    ``screen``, ``code``: from :func:`project_vertices`; ``clip``: see ``_clip_box``.
     Returns ``(bbox [B, T, 4] int32, bin_start [B, tiles+1] int64, bin_tris [N] int32)``:
-    the boxes of :func:`_triangle_bbox` (only for the view's triangle range), and the
+    the boxes of :func:`_triangle_bbox` within ``clip`` (only for the view's triangle range), and the
     triangles of tile ``k`` of view ``b`` are ``bin_tris[bin_start[b, k]:bin_start[b,
     k + 1]]``, in ascending order.
     """
@@ -289,6 +298,7 @@ def _bin_triangles(pos, screen, code, tri, tri_begin, tri_end, width, height):
         n = tri_end[b] - tri_begin[b]
         for t in range(tri_begin[b] + chunk * n // _CHUNKS, tri_begin[b] + (chunk + 1) * n // _CHUNKS):
             x0, x1, y0, y1 = _projected_bbox(pos, screen, code, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height)
+            x0, x1, y0, y1 = _clip_box(x0, x1, y0, y1, clip)
             bbox[b, t, 0], bbox[b, t, 1], bbox[b, t, 2], bbox[b, t, 3] = x0, x1, y0, y1
             if x0 > x1 or y0 > y1:
                 continue
@@ -349,6 +359,7 @@ def visible_triangles(
     height: int,
     width: int,
     min_depth: np.ndarray | None = None,
+    window: Window | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Nearest triangle at every pixel centre of every view.
 
@@ -360,6 +371,9 @@ def visible_triangles(
         height, width: image size in pixels.
         min_depth: ``[B, H, W]`` float32 or None; only fragments with depth ``z/w``
             strictly greater are kept (the previous layer's depth, for depth peeling).
+        window: where given, only its pixels are drawn (the others stay background): the
+            window that holds the previous layer's fragments, outside which ``min_depth`` is
+            ``+inf``, so the result is the same at the cost of the window's tiles.
 
     Returns:
         ``(tri_id [B,H,W] int32, depth [B,H,W] float32)``: triangle index + 1 (0 where no
@@ -375,10 +389,12 @@ def visible_triangles(
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
     tri_id = np.zeros((n_views, height, width), np.int32)
     depth = np.full((n_views, height, width), np.inf, np.float32)
+    window = Window.whole(height, width) if window is None else window
+    clip = np.array([window.left, window.left + window.width - 1, window.top, window.top + window.height - 1], np.int64)
     screen, code = project_vertices(pos, width, height)
     if n_views >= numba.get_num_threads():
-        _rasterize_views(pos, screen, code, tri, begin, end, width, height, min_depth, tri_id, depth)
+        _rasterize_views(pos, screen, code, tri, begin, end, width, height, clip, min_depth, tri_id, depth)
     else:
-        bbox, bin_start, bin_tris = _bin_triangles(pos, screen, code, tri, begin, end, width, height)
+        bbox, bin_start, bin_tris = _bin_triangles(pos, screen, code, tri, begin, end, width, height, clip)
         _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
     return tri_id, depth

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import torch
 
+from .window import Window
+
 _CHUNK = 64
 
 
@@ -31,6 +33,7 @@ def visibility_python(
     resolution: tuple[int, int],
     tri_range: torch.Tensor | None = None,
     min_depth: torch.Tensor | None = None,
+    window: Window | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Same contract as :func:`.visibility.visible_triangles`, in torch.
 
@@ -40,6 +43,7 @@ def visibility_python(
         resolution: ``(H, W)``.
         tri_range: ``[B, 2]`` ``(first, count)`` per view, or None for all triangles.
         min_depth: ``[B, H, W]`` or None; keep only depths strictly greater.
+        window: where given, the pixels outside it stay background.
 
     Returns:
         ``(tri_id [B,H,W] int32, depth [B,H,W] float32)``, triangle index + 1 (0 = none)
@@ -73,4 +77,9 @@ def visibility_python(
             better = best < depths[b]
             depths[b] = torch.where(better, best, depths[b])
             tri_ids[b] = torch.where(better, (ids[arg] + 1).int(), tri_ids[b])
-    return tri_ids.reshape(n_views, height, width), depths.float().reshape(n_views, height, width)
+    tri_ids, depths = tri_ids.reshape(n_views, height, width), depths.float().reshape(n_views, height, width)
+    if window is not None:
+        inside = torch.zeros(1, height, width, dtype=torch.bool)
+        window.crop(inside).fill_(True)
+        tri_ids, depths = torch.where(inside, tri_ids, 0), torch.where(inside, depths, torch.inf)
+    return tri_ids, depths

@@ -18,7 +18,8 @@ Conventions:
   background) with the "over" operator on straight alpha, antialiasing after each layer. With
   ``layers=1`` a blended surface composites over the background only. Samples behind a fully
   opaque nearer layer are not shaded (they cannot show), and peeling stops early once nothing
-  more can show.
+  more can show (``LayerCount`` counts the layers used). Each layer's work covers only the
+  window of the frame that holds its fragments.
 - ``msaa=True`` (stochastic MSAA, for the latent model in training): visibility,
   antialiasing and compositing run at ``spp x spp`` samples per pixel, but each pixel is
   shaded once, at one of its covered samples drawn uniformly at random (``torch``'s global
@@ -33,6 +34,7 @@ Conventions:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -41,6 +43,7 @@ import torch.nn.functional as F
 
 import lookalike.render as dr
 from lookalike.render.msaa import covered_sample_index, pick_samples, upsample_over
+from lookalike.render.window import Window
 
 from ..asset.normals import safe_normalize
 from .camera import Camera
@@ -145,31 +148,33 @@ def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed:
     return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
 
 
-def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int):
+def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int, window: Window):
     """One sample per ``factor x factor`` block for stochastic MSAA shading: a covered sample
     of the block drawn uniformly at random (any of its samples where none is covered), with
     ``torch``'s global generator.
 
     Args:
-        rast, rast_db: ``[B, H*factor, W*factor, 4]``.
+        rast, rast_db: ``[B, H*factor, W*factor, 4]``, the ``window`` of the frame (bounds on
+            multiples of ``factor``).
     Returns:
         ``(rast [B, H, W, 4], rast_db [B, H, W, 4])``; the derivatives stay the sample's own
-        (its texture footprint is the sample spacing, as when every sample is shaded).
+        (its texture footprint is the sample spacing, as when every sample is shaded). The
+        random numbers are drawn for the whole frame and cropped, so a pixel's draw does not
+        depend on the window.
     """
-    batch, high, wide = rast.shape[:3]
-    height, width = high // factor, wide // factor
-    u = torch.rand(batch, height, width, dtype=rast.dtype, device=rast.device)
-    index = covered_sample_index(rast[..., 3], u, factor)
+    pixels = window.coarse(factor)
+    u = torch.rand(rast.shape[0], pixels.frame_height, pixels.frame_width, dtype=rast.dtype, device=rast.device)
+    index = covered_sample_index(rast[..., 3], pixels.crop(u).contiguous(), factor)
     return pick_samples(rast, index), pick_samples(rast_db, index)
 
 
 def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
-                     factor: int) -> torch.Tensor:
+                     factor: int, window: Window) -> torch.Tensor:
     """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel at
-    a random covered sample (stochastic MSAA, see the module docstring). Returns the pixels'
-    straight-alpha colour ``[B, H, W, 4]``; ``upsample_over`` composites it over the samples,
-    with coverage per sample."""
-    low_rast, low_db = random_covered_samples(rast, rast_db, factor)
+    a random covered sample (stochastic MSAA, see the module docstring), for images that are
+    ``window`` of the frame. Returns the pixels' straight-alpha colour ``[B, H, W, 4]``;
+    ``upsample_over`` composites it over the samples, with coverage per sample."""
+    low_rast, low_db = random_covered_samples(rast, rast_db, factor, window)
     batch, high, wide = needed.shape
     low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
     return shade_layer(frame, low_rast, low_db, low_needed)
@@ -223,8 +228,46 @@ def image_size(resolution) -> tuple[int, int]:
     return int(height), int(width)
 
 
+@dataclass
+class LayerCount:
+    """How deep a caller's renders peeled, for reports: pass one to ``render`` calls and read
+    it after. A layer counts as used when it had a sample to shade (peeling stops at the first
+    that has none, or at ``layers``).
+
+    Attributes:
+        renders: ``render`` calls counted; layers: layers used, summed over them; deepest:
+            the most layers one of them used.
+    """
+
+    renders: int = 0
+    layers: int = 0
+    deepest: int = 0
+
+    def add(self, used: int) -> None:
+        """Count one render that used ``used`` layers."""
+        self.renders += 1
+        self.layers += used
+        self.deepest = max(self.deepest, used)
+
+    @property
+    def mean(self) -> float:
+        """Layers used per render (0 before any)."""
+        return self.layers / self.renders if self.renders else 0.0
+
+
+@dataclass
+class ShadedLayer:
+    """One peeled layer, shaded: the ``window`` of the frame where it has fragments (with a
+    margin), its ``rast [B, h, w, 4]`` there, and ``over(accum [B, h, w, 4])``, which
+    composites it over what lies behind within the window."""
+
+    window: Window
+    rast: torch.Tensor
+    over: Callable[[torch.Tensor], torch.Tensor]
+
+
 def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, layers: int = 1,
-           background=None, msaa: bool = False) -> torch.Tensor:
+           background=None, msaa: bool = False, layer_count: LayerCount | None = None) -> torch.Tensor:
     """Render B views of an asset.
 
     Args:
@@ -233,45 +276,78 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
         light: B point lights (or 1, shared).
         resolution: ``H`` (square) or ``(H, W)`` of the output.
         spp: supersampling factor per axis (``spp x spp`` samples per pixel).
-        layers: depth-peeled layers composited (1 = nearest surface only).
+        layers: depth-peeled layers composited at most (1 = nearest surface only).
         background: ``None`` (black, alpha 0), an RGB colour ``[3]`` or an image
             ``[B, H, W, 3]`` (row 0 at the top); opaque.
         msaa: shade once per pixel, at a random covered sample, while sampling visibility
             ``spp x spp`` times (stochastic MSAA, see the module docstring).
+        layer_count: where given, counts the layers this render used.
     Returns:
         ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture. RGB is
         composited over the background; with none, over black (so RGB is premultiplied by
         alpha).
+
+    Each layer is shaded, composited and antialiased only within the window that holds its
+    fragments (``lookalike.render.window.covered_window``), the same pixels' values as over the whole frame: a deep
+    layer of foliage covers a small part of it.
     """
     height, width = image_size(resolution)
-    full = (height * spp, width * spp)
     buffers = mesh_buffers(asset, camera)
-    topology = edge_topology(asset, buffers)
     frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
-    shaded = []  # (rast, over) per layer, nearest first: over(accum) composites the layer over accum
-    transmittance = buffers.clip.new_ones(camera.batch_size, *full)
+    shaded = peel_and_shade(frame, (height * spp, width * spp), spp, layers, msaa and spp > 1)
+    if layer_count is not None:
+        layer_count.add(len(shaded))
+    accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
+    accum = composite_layers(shaded, accum, buffers, edge_topology(asset, buffers))
+    return box_downsample(accum, spp).flip(1)
+
+
+def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, sampled: bool) -> list[ShadedLayer]:
+    """The shaded layers of ``frame`` at ``full = (H, W)`` samples, nearest first: at most
+    ``layers``, stopping at the first with no sample to shade (none covered, or all behind
+    opaque nearer layers). ``sampled``: stochastic MSAA at ``spp x spp`` samples per pixel."""
+    buffers = frame.buffers
+    shaded = []
+    outer = Window.whole(*full)
+    transmittance = buffers.clip.new_ones(frame.camera.batch_size, *full)  # of the samples in ``outer``
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full) as peeler:
         for layer in range(layers):
-            rast, rast_db = peeler.rasterize_next_layer()
+            window, rast, rast_db = peeler.rasterize_next_window(spp)
+            if window is None:
+                break
+            transmittance = window.crop(transmittance, within=outer)
             needed = (rast[..., 3] > 0) & (transmittance > 0)
             if not needed.any():
                 break
-            sampled = msaa and spp > 1
             if sampled:
-                colour = shade_layer_msaa(frame, rast, rast_db, needed, spp)
+                colour = shade_layer_msaa(frame, rast, rast_db, needed, spp, window)
                 over = partial(upsample_over, colour=colour, ids=rast[..., 3], factor=spp)
             else:
                 colour = shade_layer(frame, rast, rast_db, needed)
                 over = partial(composite_over, colour=colour)
-            shaded.append((rast, over))
+            shaded.append(ShadedLayer(window, rast, over))
             if layer + 1 < layers:
                 with torch.no_grad():  # the samples' alpha: the pixels' spread over their covered samples
                     alpha = over(torch.zeros_like(rast))[..., 3] if sampled else colour[..., 3]
                     transmittance = transmittance * (1.0 - alpha)
-    accum = background_image(background, camera.batch_size, height, width, spp, buffers.clip)
-    for rast, over in reversed(shaded):
-        accum = dr.antialias(over(accum).contiguous(), rast, buffers.clip, buffers.tri, topology_hash=topology)
-    return box_downsample(accum, spp).flip(1)
+            outer = window
+    return shaded
+
+
+def composite_layers(shaded: list[ShadedLayer], background: torch.Tensor, buffers: MeshBuffers,
+                     topology: dr.EdgeTopology) -> torch.Tensor:
+    """``[B, H, W, 4]``: the ``shaded`` layers (nearest first) composited back to front over
+    ``background [B, H, W, 4]``, each antialiased after it is composited. Each works in its
+    window, which holds the deeper layers' (a sample covered in a layer is covered in every
+    nearer one): the image behind it is pasted into the background's window around it."""
+    accum = shaded[-1].window.crop(background) if shaded else background
+    for index in range(len(shaded) - 1, -1, -1):
+        layer = shaded[index]
+        accum = dr.antialias(layer.over(accum).contiguous(), layer.rast, buffers.clip, buffers.tri,
+                             topology_hash=topology, window=layer.window)
+        outer = shaded[index - 1].window if index > 0 else None
+        accum = layer.window.paste(accum, outer.crop(background) if outer else background, within=outer)
+    return accum
 
 
 def mesh_buffers(asset, camera: Camera) -> MeshBuffers:

@@ -25,7 +25,9 @@ class Surface:
         normal_uv_set: ``[N]`` int64 UV set (tangent frame) of each pixel's normal map, -1 for none.
         emissive: ``[N, 3]`` linear emission, or ``None`` when no material emits.
         alpha: ``[N, 1]`` coverage from the alpha mode: OPAQUE 1, MASK ``kd.a >= cutoff``
-            (forward) with the gradient of ``kd.a`` (straight-through), BLEND ``kd.a``.
+            (forward) with the gradient of ``kd.a`` (straight-through), or while its
+            ``coverage_ramp`` ``w`` is positive ``clamp((kd.a - cutoff) / w + 1/2, 0, 1)``,
+            BLEND ``kd.a``.
         double_sided: ``[N]`` bool.
     """
 
@@ -59,6 +61,8 @@ def _sample_present(sampler: TextureSampler, textures: list[Texture | None], uv_
 def _alpha(material: Material, opacity: torch.Tensor) -> torch.Tensor:
     if material.alpha_mode == "OPAQUE":
         return torch.ones_like(opacity)
+    if material.alpha_mode == "MASK" and material.coverage_ramp > 0:
+        return ((opacity - material.alpha_cutoff) / material.coverage_ramp + 0.5).clamp(0.0, 1.0)
     if material.alpha_mode == "MASK":
         hard = (opacity >= material.alpha_cutoff).to(opacity)
         return hard + opacity - opacity.detach()
