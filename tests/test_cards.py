@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from functools import partial
 from pathlib import Path
 
@@ -86,7 +87,9 @@ def test_cards_writes_a_double_sided_alpha_tested_model_with_the_cutoff_it_chose
     assert_valid(result.model)
     assert [json.loads((folder / "out" / "metrics.json").read_text())["methods"]] == [["decimated", "start", "ours"]]
     assert (folder / "out" / "config.toml").is_file() and (folder / "out" / "report.html").is_file()
-    assert "Billboard cloud" in (folder / "out" / "report.html").read_text()
+    report = (folder / "out" / "report.html").read_text()
+    assert "Billboard cloud" in report
+    assert re.search(r"renders peeled \d\.\d depth layers on average \(deepest [1-8]\) of render.layers = 8", report)
 
 
 def test_the_written_model_renders_in_our_pipeline_as_it_was_scored(clump_run):

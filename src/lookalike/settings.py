@@ -110,8 +110,9 @@ class LatentConfig:
             (``lookalike.jobs.alpha_export``).
         mask_anneal: for ``alpha_mode = "mask"``, the share of the run over which the coverage
             ramp narrows from blended alpha (width 1) to the hard alpha test (0), linearly
-            (``Material.coverage_ramp``): the fit's last part trains the model as engines draw
-            it. 0 trains blended alpha throughout and thresholds it at the end.
+            (``Material.coverage_ramp``), so that the fit converges on the model as engines draw
+            it; once it is 0, the test's straight-through gradient trains on. 0 trains blended
+            alpha throughout and thresholds it at the end.
     """
 
     triangles: int | None = None
@@ -123,7 +124,7 @@ class LatentConfig:
     static: bool = False
     skin_candidates: int = 8
     alpha_mode: str = "auto"
-    mask_anneal: float = 0.75
+    mask_anneal: float = 1.0
 
 
 @dataclass

@@ -193,10 +193,11 @@ def _methods(asset, count: int, cfg, folder: Path, validation, draw) -> dict:
     ``folder``; the start and plain decimation rebuilt as the ``cards`` run built them (same
     settings and seed), the start as the run wrote it (``WrittenModel.start`` on the
     ``validation`` views drawn by ``draw``); stochastic simplification drawn with
-    ``STOCHASTIC_SEED``."""
+    ``STOCHASTIC_SEED`` where the input's solid parts leave it a budget."""
     import numpy as np
 
     from .. import io
+    from ..errors import ConfigError
     from ..init.stochastic import stochastic_simplification
     from ..jobs.alpha_export import training_start
     from ..jobs.cards import cards_guess
@@ -204,9 +205,11 @@ def _methods(asset, count: int, cfg, folder: Path, validation, draw) -> dict:
 
     guess = cards_guess(asset, cfg, count)
     trained = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
-    models = {"decimated": guess.baseline,
-              "stochastic": stochastic_simplification(asset, count, np.random.default_rng(STOCHASTIC_SEED)),
-              "start": WrittenModel(cfg.latent.alpha_mode, validation, draw).start(trained)}
+    models = {"decimated": guess.baseline, "start": WrittenModel(cfg.latent.alpha_mode, validation, draw).start(trained)}
+    try:
+        models["stochastic"] = stochastic_simplification(asset, count, np.random.default_rng(STOCHASTIC_SEED))
+    except ConfigError:
+        pass                     # its solid parts alone exceed the budget (a tree's bark): not a method there
     for key in ("simplify", "cards", "cards_blend"):
         if (folder / key / "model.glb").is_file():
             models[key] = io.load(folder / key / "model.glb")

@@ -18,10 +18,14 @@ from ..asset import Asset
 from ..asset.pose import Poses
 from ..shading.camera import Camera
 from ..shading.light import PointLight
+from ..shading.pipeline import LayerCount
 
 
 class Latent(Protocol):
-    """A trainable model (a ``torch.nn.Module`` in practice)."""
+    """A trainable model (a ``torch.nn.Module`` in practice); ``layers_used``, a
+    ``lookalike.shading.pipeline.LayerCount``, counts how deep its renders peeled."""
+
+    layers_used: LayerCount
 
     def parameter_groups(self) -> dict[str, list[torch.nn.Parameter]]:
         """Trainable tensors by group name (e.g. ``"positions"``, ``"textures"``); the loop

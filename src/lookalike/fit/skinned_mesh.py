@@ -98,6 +98,11 @@ class SkinnedMesh(torch.nn.Module):
                    for views, clip, time in pose.runs()]
         return None if covered[0] is None else torch.cat(covered)
 
+    @property
+    def layers_used(self):
+        """The surface's ``LayerCount``: how deep its renders peeled."""
+        return self.surface.layers_used
+
     def clamp_(self) -> None:
         self.surface.clamp_()
 

@@ -22,7 +22,7 @@ from ..asset.pose import Poses
 from ..asset.skinning import posed
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from ..shading.pipeline import render, render_coverage
+from ..shading.pipeline import LayerCount, render, render_coverage
 from ..settings import ClampConfig
 from .position_steps import local_step_scale
 from .slope_normals import normal_to_slopes, slopes_to_normal
@@ -50,6 +50,8 @@ class TexturedMesh(torch.nn.Module):
     colour: shading must not be painted into it).
     The ambient occlusion map ``occlusion`` ``[S, S, 1]`` (or ``None``) is a fixed buffer: the
     point-light views cannot see ambient light, so it is carried from the start to the export.
+    ``layers_used`` (a ``LayerCount``, not part of the state) counts how deep its renders
+    peeled, for the report.
 
     Buffers (fixed): ``t_pos_idx [T, 3]`` int64, ``t_nrm_idx [T, 3]`` int64 (the normal slots:
     smoothing groups, fixed at the start; the normals themselves are recomputed from the current
@@ -113,6 +115,7 @@ class TexturedMesh(torch.nn.Module):
         self.mask_anneal = mask_anneal
         self.start_ramp = coverage_ramp
         self.coverage_ramp = coverage_ramp
+        self.layers_used = LayerCount()
         self.emissive_scale = 1.0 if emissive is None else max(float(emissive.detach().max()), 1.0)
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
@@ -256,7 +259,7 @@ class TexturedMesh(torch.nn.Module):
         """``render`` of ``asset``, this model as ``as_asset`` gives it or in another shape (a
         pose of it): ``[B, H, W, 4]``, differentiable."""
         return render(asset, camera, light, (resolution, resolution), spp=self.msaa, layers=self.layers,
-                      msaa=self.msaa > 1)
+                      msaa=self.msaa > 1, layer_count=self.layers_used)
 
     def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where

@@ -52,6 +52,7 @@ from ..limits import MAX_WORKERS
 from ..phases import Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import MethodResult, RunRecord
+from ..shading.pipeline import LayerCount
 from ..settings import (Config, config_to_dict, refresh_interval, section_of, setting_help, setting_value, to_toml,
                         with_overrides)
 from ..threads import CoreShare, set_threads
@@ -265,6 +266,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         fitter.load_state_dict(s.saved)
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None)
     fit, export = optimise(s, fitter, seconds, written, start_written, notes)
+    if cfg.render.layers > 1 and latent.layers_used.renders:
+        notes.append(peeling_note(latent.layers_used, cfg.render.layers))
     interrupted = fit.interrupted
     if moving and s.options.compare_static and not interrupted:
         interrupted = compare_bind_pose(s, cfg, asset, heldout, draw, methods, notes)
@@ -283,6 +286,12 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         baselines["start"] = start_written
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
+
+
+def peeling_note(used: LayerCount, layers: int) -> str:
+    """The report's line on how deep the fit's renders peeled of ``render.layers`` ``layers``."""
+    return (f"the fit's renders peeled {used.mean:.1f} depth layers on average (deepest {used.deepest}) of "
+            f"render.layers = {layers}")
 
 
 def run_settings(app: Application, config: Config | str | Path | None = None, settings: dict | None = None) -> Config:
