@@ -14,7 +14,7 @@ from lookalike.render.msaa import upsample_over
 from lookalike.render.window import Window
 from lookalike.shading import Camera, PointLight, render
 from lookalike.shading.pipeline import (Frame, LayerCount, background_image, box_downsample, edge_topology,
-                                        mesh_buffers, shade_layer_msaa, texture_sampler)
+                                        layer_gbuffer, mesh_buffers, points_image, shade_points, texture_sampler)
 
 NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
 
@@ -110,9 +110,10 @@ def test_peeled_composite_gradients_match_finite_differences(wrt):
 
 
 def full_frame_composite(asset, camera, light, size: int, spp: int, layers: int, background) -> torch.Tensor:
-    """The oracle of the windowed peel: every one of ``layers`` layers rasterized, shaded,
-    composited and antialiased over the whole frame, empty ones included, with no early stop
-    (``render``'s early stops and windows must not change a value)."""
+    """The oracle of the windowed peel: every one of ``layers`` layers rasterized, shaded (each
+    on its own), composited and antialiased over the whole frame, empty ones included, with no
+    early stop (``render``'s early stops, windows and shading all layers together must not
+    change a value)."""
     full = (size * spp, size * spp)
     buffers = mesh_buffers(asset, camera)
     frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
@@ -121,8 +122,8 @@ def full_frame_composite(asset, camera, light, size: int, spp: int, layers: int,
     with dr.DepthPeeler(None, buffers.clip, buffers.tri, full) as peeler:
         for _ in range(layers):
             rast, rast_db = peeler.rasterize_next_layer()
-            colour = shade_layer_msaa(frame, rast, rast_db, rast[..., 3] > 0, spp, whole)
-            shaded.append((rast, colour))
+            gb, shape = layer_gbuffer(frame, rast, rast_db, rast[..., 3] > 0, spp, whole)
+            shaded.append((rast, points_image(gb, shade_points(frame, [gb])[0], shape)))
     accum = background_image(background, 1, size, size, spp, buffers.clip)
     for rast, colour in reversed(shaded):
         accum = dr.antialias(upsample_over(accum, colour, rast[..., 3], spp).contiguous(), rast, buffers.clip,
@@ -149,6 +150,10 @@ def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composit
     torch.manual_seed(0)
     expected = full_frame_composite(asset, camera, light, size, spp, 8, background)
     assert torch.equal(image, expected)
+    torch.manual_seed(0)
+    with torch.no_grad():  # each layer shaded as it is peeled, not all together
+        assert torch.equal(render(asset, camera, light, size, spp=spp, layers=8, background=background, msaa=True),
+                           expected)
     with dr.DepthPeeler(None, camera.clip(asset.mesh.v_pos), asset.mesh.t_pos_idx.int(), (size * spp,) * 2) as peeler:
         covered = [bool((peeler.rasterize_next_layer()[0][..., 3] > 0).any()) for _ in range(8)]
     deepest = covered.index(False)

@@ -91,3 +91,28 @@ def test_windowed_layers_are_the_windows_of_the_full_layers(block):
             outer = window
         else:
             pytest.fail("four quads ran out of layers")
+
+
+@pytest.mark.parametrize("block", [None, 2])
+def test_layers_found_in_one_pass_equal_layers_peeled_one_by_one(block):
+    """A peeler told it will be asked for 3 layers finds them in one pass; its layers (and
+    the ones it peels beyond the 3), windows and gradients equal those of a peeler that
+    rasterizes every layer on its own."""
+    pos, tri, _ = stacked_quads(6)
+    pos = pos.requires_grad_()
+    size = 30
+    with dr.DepthPeeler(None, pos, tri, (size, size)) as alone, \
+            dr.DepthPeeler(None, pos, tri, (size, size), layers=3) as together:
+        for _ in range(5):
+            if block is None:
+                (rast, rast_db), (got, got_db) = alone.rasterize_next_layer(), together.rasterize_next_layer()
+            else:
+                window, rast, rast_db = alone.rasterize_next_window(block)
+                got_window, got, got_db = together.rasterize_next_window(block)
+                assert got_window == window
+            assert torch.equal(got, rast) and torch.equal(got_db, rast_db)
+            weights = torch.randn(rast.shape)
+            expected, = torch.autograd.grad((rast * weights).sum() + rast_db.sum(), pos)
+            grad, = torch.autograd.grad((got * weights).sum() + got_db.sum(), pos)
+            assert torch.equal(grad, expected)
+        assert (rast[..., 3] > 0).any()  # the fifth layer, peeled beyond the three, has fragments

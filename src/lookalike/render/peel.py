@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from .context import RasterizeContext
-from .rasterize import rasterize_layer
+from .rasterize import layer_images, rasterize_layer, rasterize_layers
 from .window import Window
 
 
@@ -28,6 +29,11 @@ class DepthPeeler:
     within the window that holds its fragments, and draws the next one only within that
     window (a pixel with no fragment in a layer has none deeper): the cost of a deep layer
     of foliage follows the few pixels it covers, not the frame.
+
+    ``layers`` (another extension): the most layers the caller will take. The first call then
+    finds them all in one pass over the triangles (a k-buffer,
+    :func:`.visibility.visible_layers`) and each call reads its own, bit for bit the layer a
+    pass of its own finds, at about the cost of one pass; calls beyond ``layers`` peel on.
     """
 
     def __init__(
@@ -38,8 +44,12 @@ class DepthPeeler:
         resolution: tuple[int, int],
         ranges: torch.Tensor | None = None,
         grad_db: bool = True,
+        layers: int | None = None,
     ):
         self._args = (pos, tri, resolution, ranges, grad_db)
+        self._layers = layers
+        self._found: tuple[np.ndarray, np.ndarray] | None = None
+        self._taken = 0
         self._min_depth: torch.Tensor | None = None
         self._window: Window | None = None
         self._active = False
@@ -48,19 +58,19 @@ class DepthPeeler:
         self._active = True
         self._min_depth = None
         self._window = None
+        self._found = None
+        self._taken = 0
         return self
 
     def __exit__(self, *exc) -> None:
         self._active = False
         self._min_depth = None
         self._window = None
+        self._found = None
 
     def rasterize_next_layer(self) -> tuple[torch.Tensor, torch.Tensor]:
         """``(rast [B,H,W,4], rast_db [B,H,W,4])`` of the next-nearest layer."""
-        self._check_active()
-        rast, rast_db, depth, _ = rasterize_layer(*self._args, self._min_depth)
-        # pixels with no fragment left keep depth +inf, so they find nothing further
-        self._min_depth = depth
+        _, rast, rast_db = self._next(None)
         return rast, rast_db
 
     def rasterize_next_window(self, block: int = 1) -> tuple[Window | None, torch.Tensor, torch.Tensor]:
@@ -68,10 +78,23 @@ class DepthPeeler:
         ``window``, ``covered_window(ids, block)`` of the frame's ids (``None``, with empty
         images, once no fragment is left); equal to that window of
         :meth:`rasterize_next_layer`'s images."""
+        return self._next(block)
+
+    def _next(self, block: int | None) -> tuple[Window | None, torch.Tensor, torch.Tensor]:
         self._check_active()
-        rast, rast_db, depth, window = rasterize_layer(*self._args, self._min_depth, self._window, block)
+        pos, tri, resolution, ranges, grad_db = self._args
+        if self._layers is not None and self._taken < self._layers:
+            if self._found is None:
+                self._found = rasterize_layers(pos, tri, resolution, ranges, self._layers)
+            tri_id, depth = self._found[0][self._taken], self._found[1][self._taken]
+            rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id, depth, block)
+            depth = torch.from_numpy(depth)
+        else:
+            rast, rast_db, depth, window = rasterize_layer(*self._args, self._min_depth, self._window, block)
+        # pixels with no fragment left keep depth +inf, so they find nothing further
         self._min_depth = depth
         self._window = window
+        self._taken += 1
         return window, rast, rast_db
 
     def _check_active(self) -> None:

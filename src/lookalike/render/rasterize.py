@@ -10,7 +10,7 @@ import torch
 from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
 from .inputs import check_triangles, per_view_positions
-from .visibility import visible_triangles
+from .visibility import visible_layers, visible_triangles
 from .window import Window, covered_window
 
 
@@ -70,11 +70,7 @@ def rasterize_layer(
     ``window`` is ``covered_window(ids, block)`` (``None`` where nothing is covered, with
     ``rast`` and ``rast_db`` then ``[B, 0, 0, 4]``) and ``rast``, ``rast_db`` are that window
     of the frame's, computed there only; without, the whole frame's."""
-    height, width = int(resolution[0]), int(resolution[1])
-    if height <= 0 or width <= 0:
-        raise ValueError(f"resolution must be positive, got {resolution}")
-    if not pos.is_floating_point():
-        raise ValueError(f"pos must be a floating-point tensor, got {pos.dtype}")
+    height, width = _checked_size(resolution, pos)
     views, tri_range = per_view_positions(pos, tri, ranges)
     tri = check_triangles(tri, views.shape[1])
     tri_id, depth = visible_triangles(
@@ -86,10 +82,59 @@ def rasterize_layer(
         None if min_depth is None else min_depth.cpu().numpy(),
         within,
     )
+    rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id, depth, block)
+    return rast, rast_db, torch.from_numpy(depth), window
+
+
+def rasterize_layers(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    resolution: tuple[int, int],
+    ranges: torch.Tensor | None,
+    layers: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The triangle ids and depths of the ``layers`` nearest layers of every pixel, found in
+    one pass (:func:`.visibility.visible_layers`): ``(tri_id [L,B,H,W] int32, depth [L,B,H,W]
+    float32)``, layer ``k`` bit for bit what the ``k``-th pass of depth peeling finds.
+    ``layer_images`` turns one into ``rast`` and ``rast_db``."""
+    height, width = _checked_size(resolution, pos)
+    views, tri_range = per_view_positions(pos, tri, ranges)
+    tri = check_triangles(tri, views.shape[1])
+    return visible_layers(views.detach().float().cpu().numpy(), tri.cpu().numpy(), tri_range.numpy(), height, width,
+                          layers)
+
+
+def layer_images(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    ranges: torch.Tensor | None,
+    grad_db: bool,
+    tri_id: np.ndarray,
+    depth: np.ndarray,
+    block: int | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, Window | None]:
+    """``(rast, rast_db, window)`` of the layer whose visible triangles are ``tri_id [B,H,W]``
+    at ``depth [B,H,W]`` (arguments as ``rasterize_layer``'s): the whole frame's without
+    ``block``; with it, ``covered_window(ids, block)`` and that window of the frame's images
+    (``None``, with ``[B, 0, 0, 4]`` images, where nothing is covered)."""
+    views, _ = per_view_positions(pos, tri, ranges)
+    tri = check_triangles(tri, views.shape[1])
+    height, width = tri_id.shape[1:]
     window = Window.whole(height, width) if block is None else covered_window(torch.from_numpy(tri_id), block)
     if window is None:
         empty = views.new_zeros(views.shape[0], 0, 0, 4)
-        return empty, empty.clone(), torch.from_numpy(depth), None
+        return empty, empty.clone(), None
     rast, rast_db = pixel_barycentrics(views, tri, np.ascontiguousarray(window.crop(tri_id)),
                                        np.ascontiguousarray(window.crop(depth)), grad_db, window)
-    return rast, rast_db, torch.from_numpy(depth), window
+    return rast, rast_db, window
+
+
+def _checked_size(resolution: tuple[int, int], pos: torch.Tensor) -> tuple[int, int]:
+    """``(H, W)`` of ``resolution``; ``ValueError`` for a size that is not positive or
+    positions that are not floating point."""
+    height, width = int(resolution[0]), int(resolution[1])
+    if height <= 0 or width <= 0:
+        raise ValueError(f"resolution must be positive, got {resolution}")
+    if not pos.is_floating_point():
+        raise ValueError(f"pos must be a floating-point tensor, got {pos.dtype}")
+    return height, width

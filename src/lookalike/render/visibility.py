@@ -236,11 +236,15 @@ def _clip_box(x0, x1, y0, y1, clip):
 @njit(cache=CACHE, inline="always")
 def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
     """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
-    ``x0..x1, y0..y1`` and keep it where it is nearest: ``depth`` (float32 z/w) and
-    ``tri_id`` (``t + 1``) are updated where ``min_depth < d < depth``, ``-1 <= d <= 1``
-    and every edge function is ``>= 0``.  ``planes`` is float64 scratch of 12."""
+    ``x0..x1, y0..y1`` and keep it among the ``L`` nearest: ``depth [L, B, H, W]`` (float32
+    z/w, ascending, ``+inf`` for none) and ``tri_id [L, B, H, W]`` (``t + 1``) get the fragment
+    inserted in depth order where ``min_depth < d``, ``-1 <= d <= 1``, every edge function is
+    ``>= 0``, ``d`` is below the ``L``-th depth and no kept fragment has depth ``d`` (the one
+    drawn first, the lower index, wins ties, as when peeling).  ``planes`` is float64 scratch
+    of 12."""
     if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
         return
+    layers = depth.shape[0]
     dA = np.float32(planes[9])
     dB = np.float32(planes[10])
     dC = np.float32(planes[11])
@@ -258,9 +262,18 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
             d = dA * np.float32(ix) + dB * fy + dC
             if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
                 continue
-            if d < depth[b, iy, ix]:
-                depth[b, iy, ix] = d
-                tri_id[b, iy, ix] = t + 1
+            if not d < depth[layers - 1, b, iy, ix]:
+                continue
+            slot = 0
+            while depth[slot, b, iy, ix] < d:
+                slot += 1
+            if depth[slot, b, iy, ix] == d:
+                continue
+            for k in range(layers - 1, slot, -1):
+                depth[k, b, iy, ix] = depth[k - 1, b, iy, ix]
+                tri_id[k, b, iy, ix] = tri_id[k - 1, b, iy, ix]
+            depth[slot, b, iy, ix] = d
+            tri_id[slot, b, iy, ix] = t + 1
 
 
 @njit(cache=CACHE, parallel=True)
@@ -379,6 +392,28 @@ def visible_triangles(
         ``(tri_id [B,H,W] int32, depth [B,H,W] float32)``: triangle index + 1 (0 where no
         triangle) and its depth z/w (``+inf`` where none).
     """
+    tri_id, depth = visible_layers(pos, tri, tri_range, height, width, 1, min_depth, window)
+    return tri_id[0], depth[0]
+
+
+def visible_layers(
+    pos: np.ndarray,
+    tri: np.ndarray,
+    tri_range: np.ndarray,
+    height: int,
+    width: int,
+    layers: int,
+    min_depth: np.ndarray | None = None,
+    window: Window | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``layers`` nearest fragments of distinct depth at every pixel centre of every view,
+    in one pass over the triangles (a k-buffer): layer ``k`` is what depth peeling finds on its
+    ``k``-th pass, bit for bit, at the cost of about one pass.
+
+    Arguments as for :func:`visible_triangles`, plus ``layers`` (``L``). Returns ``(tri_id
+    [L,B,H,W] int32, depth [L,B,H,W] float32)``: per layer, nearest first, triangle index + 1
+    (0 where no fragment is left) and depth z/w (``+inf`` where none).
+    """
     pos = np.ascontiguousarray(pos, dtype=np.float32)
     tri = np.ascontiguousarray(tri, dtype=np.int32)
     n_views = pos.shape[0]
@@ -387,8 +422,8 @@ def visible_triangles(
     if min_depth is None:
         min_depth = np.full((n_views, height, width), -np.inf, np.float32)
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
-    tri_id = np.zeros((n_views, height, width), np.int32)
-    depth = np.full((n_views, height, width), np.inf, np.float32)
+    tri_id = np.zeros((layers, n_views, height, width), np.int32)
+    depth = np.full((layers, n_views, height, width), np.inf, np.float32)
     window = Window.whole(height, width) if window is None else window
     clip = np.array([window.left, window.left + window.width - 1, window.top, window.top + window.height - 1], np.int64)
     screen, code = project_vertices(pos, width, height)

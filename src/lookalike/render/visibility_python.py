@@ -83,3 +83,22 @@ def visibility_python(
         window.crop(inside).fill_(True)
         tri_ids, depths = torch.where(inside, tri_ids, 0), torch.where(inside, depths, torch.inf)
     return tri_ids, depths
+
+
+def visible_layers_python(
+    pos: torch.Tensor,
+    tri: torch.Tensor,
+    resolution: tuple[int, int],
+    layers: int,
+    tri_range: torch.Tensor | None = None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Twin of :func:`.visibility.visible_layers` by its definition: ``layers`` passes of
+    :func:`visibility_python`, each keeping only fragments strictly behind the previous pass's
+    depth (depth peeling). Returns ``(tri_id [L,B,H,W] int32, depth [L,B,H,W] float32)``."""
+    ids, depths, floor = [], [], None
+    for _ in range(layers):
+        tri_id, depth = visibility_python(pos, tri, resolution, tri_range, floor)
+        ids.append(tri_id)
+        depths.append(depth)
+        floor = depth
+    return torch.stack(ids), torch.stack(depths)

@@ -81,7 +81,7 @@ class MeshBuffers:
 
 @dataclass
 class GBuffer:
-    """Attributes of the N covered pixels of one rasterized layer.
+    """Attributes of the N covered pixels of one rasterized layer (or of several, concatenated).
 
     Attributes:
         pixel: ``[N]`` int64 flat indices into ``[B, H, W]``.
@@ -136,4 +136,27 @@ class GBuffer:
             uv=uv,
             tangent=tangent,
             color=interpolated[:, 3:7] if mesh.v_color is not None else None,
+        )
+
+    @staticmethod
+    def concatenate(parts: list[GBuffer]) -> GBuffer:
+        """The points of ``parts`` in one G-buffer, in order (each part's ``pixel`` indices keep
+        pointing into that part's own image), so that they are textured and shaded together."""
+        if len(parts) == 1:
+            return parts[0]
+
+        def cat(values):
+            return torch.cat(list(values))
+
+        first = parts[0]
+        return GBuffer(
+            pixel=cat(p.pixel for p in parts),
+            view=cat(p.view for p in parts),
+            triangle=cat(p.triangle for p in parts),
+            position=cat(p.position for p in parts),
+            normal=cat(p.normal for p in parts),
+            geometric_normal=cat(p.geometric_normal for p in parts),
+            uv=[(cat(p.uv[k][0] for p in parts), cat(p.uv[k][1] for p in parts)) for k in range(len(first.uv))],
+            tangent={k: cat(p.tangent[k] for p in parts) for k in first.tangent},
+            color=None if first.color is None else cat(p.color for p in parts),
         )

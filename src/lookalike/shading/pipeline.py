@@ -89,14 +89,24 @@ class SurfacePoints:
 
 def surface_points(gb: GBuffer, surface: Surface, camera: Camera) -> SurfacePoints:
     """The light-independent shading inputs of the G-buffer's pixels (see ``SurfacePoints``)."""
-    view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
-    front = _dot(gb.geometric_normal, view_dir) >= 0
+    view_dir, front = facing_viewer(gb, camera)
     facing = torch.where(front, 1.0, -1.0).to(view_dir)
     normal = shading_normal(gb.normal, *_normal_map_inputs(gb, surface), gb.geometric_normal, view_dir, facing[:, 0])
-    visible = front | surface.double_sided[:, None]
     return SurfacePoints(view=gb.view, position=gb.position, normal=normal, geometric_normal=gb.geometric_normal * facing,
                          view_dir=view_dir, kd=surface.kd[:, :3], ks=surface.ks, emissive=surface.emissive,
-                         alpha=surface.alpha * visible.to(normal))
+                         alpha=visible_alpha(surface, front))
+
+
+def facing_viewer(gb: GBuffer, camera: Camera) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(view_dir [N, 3], front [N, 1] bool)``: the unit direction from each pixel's point to
+    its camera, and whether the point's face is turned towards it."""
+    view_dir = safe_normalize(camera.position.to(gb.position)[gb.view] - gb.position)
+    return view_dir, _dot(gb.geometric_normal, view_dir) >= 0
+
+
+def visible_alpha(surface: Surface, front: torch.Tensor) -> torch.Tensor:
+    """``[N, 1]`` coverage: the material's alpha, 0 on the back faces of single-sided materials."""
+    return surface.alpha * (front | surface.double_sided[:, None]).to(surface.alpha)
 
 
 def _normal_map_inputs(gb: GBuffer, surface: Surface) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -137,15 +147,46 @@ class Frame:
     sampler: TextureSampler = field(default_factory=TextureSampler)
 
 
-def shade_layer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor) -> torch.Tensor:
-    """Straight-alpha image ``[B, H, W, 4]`` (rasterizer row order) of one rasterized layer,
-    shaded where ``needed [B, H, W]`` (bool) and covered; zero elsewhere."""
+def layer_gbuffer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor, factor: int,
+                  window: Window) -> tuple[GBuffer, tuple[int, int, int]]:
+    """The points of one rasterized layer (``rast``, ``rast_db [B, H, W, 4]``, the ``window``
+    of the frame) to shade, where ``needed [B, H, W]`` (bool) and covered: every sample
+    (``factor`` 1), or one random covered sample per ``factor x factor`` pixel (stochastic
+    MSAA, see the module docstring). Returns the G-buffer and the shape ``(B, h, w)`` of the
+    image its ``pixel`` indices point into (the samples', or the pixels')."""
+    if factor == 1:
+        return GBuffer.build(frame.buffers, rast, rast_db, needed), tuple(rast.shape[:3])
+    low_rast, low_db = random_covered_samples(rast, rast_db, factor, window)
+    batch, high, wide = needed.shape
+    low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
+    return GBuffer.build(frame.buffers, low_rast, low_db, low_needed), tuple(low_rast.shape[:3])
+
+
+def shade_points(frame: Frame, gbuffers: list[GBuffer]) -> list[torch.Tensor]:
+    """Straight-alpha colour ``[N_i, 4]`` of the points of each of ``gbuffers`` (the layers of
+    one render), shaded together: one material lookup for all, because the backward pass of each
+    lookup costs a pass over the whole stacked mip pyramid however few points it has."""
+    gb = GBuffer.concatenate(gbuffers)
     asset = frame.asset
-    gb = GBuffer.build(frame.buffers, rast, rast_db, needed)
     surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
     colour = light_points(surface_points(gb, surface, frame.camera), frame.light)
-    image = colour.new_zeros(rast.shape[0] * rast.shape[1] * rast.shape[2], 4)
-    return image.index_put((gb.pixel,), colour).reshape(*rast.shape[:3], 4)
+    return list(torch.split(colour, [part.pixel.shape[0] for part in gbuffers]))
+
+
+@torch.no_grad()
+def points_alpha(frame: Frame, gb: GBuffer) -> torch.Tensor:
+    """``[N, 1]`` coverage of the points of ``gb`` (no gradient): what ``shade_points`` gives as
+    alpha, without the lighting, to know what the layers behind will show."""
+    asset = frame.asset
+    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
+    return visible_alpha(surface, facing_viewer(gb, frame.camera)[1])
+
+
+def points_image(gb: GBuffer, values: torch.Tensor, shape: tuple[int, int, int]) -> torch.Tensor:
+    """``[B, h, w, C]``: ``values [N, C]`` of the points of ``gb`` at their pixels of an image
+    shaped ``shape = (B, h, w)``, zero elsewhere."""
+    image = values.new_zeros(shape[0] * shape[1] * shape[2], values.shape[1])
+    return image.index_put((gb.pixel,), values).reshape(*shape, values.shape[1])
 
 
 def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: int, window: Window):
@@ -168,16 +209,13 @@ def random_covered_samples(rast: torch.Tensor, rast_db: torch.Tensor, factor: in
     return pick_samples(rast, index), pick_samples(rast_db, index)
 
 
-def shade_layer_msaa(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor,
-                     factor: int, window: Window) -> torch.Tensor:
-    """Like ``shade_layer`` at ``factor x factor`` samples per pixel, shading once per pixel at
-    a random covered sample (stochastic MSAA, see the module docstring), for images that are
-    ``window`` of the frame. Returns the pixels' straight-alpha colour ``[B, H, W, 4]``;
-    ``upsample_over`` composites it over the samples, with coverage per sample."""
-    low_rast, low_db = random_covered_samples(rast, rast_db, factor, window)
-    batch, high, wide = needed.shape
-    low_needed = needed.reshape(batch, high // factor, factor, wide // factor, factor).any(dim=4).any(dim=2)
-    return shade_layer(frame, low_rast, low_db, low_needed)
+def layer_over(colour: torch.Tensor, rast: torch.Tensor, factor: int) -> Callable[[torch.Tensor], torch.Tensor]:
+    """``accum [B, H, W, 4] -> [B, H, W, 4]``: one layer's straight-alpha ``colour`` (per sample,
+    or per ``factor x factor`` pixel where ``factor`` > 1) composited over ``accum`` at the
+    samples of ``rast [B, H, W, 4]``."""
+    if factor == 1:
+        return partial(composite_over, colour=colour)
+    return partial(upsample_over, colour=colour, ids=rast[..., 3], factor=factor)
 
 
 def background_image(background, batch: int, height: int, width: int, factor: int,
@@ -305,12 +343,19 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
 def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, sampled: bool) -> list[ShadedLayer]:
     """The shaded layers of ``frame`` at ``full = (H, W)`` samples, nearest first: at most
     ``layers``, stopping at the first with no sample to shade (none covered, or all behind
-    opaque nearer layers). ``sampled``: stochastic MSAA at ``spp x spp`` samples per pixel."""
+    opaque nearer layers). ``sampled``: stochastic MSAA at ``spp x spp`` samples per pixel.
+
+    The layers are found in one pass (``dr.DepthPeeler``'s ``layers``). With gradients, all are
+    shaded together (``shade_points``) after peeling, each layer's coverage taken first without
+    them (``points_alpha``) to know which samples behind it can show; without, each layer is
+    shaded as it is peeled and its own alpha serves. The images are the same either way."""
     buffers = frame.buffers
-    shaded = []
+    factor = spp if sampled else 1
+    together = torch.is_grad_enabled()  # one lookup for all layers pays off in the backward pass only
+    peeled = []
     outer = Window.whole(*full)
     transmittance = buffers.clip.new_ones(frame.camera.batch_size, *full)  # of the samples in ``outer``
-    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full) as peeler:
+    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full, layers=layers) as peeler:
         for layer in range(layers):
             window, rast, rast_db = peeler.rasterize_next_window(spp)
             if window is None:
@@ -319,19 +364,20 @@ def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, s
             needed = (rast[..., 3] > 0) & (transmittance > 0)
             if not needed.any():
                 break
-            if sampled:
-                colour = shade_layer_msaa(frame, rast, rast_db, needed, spp, window)
-                over = partial(upsample_over, colour=colour, ids=rast[..., 3], factor=spp)
-            else:
-                colour = shade_layer(frame, rast, rast_db, needed)
-                over = partial(composite_over, colour=colour)
-            shaded.append(ShadedLayer(window, rast, over))
+            gb, shape = layer_gbuffer(frame, rast, rast_db, needed, factor, window)
+            colour = None if together else shade_points(frame, [gb])[0]
+            peeled.append([window, rast, gb, shape, colour])
             if layer + 1 < layers:
                 with torch.no_grad():  # the samples' alpha: the pixels' spread over their covered samples
-                    alpha = over(torch.zeros_like(rast))[..., 3] if sampled else colour[..., 3]
-                    transmittance = transmittance * (1.0 - alpha)
+                    alpha = points_alpha(frame, gb) if together else colour[:, 3:]
+                    alpha = points_image(gb, F.pad(alpha, (3, 0)), shape)
+                    transmittance = transmittance * (1.0 - layer_over(alpha, rast, factor)(torch.zeros_like(rast))[..., 3])
             outer = window
-    return shaded
+    if together and peeled:
+        for entry, colour in zip(peeled, shade_points(frame, [entry[2] for entry in peeled])):
+            entry[4] = colour
+    return [ShadedLayer(window, rast, layer_over(points_image(gb, colour, shape), rast, factor))
+            for window, rast, gb, shape, colour in peeled]
 
 
 def composite_layers(shaded: list[ShadedLayer], background: torch.Tensor, buffers: MeshBuffers,

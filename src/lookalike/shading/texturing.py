@@ -73,7 +73,9 @@ class TextureSampler:
     base colour, specular and normal map) are stacked channel-wise and filtered in one lookup.
     Each stack's mip pyramid (``dr.texture_pyramid``, compiled, differentiable) is built at
     most once per sampler: it depends only on the texels, so one serves every layer and view
-    of a render. Textures with their own ``mips`` (latent prefiltered levels) use those.
+    of a render. Textures with their own ``mips`` (latent prefiltered levels) use those. The
+    stacks are built with gradients even in a ``no_grad`` lookup, so that a first lookup without
+    gradients (the coverage of peeled layers) does not cut them from the later ones.
     """
 
     def __init__(self):
@@ -84,12 +86,13 @@ class TextureSampler:
         textures' own levels 1.. ``[1, h, w, sum C]`` or a ``dr.Pyramid`` built on the first
         mipmapped request."""
         key = tuple(id(t) for t in textures)
-        if key not in self._stacks:
-            self._stacks[key] = _Stack(textures, torch.cat([t.data for t in textures], dim=-1)[None])
-        stack = self._stacks[key]
-        if mipmapped and stack.mips is None:
-            own = textures[0].mips
-            stack.mips = [level[None] for level in own] if own is not None else dr.texture_pyramid(stack.data)
+        with torch.enable_grad():  # cached for every later lookup, whatever the first one's grad mode
+            if key not in self._stacks:
+                self._stacks[key] = _Stack(textures, torch.cat([t.data for t in textures], dim=-1)[None])
+            stack = self._stacks[key]
+            if mipmapped and stack.mips is None:
+                own = textures[0].mips
+                stack.mips = [level[None] for level in own] if own is not None else dr.texture_pyramid(stack.data)
         return stack.data, stack.mips if mipmapped else None
 
     def sample(self, textures: list[Texture], uv_of: UVLookup, count: int) -> list[torch.Tensor]:
