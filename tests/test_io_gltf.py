@@ -18,7 +18,7 @@ from io_factory import covered_texels, npm_package, plane, two_material_asset
 from log_capture import expect_warning
 
 from lookalike import io
-from lookalike.asset import Animation, Asset, Channel, Material, Node, Skin
+from lookalike.asset import Animation, Asset, Channel, Material, Mesh, Node, Skin
 from lookalike.asset.skinning import node_world_matrices
 from lookalike.errors import AssetError
 from lookalike.io.gltf_data import GltfData, parse_gltf
@@ -727,3 +727,14 @@ def test_an_unskinned_prop_on_a_bone_moves_with_it(tmp_path):
         assert gap.min(1).values.max() < 1e-5 and gap.min(0).values.max() < 1e-5
     io.save(asset, tmp_path / "prop.glb")
     assert torch.allclose(_posed_corners(io.load(tmp_path / "prop.glb"), [1.0])[0][prop_tris], turned, atol=1e-5)
+
+
+def test_a_model_with_no_triangles_is_written_as_a_node_without_a_mesh(tmp_path):
+    """Plain decimation of foliage can leave nothing: the file shows nothing, and validates
+    (glTF has no empty mesh)."""
+    mesh = plane(3)
+    empty = Asset(mesh=Mesh(v_pos=mesh.v_pos[:0], t_pos_idx=mesh.t_pos_idx[:0]))
+    io.save(empty, tmp_path / "empty.glb")
+    doc = json.loads(_glb_json(tmp_path / "empty.glb"))
+    assert "meshes" not in doc and doc["nodes"] == [{"name": empty.name}] and doc["scenes"] == [{"nodes": [0]}]
+    assert_valid(tmp_path / "empty.glb")

@@ -118,14 +118,16 @@ class GlbBuilder:
         """The GLB container: 12-byte header, JSON chunk (space padded), BIN chunk (zero padded)."""
         binary = b"".join(self.chunks)
         binary += b"\0" * (-len(binary) % 4)
-        self.doc["buffers"] = [{"byteLength": len(binary)}]
+        doc = dict(self.doc, buffers=[{"byteLength": len(binary)}])
         if self.extensions:
-            self.doc["extensionsUsed"] = sorted(self.extensions)
-        text = json.dumps(self.doc, separators=(",", ":")).encode()
+            doc["extensionsUsed"] = sorted(self.extensions)
+        if not binary:  # glTF allows no empty arrays and no empty buffer: a file with no data has neither
+            doc = {key: value for key, value in doc.items() if key not in ("buffers", "bufferViews", "accessors")}
+        text = json.dumps(doc, separators=(",", ":")).encode()
         text += b" " * (-len(text) % 4)
-        total = 12 + 8 + len(text) + 8 + len(binary)
-        return (struct.pack("<4sII", b"glTF", 2, total) + struct.pack("<I4s", len(text), b"JSON") + text
-                + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+        chunk = struct.pack("<I4s", len(binary), b"BIN\0") + binary if binary else b""
+        total = 12 + 8 + len(text) + len(chunk)
+        return struct.pack("<4sII", b"glTF", 2, total) + struct.pack("<I4s", len(text), b"JSON") + text + chunk
 
     def write(self, path: Path) -> None:
         """Write the GLB container to ``path``; ``AssetError`` where the file cannot be written."""
@@ -380,8 +382,12 @@ def write_glb(asset: Asset, path: Path) -> None:
     """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
     skinned = asset.skin is not None and asset.mesh.v_joints is not None
     builder = GlbBuilder()
-    add_mesh(builder, asset, asset.name, skinned)
-    if skinned:
+    empty = asset.mesh.num_triangles == 0  # glTF has no empty mesh: a node without one shows the nothing it is
+    if not empty:
+        add_mesh(builder, asset, asset.name, skinned)
+    if empty:
+        nodes, roots = [{"name": asset.name}], [0]
+    elif skinned:
         nodes = _skin(builder, asset)
         roots = [i for i, n in enumerate(asset.skin.nodes) if n.parent < 0]
         home = asset.skin.mesh_node
