@@ -165,3 +165,23 @@ def test_large_inputs_refresh_the_view_pool_proportionally_less_often():
     assert refresh_interval(config_from_dict({"views": {"refresh_every": 0}}), 4_000_000) == 0
     with pytest.raises(ConfigError, match="refresh_triangles"):
         config_from_dict({"views": {"refresh_triangles": 0}})
+
+
+def test_the_reference_peels_as_deep_as_the_judge_sees_where_models_peel():
+    """Foliage is deeper than the models' layers: the reference peels ``MAX_LAYERS`` (Cycles'
+    transparent bounces in the judge) wherever models peel more than one, and one layer where
+    they peel one; the input reference of a run is built with it."""
+    import torch
+
+    from lookalike.asset import Asset, Mesh
+    from lookalike.fit.reference import MeshReference
+    from lookalike.jobs.run import input_reference
+    from lookalike.limits import MAX_LAYERS
+    from lookalike.settings import RenderConfig
+
+    assert RenderConfig(layers=1).reference_layers == 1
+    assert RenderConfig(layers=8).reference_layers == MAX_LAYERS == 16
+    cfg = Config(render=RenderConfig(layers=8))
+    reference = input_reference(Asset(mesh=Mesh(v_pos=torch.rand(3, 3), t_pos_idx=torch.tensor([[0, 1, 2]]))), cfg,
+                                False)
+    assert isinstance(reference, MeshReference) and reference.layers == MAX_LAYERS

@@ -145,9 +145,10 @@ class RenderConfig:
             surface faces away from it, as Cycles and most offline renderers shade, while the
             other views light by the shading normal alone, as real-time engines do. Fitting
             against both keeps the normal map right in both kinds of renderer.
-        layers: depth-peeled layers composited in every render of the reference and of the
-            models (``lookalike.shading.pipeline``): 1 shows the nearest surface only; alpha-
-            textured foliage needs several (the paper peels 8).
+        layers: depth-peeled layers composited in every render of the models
+            (``lookalike.shading.pipeline``): 1 shows the nearest surface only; alpha-
+            textured foliage needs several (the paper peels 8). The reference peels
+            ``reference_layers``.
     """
 
     resolution: int = 512
@@ -155,6 +156,15 @@ class RenderConfig:
     latent_msaa: int = 2
     horizon_share: float = 0.5
     layers: int = 1
+
+    @property
+    def reference_layers(self) -> int:
+        """Layers the reference peels: 1 where the models peel 1, else ``MAX_LAYERS`` (16, as
+        deep as the judge's Cycles sees through transparent surfaces; peeling stops earlier
+        where nothing more shows). Dense foliage is deeper than the models' layers (a conifer
+        has a quarter of its coverage beyond the 8th), and a reference cut short teaches the
+        fit a sparse, pale look that no other renderer shows."""
+        return 1 if self.layers == 1 else MAX_LAYERS
 
 
 @dataclass

@@ -144,7 +144,7 @@ def _case(case: CardsCase, source: Path, folder: Path, time_budget: float, reuse
             job(source, run_dir, triangles=count, time_budget=time_budget, force=True, progress=False, **options)
         metrics[name] = json.loads((run_dir / "metrics.json").read_text())
     cfg = load_config(folder / "cards" / "config.toml")
-    reference = MeshReference(asset, cfg.render.layers)
+    reference = MeshReference(asset, cfg.render.reference_layers)
     centre, radius = reference.bounding_sphere()
     sampler = view_sampler(centre, radius)
     heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed, cfg.render.resolution,

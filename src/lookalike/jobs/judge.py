@@ -110,7 +110,7 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     paths["ours"] = run_dir / MODEL_NAME
     models = [JudgedModel(key, LABELS[key], paths[key], io.load(paths[key])) for key in LABELS
               if key in paths and paths[key].exists()]
-    reference = SkinnedReference(input_asset) if moving else MeshReference(input_asset, cfg.render.layers)
+    reference = SkinnedReference(input_asset) if moving else MeshReference(input_asset, cfg.render.reference_layers)
     heldout = heldout_views(reference, cfg.views.heldout, cfg.views.heldout_seed,
                             animated.heldout_poses(input_asset) if moving else None)
     if views is not None:

@@ -97,7 +97,7 @@ def render_ours(reference: Reference, models: list[JudgedModel], views: Views, r
     """``{"reference" | model key: [B, H, W, 4]}`` drawn by our pipeline as the report draws
     them on ``views`` (in their poses, where they have them): the input by ``reference``,
     supersampled ``spp`` x ``spp``; the methods with ``render_asset`` over ``layers``
-    depth-peeled layers (the run's ``render.layers``, as the reference's)."""
+    depth-peeled layers (the run's ``render.layers``; the reference peels its own, ``render.reference_layers``)."""
     images = {"reference": render_in_chunks(reference, views.camera, views.light, resolution, spp, pose=views.pose)}
     chunks = [views[i:i + RENDER_CHUNK] for i in range(0, views.batch_size, RENDER_CHUNK)]
     for model in models:

@@ -84,8 +84,8 @@ optimisation loop itself draws from ``default_rng(seed)``)."""
 
 def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
     """The input drawn by our pipeline: posed per view where ``moving``, else still, with
-    ``render.layers`` depth-peeled layers."""
-    return SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.layers)
+    ``render.reference_layers`` depth-peeled layers."""
+    return SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.reference_layers)
 
 
 def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent:

@@ -340,22 +340,29 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     return box_downsample(accum, spp).flip(1)
 
 
+ONE_PASS_LAYERS = 8
+"""Layers at most found in one pass (``dr.DepthPeeler``'s k-buffer, 8 bytes per layer and
+sample); deeper ones are peeled a pass each."""
+
+
 def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, sampled: bool) -> list[ShadedLayer]:
     """The shaded layers of ``frame`` at ``full = (H, W)`` samples, nearest first: at most
     ``layers``, stopping at the first with no sample to shade (none covered, or all behind
     opaque nearer layers). ``sampled``: stochastic MSAA at ``spp x spp`` samples per pixel.
 
-    The layers are found in one pass (``dr.DepthPeeler``'s ``layers``). With gradients, all are
-    shaded together (``shade_points``) after peeling, each layer's coverage taken first without
-    them (``points_alpha``) to know which samples behind it can show; without, each layer is
-    shaded as it is peeled and its own alpha serves. The images are the same either way."""
+    The first ``ONE_PASS_LAYERS`` are found in one pass (``dr.DepthPeeler``'s ``layers``). With
+    gradients, all are shaded together (``shade_points``) after peeling, each layer's coverage
+    taken first without them (``points_alpha``) to know which samples behind it can show;
+    without, each layer is shaded as it is peeled and its own alpha serves. The images are the
+    same either way."""
     buffers = frame.buffers
     factor = spp if sampled else 1
     together = torch.is_grad_enabled()  # one lookup for all layers pays off in the backward pass only
     peeled = []
     outer = Window.whole(*full)
     transmittance = buffers.clip.new_ones(frame.camera.batch_size, *full)  # of the samples in ``outer``
-    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full, layers=layers) as peeler:
+    with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full,
+                        layers=min(layers, ONE_PASS_LAYERS)) as peeler:
         for layer in range(layers):
             window, rast, rast_db = peeler.rasterize_next_window(spp)
             if window is None:
