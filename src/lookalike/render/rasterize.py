@@ -10,7 +10,7 @@ import torch
 from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
 from .inputs import check_triangles, per_view_positions
-from .visibility import visible_layers, visible_triangles
+from .visibility import visible_layers
 from .window import Window, covered_window
 
 
@@ -70,20 +70,9 @@ def rasterize_layer(
     ``window`` is ``covered_window(ids, block)`` (``None`` where nothing is covered, with
     ``rast`` and ``rast_db`` then ``[B, 0, 0, 4]``) and ``rast``, ``rast_db`` are that window
     of the frame's, computed there only; without, the whole frame's."""
-    height, width = _checked_size(resolution, pos)
-    views, tri_range = per_view_positions(pos, tri, ranges)
-    tri = check_triangles(tri, views.shape[1])
-    tri_id, depth = visible_triangles(
-        views.detach().float().cpu().numpy(),
-        tri.cpu().numpy(),
-        tri_range.numpy(),
-        height,
-        width,
-        None if min_depth is None else min_depth.cpu().numpy(),
-        within,
-    )
-    rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id, depth, block)
-    return rast, rast_db, torch.from_numpy(depth), window
+    tri_id, depth = rasterize_layers(pos, tri, resolution, ranges, 1, min_depth, within)
+    rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id[0], depth[0], block)
+    return rast, rast_db, torch.from_numpy(depth[0]), window
 
 
 def rasterize_layers(
@@ -92,16 +81,19 @@ def rasterize_layers(
     resolution: tuple[int, int],
     ranges: torch.Tensor | None,
     layers: int,
+    min_depth: torch.Tensor | None = None,
+    within: Window | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The triangle ids and depths of the ``layers`` nearest layers of every pixel, found in
-    one pass (:func:`.visibility.visible_layers`): ``(tri_id [L,B,H,W] int32, depth [L,B,H,W]
+    """The triangle ids and depths of the ``layers`` nearest layers of every pixel deeper than
+    ``min_depth`` (within ``within``; see ``rasterize_layer``), found in one pass
+    (:func:`.visibility.visible_layers`): ``(tri_id [L,B,H,W] int32, depth [L,B,H,W]
     float32)``, layer ``k`` bit for bit what the ``k``-th pass of depth peeling finds.
     ``layer_images`` turns one into ``rast`` and ``rast_db``."""
     height, width = _checked_size(resolution, pos)
     views, tri_range = per_view_positions(pos, tri, ranges)
     tri = check_triangles(tri, views.shape[1])
     return visible_layers(views.detach().float().cpu().numpy(), tri.cpu().numpy(), tri_range.numpy(), height, width,
-                          layers)
+                          layers, None if min_depth is None else min_depth.cpu().numpy(), within)
 
 
 def layer_images(

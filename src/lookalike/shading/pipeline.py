@@ -167,9 +167,7 @@ def shade_points(frame: Frame, gbuffers: list[GBuffer]) -> list[torch.Tensor]:
     one render), shaded together: one material lookup for all, because the backward pass of each
     lookup costs a pass over the whole stacked mip pyramid however few points it has."""
     gb = GBuffer.concatenate(gbuffers)
-    asset = frame.asset
-    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
-    colour = light_points(surface_points(gb, surface, frame.camera), frame.light)
+    colour = light_points(surface_points(gb, frame_surface(frame, gb), frame.camera), frame.light)
     return list(torch.split(colour, [part.pixel.shape[0] for part in gbuffers]))
 
 
@@ -177,9 +175,13 @@ def shade_points(frame: Frame, gbuffers: list[GBuffer]) -> list[torch.Tensor]:
 def points_alpha(frame: Frame, gb: GBuffer) -> torch.Tensor:
     """``[N, 1]`` coverage of the points of ``gb`` (no gradient): what ``shade_points`` gives as
     alpha, without the lighting, to know what the layers behind will show."""
+    return visible_alpha(frame_surface(frame, gb), facing_viewer(gb, frame.camera)[1])
+
+
+def frame_surface(frame: Frame, gb: GBuffer) -> Surface:
+    """The material parameters of ``frame``'s asset at the points of ``gb``."""
     asset = frame.asset
-    surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
-    return visible_alpha(surface, facing_viewer(gb, frame.camera)[1])
+    return sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, frame.sampler, getattr(asset, "source", None))
 
 
 def points_image(gb: GBuffer, values: torch.Tensor, shape: tuple[int, int, int]) -> torch.Tensor:
@@ -358,7 +360,7 @@ def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, s
     buffers = frame.buffers
     factor = spp if sampled else 1
     together = torch.is_grad_enabled()  # one lookup for all layers pays off in the backward pass only
-    peeled = []
+    peeled, colours = [], []
     outer = Window.whole(*full)
     transmittance = buffers.clip.new_ones(frame.camera.batch_size, *full)  # of the samples in ``outer``
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full,
@@ -372,19 +374,19 @@ def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, s
             if not needed.any():
                 break
             gb, shape = layer_gbuffer(frame, rast, rast_db, needed, factor, window)
-            colour = None if together else shade_points(frame, [gb])[0]
-            peeled.append([window, rast, gb, shape, colour])
+            peeled.append((window, rast, gb, shape))
+            if not together:
+                colours.append(shade_points(frame, [gb])[0])
             if layer + 1 < layers:
                 with torch.no_grad():  # the samples' alpha: the pixels' spread over their covered samples
-                    alpha = points_alpha(frame, gb) if together else colour[:, 3:]
+                    alpha = points_alpha(frame, gb) if together else colours[-1][:, 3:]
                     alpha = points_image(gb, F.pad(alpha, (3, 0)), shape)
                     transmittance = transmittance * (1.0 - layer_over(alpha, rast, factor)(torch.zeros_like(rast))[..., 3])
             outer = window
     if together and peeled:
-        for entry, colour in zip(peeled, shade_points(frame, [entry[2] for entry in peeled])):
-            entry[4] = colour
+        colours = shade_points(frame, [gb for _, _, gb, _ in peeled])
     return [ShadedLayer(window, rast, layer_over(points_image(gb, colour, shape), rast, factor))
-            for window, rast, gb, shape, colour in peeled]
+            for (window, rast, gb, shape), colour in zip(peeled, colours)]
 
 
 def composite_layers(shaded: list[ShadedLayer], background: torch.Tensor, buffers: MeshBuffers,
