@@ -145,8 +145,8 @@ def test_view_parallel_and_tile_parallel_paths_agree(clip, layers):
     clip = np.array(clip, np.int64)
     results = []
     for by_tiles in (False, True):
-        tri_id = np.zeros((layers, 3, 40, 70), np.int32)
-        depth = np.full((layers, 3, 40, 70), np.inf, np.float32)
+        tri_id = np.zeros((3, 40, 70, layers), np.int32)
+        depth = np.full((3, 40, 70, layers), np.inf, np.float32)
         if by_tiles:
             bbox, bin_start, bin_tris = visibility._bin_triangles(pos, screen, code, tri, begin, end, 70, 40, clip)
             visibility._rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, 70, 40, min_depth, tri_id, depth)
@@ -154,7 +154,7 @@ def test_view_parallel_and_tile_parallel_paths_agree(clip, layers):
             visibility._rasterize_views(pos, screen, code, tri, begin, end, 70, 40, clip, min_depth, tri_id, depth)
         results.append((tri_id, depth))
     assert (results[0][0] == results[1][0]).all() and (results[0][1] == results[1][1]).all()
-    assert (results[0][0][-1] > 0).mean() > 0.1
+    assert (results[0][0][..., -1] > 0).mean() > 0.1
 
 
 def test_a_window_draws_only_its_pixels_as_the_twin_does():

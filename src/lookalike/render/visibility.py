@@ -236,15 +236,16 @@ def _clip_box(x0, x1, y0, y1, clip):
 @njit(cache=CACHE, inline="always")
 def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_depth, tri_id, depth):
     """Depth-test triangle ``t`` of view ``b`` at the pixel centres of the inclusive box
-    ``x0..x1, y0..y1`` and keep it among the ``L`` nearest: ``depth [L, B, H, W]`` (float32
-    z/w, ascending, ``+inf`` for none) and ``tri_id [L, B, H, W]`` (``t + 1``) get the fragment
+    ``x0..x1, y0..y1`` and keep it among the ``L`` nearest: ``depth [B, H, W, L]`` (float32
+    z/w, ascending, ``+inf`` for none; a pixel's layers side by side, so that an insertion
+    touches one cache line) and ``tri_id [B, H, W, L]`` (``t + 1``) get the fragment
     inserted in depth order where ``min_depth < d``, ``-1 <= d <= 1``, every edge function is
     ``>= 0``, ``d`` is below the ``L``-th depth and no kept fragment has depth ``d`` (the one
     drawn first, the lower index, wins ties, as when peeling).  ``planes`` is float64 scratch
     of 12."""
     if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
         return
-    layers = depth.shape[0]
+    layers = depth.shape[3]
     dA = np.float32(planes[9])
     dB = np.float32(planes[10])
     dC = np.float32(planes[11])
@@ -262,18 +263,18 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
             d = dA * np.float32(ix) + dB * fy + dC
             if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
                 continue
-            if not d < depth[layers - 1, b, iy, ix]:
+            if not d < depth[b, iy, ix, layers - 1]:
                 continue
             slot = 0
-            while depth[slot, b, iy, ix] < d:
+            while depth[b, iy, ix, slot] < d:
                 slot += 1
-            if depth[slot, b, iy, ix] == d:
+            if depth[b, iy, ix, slot] == d:
                 continue
             for k in range(layers - 1, slot, -1):
-                depth[k, b, iy, ix] = depth[k - 1, b, iy, ix]
-                tri_id[k, b, iy, ix] = tri_id[k - 1, b, iy, ix]
-            depth[slot, b, iy, ix] = d
-            tri_id[slot, b, iy, ix] = t + 1
+                depth[b, iy, ix, k] = depth[b, iy, ix, k - 1]
+                tri_id[b, iy, ix, k] = tri_id[b, iy, ix, k - 1]
+            depth[b, iy, ix, slot] = d
+            tri_id[b, iy, ix, slot] = t + 1
 
 
 @njit(cache=CACHE, parallel=True)
@@ -412,7 +413,8 @@ def visible_layers(
 
     Arguments as for :func:`visible_triangles`, plus ``layers`` (``L``). Returns ``(tri_id
     [L,B,H,W] int32, depth [L,B,H,W] float32)``: per layer, nearest first, triangle index + 1
-    (0 where no fragment is left) and depth z/w (``+inf`` where none).
+    (0 where no fragment is left) and depth z/w (``+inf`` where none); views of arrays that
+    keep a pixel's layers side by side (one layer is contiguous where ``L = 1``).
     """
     pos = np.ascontiguousarray(pos, dtype=np.float32)
     tri = np.ascontiguousarray(tri, dtype=np.int32)
@@ -422,8 +424,8 @@ def visible_layers(
     if min_depth is None:
         min_depth = np.full((n_views, height, width), -np.inf, np.float32)
     min_depth = np.ascontiguousarray(min_depth, dtype=np.float32)
-    tri_id = np.zeros((layers, n_views, height, width), np.int32)
-    depth = np.full((layers, n_views, height, width), np.inf, np.float32)
+    tri_id = np.zeros((n_views, height, width, layers), np.int32)
+    depth = np.full((n_views, height, width, layers), np.inf, np.float32)
     window = Window.whole(height, width) if window is None else window
     clip = np.array([window.left, window.left + window.width - 1, window.top, window.top + window.height - 1], np.int64)
     screen, code = project_vertices(pos, width, height)
@@ -432,4 +434,4 @@ def visible_layers(
     else:
         bbox, bin_start, bin_tris = _bin_triangles(pos, screen, code, tri, begin, end, width, height, clip)
         _rasterize_tiles(pos, tri, bbox, bin_start, bin_tris, width, height, min_depth, tri_id, depth)
-    return tri_id, depth
+    return np.moveaxis(tri_id, 3, 0), np.moveaxis(depth, 3, 0)

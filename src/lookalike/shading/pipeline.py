@@ -342,9 +342,16 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     return box_downsample(accum, spp).flip(1)
 
 
-ONE_PASS_LAYERS = 8
-"""Layers at most found in one pass (``dr.DepthPeeler``'s k-buffer, 8 bytes per layer and
-sample); deeper ones are peeled a pass each."""
+K_BUFFER_BYTES = 1 << 30
+"""The most memory the one-pass k-buffer of a render takes (``one_pass_layers``)."""
+
+
+def one_pass_layers(layers: int, samples: int) -> int:
+    """How many of ``layers`` a render of ``samples`` samples (all views) finds in one pass
+    (``dr.DepthPeeler``'s k-buffer, 8 bytes per layer and sample): all of them where they fit
+    in ``K_BUFFER_BYTES``, else as many as fit (at least one); the rest are peeled a pass each,
+    each a full pass over the triangles."""
+    return max(1, min(layers, K_BUFFER_BYTES // (8 * samples)))
 
 
 def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, sampled: bool) -> list[ShadedLayer]:
@@ -352,7 +359,7 @@ def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, s
     ``layers``, stopping at the first with no sample to shade (none covered, or all behind
     opaque nearer layers). ``sampled``: stochastic MSAA at ``spp x spp`` samples per pixel.
 
-    The first ``ONE_PASS_LAYERS`` are found in one pass (``dr.DepthPeeler``'s ``layers``). With
+    The layers are found in one pass where they fit (``one_pass_layers``). With
     gradients, all are shaded together (``shade_points``) after peeling, each layer's coverage
     taken first without them (``points_alpha``) to know which samples behind it can show;
     without, each layer is shaded as it is peeled and its own alpha serves. The images are the
@@ -364,7 +371,7 @@ def peel_and_shade(frame: Frame, full: tuple[int, int], spp: int, layers: int, s
     outer = Window.whole(*full)
     transmittance = buffers.clip.new_ones(frame.camera.batch_size, *full)  # of the samples in ``outer``
     with dr.DepthPeeler(dr.RasterizeContext(), buffers.clip, buffers.tri, full,
-                        layers=min(layers, ONE_PASS_LAYERS)) as peeler:
+                        layers=one_pass_layers(layers, frame.camera.batch_size * full[0] * full[1])) as peeler:
         for layer in range(layers):
             window, rast, rast_db = peeler.rasterize_next_window(spp)
             if window is None:
