@@ -163,6 +163,9 @@ def test_large_inputs_refresh_the_view_pool_proportionally_less_often():
     cfg = config_from_dict({"views": {"refresh_every": 2, "refresh_triangles": 250_000}})
     assert [refresh_interval(cfg, t) for t in (5_000, 250_000, 260_000, 1_000_000, 4_000_000)] == [2, 2, 3, 8, 32]
     assert refresh_interval(config_from_dict({"views": {"refresh_every": 0}}), 4_000_000) == 0
+    # a peeled reference costs its layers: 16 of them (render.layers > 1) count as 16 inputs
+    peeled = config_from_dict({"views": {"refresh_every": 2, "refresh_triangles": 250_000}, "render": {"layers": 8}})
+    assert [refresh_interval(peeled, t) for t in (5_000, 192_000)] == [2, 25]
     with pytest.raises(ConfigError, match="refresh_triangles"):
         config_from_dict({"views": {"refresh_triangles": 0}})
 

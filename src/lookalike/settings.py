@@ -433,12 +433,12 @@ def outline_views(config: Config) -> int:
 
 def refresh_interval(config: Config, input_triangles: int) -> int:
     """Steps between refreshes of the view pool for an input of ``input_triangles``:
-    ``refresh_every * max(1, input_triangles * render.layers / refresh_triangles)``, rounded
-    up (0: no refresh). A refresh renders the input once, at a cost about proportional to its
-    triangles times the layers peeled, so the cost per step stays that of a single-layer input
-    of ``refresh_triangles``."""
+    ``refresh_every * max(1, input_triangles * render.reference_layers / refresh_triangles)``,
+    rounded up (0: no refresh). A refresh renders the input once, at a cost about proportional
+    to its triangles times the layers its reference peels, so the cost per step stays that of a
+    single-layer input of ``refresh_triangles``."""
     every = config.views.refresh_every
-    drawn = input_triangles * config.render.layers
+    drawn = input_triangles * config.render.reference_layers
     return math.ceil(every * max(1.0, drawn / config.views.refresh_triangles)) if every else 0
 
 def parse_duration(text: str | float) -> float:
