@@ -135,3 +135,20 @@ def test_a_soft_model_written_masked_may_take_the_dither():
     chosen = finished_alpha(soft, "mask", binary)
     assert chosen.materials[0].alpha_mode == "MASK" and binary(chosen) == 1.0
     assert finished_alpha(soft, "mask", lambda m: 0.0).materials[0].kd.data[..., 3].equal(kd[..., 3])
+
+
+def test_the_alpha_label_says_how_the_written_model_draws_its_alpha():
+    from lookalike.jobs.alpha_export import AlphaChoice, alpha_label, written_alpha
+
+    soft = Asset(scattered_quads(2), [Material(kd=Texture(torch.rand(16, 16, 4)), alpha_mode="BLEND")])
+    opaque = Asset(scattered_quads(2), [Material(kd=Texture(torch.rand(16, 16, 3)))])
+    for choice, label in ((AlphaChoice(0.4), "cutoff 0.4"), (AlphaChoice(dither=True), "dithered")):
+        assert alpha_label(soft, "mask", choice) == label
+        written = written_alpha(soft, "mask", choice).materials[0]
+        assert written.alpha_mode == "MASK" and f"cutoff {written.alpha_cutoff:g}" == (
+            label if not choice.dither else "cutoff 0.5")
+    assert alpha_label(soft, "blend", AlphaChoice()) == "blended"
+    assert alpha_label(soft, "auto", AlphaChoice()) == "blended"
+    masked = written_alpha(soft, "mask", AlphaChoice(0.6))
+    assert alpha_label(masked, "auto", AlphaChoice()) == "cutoff 0.6"
+    assert alpha_label(opaque, "mask", AlphaChoice(0.4)) is None

@@ -122,8 +122,13 @@ def test_the_written_model_scores_on_the_validation_views_what_the_run_chose_it_
                    layers=cfg.render.layers)
     written = result.metrics["validation"]["written"]
     assert set(written) == {"start", "ours"}
-    assert validation.psnr(io.load(result.model), draw) == pytest.approx(max(written.values()), abs=0.05)
+    model = io.load(result.model)
+    assert validation.psnr(model, draw) == pytest.approx(max(written.values()), abs=0.05)
     assert result.baselines["start"].materials[0].alpha_mode == "MASK"
+    label = result.metrics["validation"]["written_alpha"]["written"]  # as the file draws its alpha
+    material = model.materials[0]
+    assert material.alpha_mode == "MASK" and (label == "dithered" or label == f"cutoff {material.alpha_cutoff:g}")
+    assert f"alpha: {label} (chosen on the validation views)" in (folder / "out" / "report.html").read_text()
 
 
 def test_a_fit_that_ends_below_its_start_returns_the_start_and_says_so(tmp_path, monkeypatch):

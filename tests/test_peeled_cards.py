@@ -12,9 +12,9 @@ import lookalike.render as dr
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.render.msaa import upsample_over
 from lookalike.render.window import Window
-from lookalike.shading import Camera, PointLight, render
-from lookalike.shading.pipeline import (Frame, LayerCount, background_image, box_downsample, edge_topology,
-                                        layer_gbuffer, mesh_buffers, points_image, shade_points, texture_sampler)
+from lookalike.shading import Camera, PointLight, peeled_layers, render
+from lookalike.shading.peeled_layers import Frame, LayerCount, layer_gbuffer, points_image, shade_points
+from lookalike.shading.pipeline import background_image, box_downsample, edge_topology, mesh_buffers, texture_sampler
 
 NO_SPECULAR = [1.0, 0.5, 0.0]  # gamma = 1 removes the specular lobe
 
@@ -131,11 +131,12 @@ def full_frame_composite(asset, camera, light, size: int, spp: int, layers: int,
     return box_downsample(accum, spp).flip(1)
 
 
-def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composite():
+def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composite(monkeypatch):
     """Five blended cards (alpha < 1, so no sample is ever hidden) overlap at most four deep:
     ``render`` with 8 layers stops after the deepest covered layer and works in windows, and
     its image (stochastic MSAA, same draws) equals every layer composited over the whole frame,
-    bit for bit; ``LayerCount`` reports the layers used."""
+    bit for bit, also where the k-buffer's memory holds only two layers (the rest peeled a pass
+    each); ``LayerCount`` reports the layers used."""
     generator = torch.Generator().manual_seed(11)
     count, size, spp = 5, 40, 2
     centres = torch.cat([0.5 * torch.rand(count, 2, generator=generator) - 0.45,
@@ -154,6 +155,12 @@ def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composit
     with torch.no_grad():  # each layer shaded as it is peeled, not all together
         assert torch.equal(render(asset, camera, light, size, spp=spp, layers=8, background=background, msaa=True),
                            expected)
+    samples = (size * spp) ** 2
+    monkeypatch.setattr(peeled_layers, "K_BUFFER_BYTES", 8 * 2 * samples)
+    assert (peeled_layers.one_pass_layers(8, samples), peeled_layers.one_pass_layers(8, 4 * samples)) == (2, 1)
+    torch.manual_seed(0)
+    assert torch.equal(render(asset, camera, light, size, spp=spp, layers=8, background=background, msaa=True),
+                       expected)
     with dr.DepthPeeler(None, camera.clip(asset.mesh.v_pos), asset.mesh.t_pos_idx.int(), (size * spp,) * 2) as peeler:
         covered = [bool((peeler.rasterize_next_layer()[0][..., 3] > 0).any()) for _ in range(8)]
     deepest = covered.index(False)

@@ -138,7 +138,8 @@ def test_metrics_are_the_records_figures():
         assert metrics["heldout"][method.key]["psnr"] == method.psnr
         assert metrics["heldout"][method.key]["label"] == method.label
     assert metrics["final_loss"] == 2.0 and metrics["heldout"]["views"] == 3
-    assert metrics["validation"] == {"views": 4, "iterations": [0, 300], "psnr": [30.0, 33.0], "written": {}}
+    assert metrics["validation"] == {"views": 4, "iterations": [0, 300], "psnr": [30.0, 33.0], "written": {},
+                                     "written_alpha": {}}
     assert metrics["seconds"]["total"] == 432.0 and metrics["seconds"]["optimisation"] == 375.0
 
 

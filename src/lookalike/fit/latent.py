@@ -18,12 +18,12 @@ from ..asset import Asset
 from ..asset.pose import Poses
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from ..shading.pipeline import LayerCount
+from ..shading.peeled_layers import LayerCount
 
 
 class Latent(Protocol):
     """A trainable model (a ``torch.nn.Module`` in practice); ``layers_used``, a
-    ``lookalike.shading.pipeline.LayerCount``, counts how deep its renders peeled."""
+    ``lookalike.shading.peeled_layers.LayerCount``, counts how deep its renders peeled."""
 
     layers_used: LayerCount
 

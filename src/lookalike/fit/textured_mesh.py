@@ -22,7 +22,8 @@ from ..asset.pose import Poses
 from ..asset.skinning import posed
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from ..shading.pipeline import LayerCount, render, render_coverage
+from ..shading.peeled_layers import LayerCount
+from ..shading.pipeline import render, render_coverage
 from ..settings import ClampConfig
 from .position_steps import local_step_scale
 from .slope_normals import normal_to_slopes, slopes_to_normal

@@ -106,6 +106,19 @@ def written_alpha(model: Asset, mode: str, choice: AlphaChoice) -> Asset:
     return dataclasses.replace(model, materials=materials)
 
 
+def alpha_label(model: Asset, mode: str, choice: AlphaChoice) -> str | None:
+    """How ``written_alpha(model, mode, choice)`` writes the alpha, for reports: ``"blended"``,
+    ``"dithered"`` or ``"cutoff C"``; ``None`` where no material uses alpha."""
+    used = [m for m in model.materials if m.uses_alpha]
+    if not used:
+        return None
+    if mode != "mask" and used[0].alpha_mode == "BLEND":
+        return "blended"
+    if choice.dither:
+        return "dithered"
+    return f"cutoff {used[0].alpha_cutoff if choice.cutoff is None else choice.cutoff:g}"
+
+
 def chosen_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> AlphaChoice:
     """The choice of ``alpha_choices`` whose written model ``score`` (e.g. validation PSNR;
     higher is better) rates best, ties to the earlier (the model's own cutoff first); the first

@@ -52,7 +52,7 @@ from ..limits import MAX_WORKERS
 from ..phases import Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import MethodResult, RunRecord
-from ..shading.pipeline import LayerCount
+from ..shading.peeled_layers import LayerCount
 from ..settings import (Config, config_to_dict, refresh_interval, section_of, setting_help, setting_value, to_toml,
                         with_overrides)
 from ..threads import CoreShare, set_threads
@@ -277,7 +277,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
     motion = moving_picture(s, cfg, reference, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
-    record.motion, record.written = motion, written.scores
+    record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
     metrics = write_outputs(s, cfg, export, record)
     if not interrupted:
         (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
@@ -427,6 +427,8 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
         notes.append(remark := f"the fit did not improve on its start as written (validation PSNR "
                      f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB): model.glb is the start")
         log.warning(remark)
+    if written.alpha.get("written"):
+        notes.append(f"model.glb's alpha: {written.alpha['written']} (chosen on the validation views)")
     return fit, export
 
 

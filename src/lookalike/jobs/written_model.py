@@ -9,7 +9,7 @@ from __future__ import annotations
 from ..asset import Asset
 from ..fit.latent import Latent
 from ..report.heldout import AssetRenderer, HeldoutViews
-from .alpha_export import AlphaChoice, chosen_alpha, written_alpha
+from .alpha_export import AlphaChoice, alpha_label, chosen_alpha, written_alpha
 
 
 class WrittenModel:
@@ -21,12 +21,16 @@ class WrittenModel:
         choice: the alpha choice of the start, with which every state of the fit is scored.
         scores: ``{"start": PSNR, "ours": PSNR}`` of the written models on the validation
             views, once ``kept`` has compared them.
+        alpha: ``{"start": label, "ours": label}``, how each writes its alpha
+            (``alpha_export.alpha_label``), once chosen; ``"written"`` is added by ``kept``
+            (the one of the model it returns).
     """
 
     def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False):
         self.mode, self.validation, self.draw, self.annealed = mode, validation, draw, annealed
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
+        self.alpha: dict[str, str | None] = {}
 
     def score(self, asset: Asset) -> float:
         """Mean PSNR of ``asset`` (as it is) on the validation views."""
@@ -39,6 +43,7 @@ class WrittenModel:
         """``start`` as written, its alpha choice the best on the validation views (kept as
         ``choice``)."""
         self.choice = chosen_alpha(start, self.mode, self._scorer())
+        self.alpha["start"] = alpha_label(start, self.mode, self.choice)
         return written_alpha(start, self.mode, self.choice)
 
     def validate(self, latent: Latent) -> float:
@@ -48,12 +53,17 @@ class WrittenModel:
 
     def finished(self, best: Asset) -> Asset:
         """The fit's best model as written, its alpha choice made again for it."""
-        return written_alpha(best, self.mode, chosen_alpha(best, self.mode, self._scorer()))
+        choice = chosen_alpha(best, self.mode, self._scorer())
+        self.alpha["ours"] = alpha_label(best, self.mode, choice)
+        return written_alpha(best, self.mode, choice)
 
     def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
         """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
         the validation views (both as written): a fit that did not improve returns its start."""
         if self.validation is None:
+            self.alpha["written"] = self.alpha.get("ours")
             return ours, False
         self.scores = {"start": self.score(start), "ours": self.score(ours)}
-        return (start, True) if self.scores["start"] >= self.scores["ours"] else (ours, False)
+        is_start = self.scores["start"] >= self.scores["ours"]
+        self.alpha["written"] = self.alpha.get("start" if is_start else "ours")
+        return (start, True) if is_start else (ours, False)

@@ -120,6 +120,9 @@ class RunRecord:
         written: ``{"start": PSNR, "ours": PSNR}`` on the validation views of the start and
             of the fit's best model as written, by which the run chose what it wrote (empty
             without validation views).
+        written_alpha: how the start, ours and the model written (``"written"``) write their
+            alpha (``jobs.alpha_export.alpha_label``: ``"cutoff 0.4"``, ``"dithered"``,
+            ``"blended"``, or ``None`` without alpha); empty where not chosen.
     """
 
     asset_name: str
@@ -146,6 +149,7 @@ class RunRecord:
     view_labels: list[str] | None = None
     motion: Motion | None = None
     written: dict[str, float] = field(default_factory=dict)
+    written_alpha: dict[str, str | None] = field(default_factory=dict)
 
     @property
     def baseline(self) -> MethodResult:
@@ -176,7 +180,8 @@ class RunRecord:
             "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
             "final_loss": float(finite[-1]) if len(finite) else None,
             "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],
-                           "psnr": [float(v) for v in validation[:, 1]], "written": dict(self.written)},
+                           "psnr": [float(v) for v in validation[:, 1]], "written": dict(self.written),
+                           "written_alpha": dict(self.written_alpha)},
             "heldout": {
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),

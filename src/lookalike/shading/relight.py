@@ -27,17 +27,9 @@ from ..asset.normals import safe_normalize
 from .camera import Camera
 from .gbuffer import GBuffer
 from .light import PointLight
-from .pipeline import (
-    SurfacePoints,
-    box_downsample,
-    composite_over,
-    edge_topology,
-    image_size,
-    light_points,
-    mesh_buffers,
-    surface_points,
-    texture_sampler,
-)
+from .peeled_layers import composite_over
+from .pipeline import box_downsample, edge_topology, image_size, mesh_buffers, texture_sampler
+from .points import SurfacePoints, light_points, surface_points
 from .surface import sample_surface
 
 
