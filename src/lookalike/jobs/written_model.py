@@ -60,10 +60,9 @@ class WrittenModel:
     def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
         """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
         the validation views (both as written): a fit that did not improve returns its start."""
-        if self.validation is None:
-            self.alpha["written"] = self.alpha.get("ours")
-            return ours, False
-        self.scores = {"start": self.score(start), "ours": self.score(ours)}
-        is_start = self.scores["start"] >= self.scores["ours"]
+        is_start = False
+        if self.validation is not None:
+            self.scores = {"start": self.score(start), "ours": self.score(ours)}
+            is_start = self.scores["start"] >= self.scores["ours"]
         self.alpha["written"] = self.alpha.get("start" if is_start else "ours")
         return (start, True) if is_start else (ours, False)
