@@ -55,6 +55,11 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
     chain = json.loads((tmp_path / "chain" / "lods.json").read_text())
     radius = float(bumpy_sphere().mesh.bounding_sphere()[1])
     assert chain["levels"] == rows and rows[0]["switch_distance"] == 0.0
+    for row in rows:
+        model = tmp_path / "chain" / row["folder"] / "model.glb"
+        assert row["file_bytes"] == model.stat().st_size
+        textures = row["gpu_bytes"]["textures"]
+        assert textures >= round(row["texture_size"] ** 2 * 4 * 4 / 3) and row["gpu_bytes"]["buffers"] >= row["triangles"] * 3 * 4
     assert rows[1]["switch_distance"] == pytest.approx(switch_distance(radius, (48 * 24) ** 0.5))
     gltf = GLTF2().load(str(tmp_path / "chain" / "lods.glb"))
     top = gltf.nodes[gltf.scenes[0].nodes[0]]
@@ -64,6 +69,7 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
         cfg = load_config(tmp_path / "chain" / row["folder"] / "config.toml")
         assert cfg.render.resolution == level_settings(level, 1.0)["resolution"] and cfg.render.latent_msaa == 1
         assert cfg.render.target_spp == 8 and cfg.latent.triangles == level.triangles
+        assert cfg.views.distance_spread == 1.0
     with pytest.raises(ConfigError, match="not empty"):
         lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, progress=False)
 
@@ -91,3 +97,64 @@ def test_simplify_prefilters_one_model_for_a_screen_size(tmp_path, capsys):
     capsys.readouterr()
     assert main(["simplify", str(tmp_path / "ball.glb"), "-o", str(tmp_path / "small"), "--screen-size", "3"]) == 2
     assert "at least 8 pixels" in capsys.readouterr().err
+
+
+def test_training_views_spread_the_distance_around_the_level_s_size():
+    """With a spread of one octave the cameras stand between 0.71 and 1.41 times the framing
+    distance, in the directions they would have without it."""
+    import numpy as np
+    import torch
+
+    from lookalike.shading.view_sampling import framing_distance, random_views
+
+    plain = random_views(torch.zeros(3), 2.0, 400, np.random.default_rng(3))
+    spread = random_views(torch.zeros(3), 2.0, 400, np.random.default_rng(3), distance_spread=1.0)
+    ratio = spread.position.norm(dim=1) / framing_distance(2.0)
+    assert plain.position.norm(dim=1).sub(framing_distance(2.0)).abs().max() < 1e-4
+    assert ratio.min() >= 2 ** -0.5 - 1e-5 and ratio.max() <= 2 ** 0.5 + 1e-5
+    assert ratio.min() < 0.75 and ratio.max() > 1.35
+    assert torch.allclose(torch.nn.functional.normalize(spread.position, dim=1),
+                          torch.nn.functional.normalize(plain.position, dim=1), atol=1e-5)
+    points = torch.tensor([[0.0, 0.0, 2.0], [0.0, 0.0, -2.0]])  # the sphere stays between near and far
+    depth = spread.clip(points)[..., 2] / spread.clip(points)[..., 3]
+    assert depth.abs().max() < 1
+
+
+def test_a_small_level_s_reference_is_converged_at_8x8_samples():
+    """The reference of a 32-pixel level at 8 x 8 samples per pixel is within a small tolerance
+    of 16 x 16 (it is free of aliasing), where one sample per pixel is far from it."""
+    import numpy as np
+    import torch
+
+    from lookalike.fit.reference import MeshReference
+    from lookalike.report.metrics import psnr
+    from lookalike.shading.view_sampling import random_lights, random_views
+
+    asset = bumpy_sphere()
+    reference = MeshReference(asset)
+    centre, radius = reference.bounding_sphere()
+    rng = np.random.default_rng(5)
+    camera = random_views(centre, radius, 3, rng)
+    light = random_lights(camera, centre, rng)
+    resolution = level_settings(Level(100, 32), 1.0)["resolution"]
+    images = {spp: reference.render(camera, light, resolution, spp)[..., :3] for spp in (1, 8, 16)}
+    assert psnr(images[16], images[8]) > 38.0
+    assert psnr(images[16], images[1]) < psnr(images[16], images[8]) - 8.0
+    assert torch.isfinite(images[8]).all()
+
+
+def test_an_orbit_turns_slowly_around_the_object_under_a_fixed_light():
+    import math
+
+    import torch
+
+    from lookalike.shading.view_sampling import framing_distance, orbit_views
+
+    camera, light = orbit_views(torch.tensor([1.0, 2.0, 3.0]), 0.5, 12, 30.0)
+    offsets = camera.position - torch.tensor([1.0, 2.0, 3.0])
+    assert torch.allclose(offsets.norm(dim=1), torch.full((12,), framing_distance(0.5)), rtol=1e-5)
+    flat = torch.nn.functional.normalize(offsets[:, [0, 2]], dim=1)
+    steps = torch.rad2deg(torch.acos((flat[1:] * flat[:-1]).sum(dim=1).clamp(-1, 1)))
+    assert torch.allclose(steps, torch.full((11,), 2.5), atol=1e-2)
+    assert torch.allclose(offsets[:, 1], torch.full((12,), framing_distance(0.5) * math.sin(math.radians(20))), rtol=1e-4)
+    assert (light.position == light.position[:1]).all() and (light.intensity == light.intensity[:1]).all()

@@ -114,3 +114,17 @@ def test_masked_psnr_scores_only_the_masked_pixels():
     np.testing.assert_allclose(masked_psnr_views(reference, test, mask), 10 * np.log10(200), atol=1e-4)  # MSE 0.005
     np.testing.assert_allclose(masked_psnr_views(reference, test, np.ones((2, 8, 8), bool)), psnr_views(reference, test))
     assert masked_psnr_views(reference, test, np.zeros((2, 8, 8), bool)).tolist() == [PSNR_CAP_DB, PSNR_CAP_DB]
+
+
+def test_temporal_change_is_the_mean_step_between_consecutive_frames():
+    from lookalike.report.metrics import temporal_change
+
+    still = np.full((5, 4, 4, 3), _linear_for_display(0.5), dtype=np.float32)
+    assert temporal_change(still) == pytest.approx(0.0, abs=1e-7)
+    flicker = still.copy()
+    flicker[1::2] = _linear_for_display(0.7)       # every step changes every value by 0.2
+    assert temporal_change(flicker) == pytest.approx(0.2, abs=1e-4)
+    ramp = np.stack([np.full((4, 4, 3), _linear_for_display(0.1 * t), dtype=np.float32) for t in range(5)])
+    assert temporal_change(ramp) == pytest.approx(0.1, abs=1e-4)
+    with pytest.raises(ValueError, match="two frames"):
+        temporal_change(still[:1])

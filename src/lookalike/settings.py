@@ -200,6 +200,11 @@ class ViewsConfig:
         rest_share: for an animated input, the share of training views that show the rest
             pose; the others show a random clip at a random time. Held-out and validation views
             are spread over every clip (``lookalike.shading.view_sampling``).
+        distance_spread: training cameras stand at the framing distance times ``2^u``, ``u``
+            uniform in ``[-distance_spread / 2, distance_spread / 2]`` (octaves): a model fitted
+            for one screen size then also sees the sizes around it, so that the mip levels
+            next to its own get gradients too. Held-out and validation views keep the framing
+            distance.
     """
 
     batch_size: int = 1
@@ -212,6 +217,7 @@ class ViewsConfig:
     validation: int = 4
     validation_seed: int = 20_211_021
     rest_share: float = 0.125
+    distance_spread: float = 0.0
 
 
 @dataclass
@@ -349,6 +355,7 @@ class Config:
             (vw.heldout >= 1, f"views.heldout must be at least 1, not {vw.heldout}"),
             (vw.validation >= 0, f"views.validation must not be negative, not {vw.validation}"),
             (0 <= vw.rest_share <= 1, f"views.rest_share must lie in [0, 1], not {vw.rest_share}"),
+            (0 <= vw.distance_spread <= 4, f"views.distance_spread must lie in [0, 4] octaves, not {vw.distance_spread}"),
             (1 <= lat.skin_candidates <= MAX_SKIN_CANDIDATES,
              f"latent.skin_candidates must lie in [1, {MAX_SKIN_CANDIDATES}], not {lat.skin_candidates}"),
             (opt.validate_every >= 1, f"optim.validate_every must be at least 1, not {opt.validate_every}"),

@@ -90,17 +90,18 @@ class BatchSource(Protocol):
 
 
 def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0,
-                 poses: PoseSampler | None = None) -> ViewSampler:
+                 poses: PoseSampler | None = None, distance_spread: float = 0.0) -> ViewSampler:
     """``sample(rng, n) -> Views``: ``n`` random views of the sphere (``centre [3]``,
     ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed point light per
     view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then each view's
     light tests the geometric horizon (``PointLight.horizon``) with that probability; with
-    ``poses``, then a pose per view."""
+    ``poses``, then a pose per view; with ``distance_spread``, cameras nearer and farther
+    than the framing distance (``random_views``)."""
 
     lights = light_sampler(centre, horizon_share)
 
     def sample(rng: np.random.Generator, n: int) -> Views:
-        camera = random_views(centre, radius, n, rng)
+        camera = random_views(centre, radius, n, rng, distance_spread=distance_spread)
         light = lights(rng, camera)
         return Views(camera, light, None if poses is None else poses(rng, n))
 

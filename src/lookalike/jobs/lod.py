@@ -24,8 +24,9 @@ from ..asset import Asset
 from ..errors import ConfigError
 from ..io.atomic import write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
+from ..io.gpu_memory import gpu_bytes
 from ..limits import MAX_TEXTURE_SIZE
-from ..settings import Config, RenderConfig
+from ..settings import Config, RenderConfig, ViewsConfig
 from ..shading.view_sampling import FRAMING
 from .outdir import CHECKPOINT_NAME, check_outdir
 from .outputs import METRICS_NAME, MODEL_NAME
@@ -106,22 +107,26 @@ def switch_distance(radius: float, pixels: float, fovy_degrees: float = FOVY_DEG
 
 
 LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=build_initial_guess,
-                    defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1)))
+                    defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1),
+                                    views=ViewsConfig(distance_spread=1.0)))
 """One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
 per pixel (enough that a small level's target is free of aliasing), the model drawn with one
-sample per pixel, as an engine draws it."""
+sample per pixel, as an engine draws it; training views put the object at its size times
+0.71 to 1.41 (one octave), so that the mip levels on either side of its own are fitted too."""
 
 
 def screen_size_settings(pixels: int) -> dict:
     """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
-    pixel (a power of two), the reference supersampled and the model drawn with one sample per
-    pixel (``LEVEL.defaults``). ``ConfigError`` below ``MIN_PIXELS``."""
+    pixel (a power of two), the reference supersampled, the model drawn with one sample per
+    pixel and the training distances spread around the size (``LEVEL.defaults``).
+    ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
     return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
-            "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa}
+            "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
+            "distance_spread": LEVEL.defaults.views.distance_spread}
 
 
 def level_settings(level: Level, seconds: float) -> dict:
@@ -133,7 +138,8 @@ def level_settings(level: Level, seconds: float) -> dict:
 def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, config: Config | str | Path | None = None,
         time_budget: float = CHAIN_BUDGET, **options) -> list[dict]:
     """Fit the chain ``levels`` of ``input`` into ``outdir/lod0 ...``; returns ``lods.json``'s
-    levels (each: triangles, pixels, texture size, the run's folder and held-out scores).
+    levels (each: triangles, pixels, texture size, the switch distance, the run's folder, its
+    model's file bytes and GPU memory (``io.gpu_memory.gpu_bytes``) and held-out scores).
     ``options``: the run options (``jobs.run.RunOptions``); with ``resume``, finished levels are
     kept and an interrupted one resumed, else ``outdir`` is refused where it holds anything,
     unless ``force``."""
@@ -154,10 +160,11 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
                 **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
         metrics = json.loads((folder / METRICS_NAME).read_text())
         ours = metrics["heldout"]["ours"]
+        model = folder / MODEL_NAME
         rows.append({"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
                      "texture_size": settings["texture_size"], "switch_distance": starts[k],
-                     "folder": folder.name, "psnr": ours["psnr"], "flip": ours["flip"],
-                     "interrupted": metrics["interrupted"]})
+                     "folder": folder.name, "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),
+                     "psnr": ours["psnr"], "flip": ours["flip"], "interrupted": metrics["interrupted"]})
         if metrics["interrupted"]:
             break
     else:

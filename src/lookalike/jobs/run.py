@@ -373,7 +373,8 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference,
     validation = (HeldoutViews(reference, sampler, views.validation, views.validation_seed, size, spp)
                   if views.validation else None)
     training = view_sampler(centre, radius, cfg.render.horizon_share,
-                            poses=animated.training_poses(asset, cfg) if moving else None)
+                            poses=animated.training_poses(asset, cfg) if moving else None,
+                            distance_spread=cfg.views.distance_spread)
     if not views.pool_size:
         return heldout, validation, FreshViews(reference, training, size, spp)
     relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None

@@ -170,3 +170,14 @@ def error_share(reference, test, mask) -> float:
 def flip(reference, test) -> float:
     """Mean FLIP error over all views (each view weighs the same)."""
     return float(flip_views(reference, test)[0].mean())
+
+
+def temporal_change(frames) -> float:
+    """Mean absolute difference between consecutive frames of ``frames [T, H, W, C>=3]``
+    (linear; tone-mapped and clamped as for PSNR): ``mean_t mean |x'_{t+1} - x'_t|``, over
+    pixels and channels. On a slow orbit the reference's own value is what the motion changes;
+    a model's excess over it is flicker (aliasing, sparkle), which still pictures do not show."""
+    values = display_values(frames).astype(np.float64)
+    if values.shape[0] < 2:
+        raise ValueError(f"temporal change needs at least two frames, not {values.shape[0]}")
+    return float(np.abs(np.diff(values, axis=0)).mean())

@@ -58,17 +58,49 @@ def framing_distance(radius: float, fovy: float = FOVY) -> float:
 
 
 def random_views(centre, radius: float, n: int, generator: np.random.Generator, fovy: float = FOVY,
-                 distance: float | None = None, aspect: float = 1.0) -> Camera:
+                 distance: float | None = None, aspect: float = 1.0, distance_spread: float = 0.0) -> Camera:
     """``n`` cameras at ``distance`` (default ``framing_distance``) from ``centre [3]`` in
     directions uniform on the sphere, looking at it with up ``UP``; near and far planes hug
-    the bounding sphere of ``radius``. Float32."""
+    the bounding sphere of ``radius``. With ``distance_spread > 0`` each camera's distance is
+    scaled by ``2^u``, ``u`` uniform in ``[-spread / 2, spread / 2]`` (drawn after the
+    directions, so the directions do not depend on it). Float32."""
     radius = max(float(radius), 1e-12)
     distance = framing_distance(radius, fovy) if distance is None else float(distance)
     centre = torch.as_tensor(centre).detach().double().cpu().numpy()
-    eye = torch.from_numpy(centre + distance * unit_vectors(generator, n)).float()
+    directions = unit_vectors(generator, n)
+    distances = np.full((n, 1), distance)
+    if distance_spread > 0:
+        distances *= 2.0 ** generator.uniform(-distance_spread / 2, distance_spread / 2, size=(n, 1))
+    eye = torch.from_numpy(centre + distances * directions).float()
     target = torch.from_numpy(np.broadcast_to(centre, (n, 3)).copy()).float()
     return Camera.looking_at(eye, target, up=UP, fovy=fovy, aspect=aspect,
-                             near=max(distance - 1.5 * radius, 0.01 * radius), far=distance + 1.5 * radius)
+                             near=max(float(distances.min()) - 1.5 * radius, 0.01 * radius),
+                             far=float(distances.max()) + 1.5 * radius)
+
+
+def orbit_views(centre, radius: float, frames: int, degrees: float, elevation_degrees: float = 20.0,
+                fovy: float = FOVY) -> tuple[Camera, PointLight]:
+    """A slow turn around the object: ``frames`` cameras at ``framing_distance`` from
+    ``centre [3]``, ``elevation`` above its horizontal plane, stepping ``degrees / frames``
+    about the world's up axis (``UP``) from azimuth 0, and one point light fixed in the world
+    (above and to the left of the first camera, irradiance ``IRRADIANCE`` at the centre), so
+    that frame-to-frame change comes from the motion alone. Why: flicker (aliasing, sparkle)
+    shows between consecutive frames of a slow motion, not in still pictures."""
+    radius = max(float(radius), 1e-12)
+    distance = framing_distance(radius, fovy)
+    centre = torch.as_tensor(centre).detach().double().cpu().numpy()
+    azimuth = np.radians(degrees) * np.arange(frames) / frames
+    elevation = math.radians(elevation_degrees)
+    directions = np.stack([np.cos(elevation) * np.sin(azimuth), np.full(frames, math.sin(elevation)),
+                           np.cos(elevation) * np.cos(azimuth)], axis=1)
+    eye = torch.from_numpy(centre + distance * directions).float()
+    target = torch.from_numpy(np.broadcast_to(centre, (frames, 3)).copy()).float()
+    camera = Camera.looking_at(eye, target, up=UP, fovy=fovy, near=max(distance - 1.5 * radius, 0.01 * radius),
+                               far=distance + 1.5 * radius)
+    towards = np.array([-0.5, 0.6, 1.0]) / np.linalg.norm([-0.5, 0.6, 1.0])
+    position = np.broadcast_to(centre + distance * towards, (frames, 3)).copy()
+    intensity = np.full((frames, 3), IRRADIANCE * distance ** 2)
+    return camera, PointLight(position=torch.from_numpy(position).float(), intensity=torch.from_numpy(intensity).float())
 
 
 def random_lights(camera: Camera, centre, generator: np.random.Generator, distance: float | None = None,

@@ -1,0 +1,176 @@
+"""``lookalike bench lod``: the chain 8000@512, 2000@128, 500@32 of nefertiti and flight-helmet
+(``lookalike lod`` with default settings, the chain's 15-minute budget), each level scored at
+its own size beside the classic chain.
+
+The classic chain: at each level's triangle count and texture size, quadric decimation, a UV
+atlas and the projection bake (``jobs.bake``), drawn with box-filtered mipmaps, as every
+shipping tool makes a level. Each level of both chains is drawn as an engine draws it (one
+sample per pixel, trilinear mipmapped lookups) on the run's held-out views at the level's
+resolution, and scored against the reference at ``REFERENCE_SPP`` x ``REFERENCE_SPP`` samples
+per pixel (PSNR, FLIP). Flicker: over a slow orbit (``ORBIT_FRAMES`` frames turning
+``ORBIT_DEGREES``, ``shading.view_sampling.orbit_views``), the mean change between consecutive
+frames (``report.metrics.temporal_change``) relative to the reference's own.
+
+Bar: the whole chain within 15 minutes per asset; ours at least the classic level + 1.5 dB at
+the two smaller levels and + 1 dB at the largest, with a lower FLIP; ours' flicker at most 1.3
+times the reference's at every level and below the classic chain's.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+
+from ._table import runs_table
+from .quality import ASSETS as QUALITY_ASSETS
+from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, io_load, output_root, scan_material, select_assets
+
+HELP = "fit a chain of prefiltered LODs to nefertiti and flight-helmet; compare each level with the classic chain"
+
+ASSETS = select_assets(["nefertiti", "flight-helmet"], QUALITY_ASSETS)
+LEVELS = "8000@512,2000@128,500@32"
+REFERENCE_SPP = 16
+ORBIT_FRAMES = 60
+ORBIT_DEGREES = 30.0
+"""The orbit turns half a degree per frame: slow enough that consecutive frames differ by what
+aliasing adds more than by what the motion shows."""
+
+BAR_CHAIN_MINUTES = 15.0
+BAR_GAIN_DB = 1.5
+BAR_GAIN_LARGEST_DB = 1.0
+BAR_FLICKER_RATIO = 1.3
+
+
+def run(repeats: int | None = None, out: str | Path | None = None, assets: tuple[BenchAsset, ...] = ASSETS,
+        assets_dir: str | Path | None = None, levels: str = LEVELS, time_budget: float | None = None) -> dict:
+    """Fit the chain ``levels`` of every asset, bake the classic chain, score both.
+
+    Args:
+        repeats: ignored (each asset runs once).
+        out: keep the outputs in ``out/<asset>/{chain,classic}`` (default:
+            ``$LOOKALIKE_BENCH_OUT`` or a temporary folder).
+        assets, assets_dir: which cases, and where their files are (default ``../shared/assets``).
+        levels: the chain, as ``lookalike lod --levels`` takes it.
+        time_budget: seconds for the whole chain (default: ``lod``'s, 15 minutes).
+
+    Returns:
+        ``{"levels", "bar", "runs": [row per asset and level], "all_meet_bar", "outputs"}``; a row
+        holds the asset, level, triangles, pixels, the chain's minutes, file bytes, PSNR, FLIP
+        and flicker (relative to the reference's) of the classic level and ours, and whether
+        it meets the bar.
+    """
+    from ..jobs.lod import CHAIN_BUDGET, parse_levels
+
+    assets_dir = check_assets_dir(SHARED_ASSETS if assets_dir is None else assets_dir)
+    chain = parse_levels(levels)
+    budget = CHAIN_BUDGET if time_budget is None else time_budget
+    with tempfile.TemporaryDirectory(prefix="lookalike-bench-lod-") as scratch:
+        root = output_root(out, scratch)
+        rows = []
+        for case in assets:
+            rows += asset_rows(case, assets_dir, root / case.name, chain, budget)
+        return {"levels": levels, "time_budget_s": budget,
+                "bar": {"chain_minutes": BAR_CHAIN_MINUTES, "gain_db": BAR_GAIN_DB,
+                        "gain_largest_db": BAR_GAIN_LARGEST_DB, "flicker_ratio": BAR_FLICKER_RATIO},
+                "runs": rows, "all_meet_bar": all(r["meets_bar"] for r in rows),
+                "outputs": None if root == Path(scratch) else str(root.resolve())}
+
+
+def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, budget: float) -> list[dict]:
+    """Fit and score the chain of ``case`` in ``outdir``: a row per level (see ``run``)."""
+    from ..fit.reference import MeshReference
+    from ..jobs.bake import bake_asset
+    from ..jobs.input_asset import prepare_input
+    from ..jobs.lod import lod, screen_size_settings
+
+    material = scan_material() if case.scan else None
+    asset, _ = prepare_input(io_load(assets_dir / case.path), material)
+    started = time.monotonic()
+    levels = lod(asset, outdir / "chain", chain, time_budget=budget, force=True, progress=False)
+    minutes = (time.monotonic() - started) / 60
+    reference = MeshReference(asset)
+    rows = []
+    for row, level in zip(levels, chain):
+        settings = screen_size_settings(level.pixels)
+        classic = bake_asset(asset, outdir / "classic" / f"lod{row['level']}", triangles=level.triangles,
+                             texture_size=settings["texture_size"], force=True)
+        ours_path = outdir / "chain" / row["folder"] / "model.glb"
+        scores = level_scores(reference, {"classic": classic.asset, "ours": io_load(ours_path)},
+                              settings["resolution"])
+        rows.append(level_row(case.name, row, minutes, scores,
+                              {"classic": classic.model.stat().st_size, "ours": ours_path.stat().st_size},
+                              largest=row["level"] == 0))
+    (outdir / "bench.json").write_text(json.dumps(rows, indent=2))
+    return rows
+
+
+def level_scores(reference, models: dict, resolution: int) -> dict:
+    """``{name: {"psnr", "flip", "flicker"}}`` of each model of ``models`` at ``resolution``:
+    drawn at one sample per pixel with trilinear mipmaps on the held-out views (the runs'
+    sampler, seed and count) against ``reference`` at ``REFERENCE_SPP`` per axis, and its
+    flicker over the orbit relative to the reference's (``"flicker"`` of ``"reference"`` is
+    its own mean change)."""
+    from functools import partial
+
+    import numpy as np
+
+    from ..fit.reference import render_in_chunks
+    from ..fit.textured_mesh import render_asset
+    from ..fit.training_views import view_sampler
+    from ..report.heldout import HeldoutViews, over_background
+    from ..report.metrics import temporal_change
+    from ..settings import Config
+    from ..shading.view_sampling import orbit_views
+
+    centre, radius = reference.bounding_sphere()
+    views = Config().views
+    heldout = HeldoutViews(reference, view_sampler(centre, radius), views.heldout, views.heldout_seed, resolution,
+                           REFERENCE_SPP)
+    draw = partial(render_asset, resolution=resolution, msaa=1)
+    camera, light = orbit_views(centre, radius, ORBIT_FRAMES, ORBIT_DEGREES)
+    own = temporal_change(over_background(render_in_chunks(reference, camera, light, resolution, REFERENCE_SPP)))
+    scores = {"reference": {"flicker": own}}
+    for name, model in models.items():
+        result = heldout.score(name, name, model, draw, None)
+        frames = over_background(draw(model, camera, light))
+        scores[name] = {"psnr": float(np.mean(result.psnr_views)), "flip": float(np.mean(result.flip_views)),
+                        "flicker": temporal_change(frames) / own}
+    return scores
+
+
+def level_row(asset: str, level: dict, minutes: float, scores: dict, sizes: dict, largest: bool) -> dict:
+    """One table row: the level of ``asset`` (a row of ``lods.json``), the chain's ``minutes``,
+    the scores (``level_scores``) and file bytes of both chains, the gain of ours, and the bar
+    (``+ BAR_GAIN_LARGEST_DB`` at the ``largest`` level, ``+ BAR_GAIN_DB`` below)."""
+    classic, ours = scores["classic"], scores["ours"]
+    gain = ours["psnr"] - classic["psnr"]
+    meets = (minutes <= BAR_CHAIN_MINUTES and gain >= (BAR_GAIN_LARGEST_DB if largest else BAR_GAIN_DB)
+             and ours["flip"] < classic["flip"] and ours["flicker"] <= BAR_FLICKER_RATIO
+             and ours["flicker"] < classic["flicker"])
+    return {"asset": asset, "level": level["level"], "triangles": level["triangles"], "pixels": level["pixels"],
+            "texture_size": level["texture_size"], "chain_minutes": minutes,
+            **{f"{metric}_{name}": scores[name][metric] for name in ("classic", "ours")
+               for metric in ("psnr", "flip", "flicker")},
+            **{f"bytes_{name}": size for name, size in sizes.items()},
+            "gain_db": gain, "meets_bar": meets}
+
+
+COLUMNS = (("asset", "asset", "{}"), ("level", "level", "{}"), ("triangles", "triangles", "{:,}"),
+           ("px", "pixels", "{}"), ("texels", "texture_size", "{}"), ("chain min", "chain_minutes", "{:.1f}"),
+           ("PSNR classic", "psnr_classic", "{:.2f}"), ("PSNR ours", "psnr_ours", "{:.2f}"),
+           ("gain dB", "gain_db", "{:+.2f}"), ("FLIP classic", "flip_classic", "{:.4f}"),
+           ("FLIP ours", "flip_ours", "{:.4f}"), ("flicker classic", "flicker_classic", "{:.2f}x"),
+           ("flicker ours", "flicker_ours", "{:.2f}x"), ("KB classic", "bytes_classic", "{:,.0f}"),
+           ("KB ours", "bytes_ours", "{:,.0f}"))
+
+
+def format_table(result: dict) -> str:
+    """The levels as an aligned table (file sizes in KB), with the bar underneath."""
+    shown = dict(result, runs=[dict(r, bytes_classic=r["bytes_classic"] / 1024, bytes_ours=r["bytes_ours"] / 1024)
+                               for r in result["runs"]])
+    bar = (f"bar: chain <= {BAR_CHAIN_MINUTES:g} min; ours >= classic + {BAR_GAIN_DB:g} dB at the smaller levels, "
+           f"+ {BAR_GAIN_LARGEST_DB:g} dB at the largest, lower FLIP; flicker (vs the reference's, "
+           f"{REFERENCE_SPP}x{REFERENCE_SPP} spp) <= {BAR_FLICKER_RATIO:g}x and below classic")
+    return runs_table(shown, COLUMNS, bar, lambda rows: [])
