@@ -158,3 +158,24 @@ def test_an_orbit_turns_slowly_around_the_object_under_a_fixed_light():
     assert torch.allclose(steps, torch.full((11,), 2.5), atol=1e-2)
     assert torch.allclose(offsets[:, 1], torch.full((12,), framing_distance(0.5) * math.sin(math.radians(20))), rtol=1e-4)
     assert (light.position == light.position[:1]).all() and (light.intensity == light.intensity[:1]).all()
+
+
+def test_heavily_supersampled_references_render_fewer_views_at_a_time(monkeypatch):
+    """A 512-pixel level's views at 16 x 16 samples are rendered one at a time (a chunk of four
+    would hold a billion samples); small ones four at a time; the split does not change them."""
+    import numpy as np
+    import torch
+
+    from lookalike.fit.reference import RENDER_CHUNK, MeshReference, render_in_chunks, views_per_chunk
+    from lookalike.shading.view_sampling import random_lights, random_views
+
+    assert views_per_chunk(538, 16) == 1 and views_per_chunk(538, 8) == 3 and views_per_chunk(34, 16) == RENDER_CHUNK
+    reference = MeshReference(bumpy_sphere())
+    centre, radius = reference.bounding_sphere()
+    rng = np.random.default_rng(2)
+    camera = random_views(centre, radius, 3, rng)
+    light = random_lights(camera, centre, rng)
+    together = reference.render(camera, light, 24, 2)
+    monkeypatch.setattr("lookalike.fit.reference.CHUNK_SAMPLES", 48 ** 2)      # one view at a time
+    assert views_per_chunk(24, 2) == 1
+    assert torch.allclose(render_in_chunks(reference, camera, light, 24, 2), together, atol=1e-6)

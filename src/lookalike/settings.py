@@ -113,6 +113,10 @@ class LatentConfig:
             (``Material.coverage_ramp``), so that the fit converges on the model as engines draw
             it; once it is 0, the test's straight-through gradient trains on. 0 trains blended
             alpha throughout and thresholds it at the end.
+        fitted_mips: every mip level of every map is a latent variable of its own (a residual
+            over the box filter of the level above, ``lookalike.fit.fitted_mips``), fitted to
+            the views that see it; written as KTX2 mip chains (``lookalike.io.ktx2``). Off,
+            the mips are the box filter of the texture, as an engine builds them from a PNG.
     """
 
     triangles: int | None = None
@@ -125,6 +129,7 @@ class LatentConfig:
     skin_candidates: int = 8
     alpha_mode: str = "auto"
     mask_anneal: float = 1.0
+    fitted_mips: bool = False
 
 
 @dataclass

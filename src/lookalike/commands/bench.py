@@ -28,14 +28,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              + ", ".join(case.name for case in SKINNED_ASSETS) + "; cards: "
                              + ", ".join(case.name for case in CARDS_ASSETS) + ")")
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
-                        help="folder holding the benchmark assets (quality, warmstart, repair and contention; default: "
+                        help="folder holding the benchmark assets (quality, warmstart, repair, contention and lod; default: "
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
                         help="quality and skinned: also render every method in Blender Cycles (shadows on and off) and run "
                              "Blender's own decimate + bake; needs pip install -e \".[judge]\"")
     parser.add_argument("--reuse", action="store_true",
                         help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
-                             "judge earlier runs)")
+                             "judge earlier runs); lod: keep the levels already fitted in --out and score them again")
 
 
 def run(args: argparse.Namespace) -> int:

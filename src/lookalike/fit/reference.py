@@ -102,11 +102,22 @@ class SkinnedReference:
         return centre, float((points - centre).norm(dim=-1).max())
 
 
+CHUNK_SAMPLES = RENDER_CHUNK * 4096 ** 2
+"""Samples rendered together at most (``RENDER_CHUNK`` views of 512 pixels at 8 x 8 each):
+heavily supersampled views are rendered fewer at a time."""
+
+
+def views_per_chunk(resolution: int, spp: int) -> int:
+    """How many views of ``resolution`` pixels at ``spp`` x ``spp`` samples to render together:
+    ``RENDER_CHUNK``, fewer where they would exceed ``CHUNK_SAMPLES`` samples, at least one."""
+    return max(1, min(RENDER_CHUNK, CHUNK_SAMPLES // (resolution * spp) ** 2))
+
+
 def render_in_chunks(reference: Reference, camera: Camera, light: PointLight, resolution: int, spp: int,
                      dtype=torch.float32, pose: Poses | None = None) -> torch.Tensor:
-    """``reference.render`` over a large batch (poses ``pose`` where given), ``RENDER_CHUNK``
+    """``reference.render`` over a large batch (poses ``pose`` where given), ``views_per_chunk``
     views at a time, stored as ``dtype``: ``[B, H, W, 4]``."""
-    n = camera.batch_size
-    return torch.cat([reference.render(camera[i:i + RENDER_CHUNK], light[i:i + RENDER_CHUNK], resolution, spp,
-                                       None if pose is None else pose[i:i + RENDER_CHUNK]).to(dtype)
-                      for i in range(0, n, RENDER_CHUNK)])
+    n, chunk = camera.batch_size, views_per_chunk(resolution, spp)
+    return torch.cat([reference.render(camera[i:i + chunk], light[i:i + chunk], resolution, spp,
+                                       None if pose is None else pose[i:i + chunk]).to(dtype)
+                      for i in range(0, n, chunk)])

@@ -27,6 +27,7 @@ from ..shading.pipeline import render, render_coverage
 from ..settings import ClampConfig
 from .position_steps import local_step_scale
 from .slope_normals import normal_to_slopes, slopes_to_normal
+from .fitted_mips import FittedMips
 from .texture_pyramid import TexturePyramid
 
 
@@ -43,6 +44,8 @@ class TexturedMesh(torch.nn.Module):
         normal: ``TexturePyramid`` of ``[S, S, 2]`` slopes (x, y) of the tangent-space normal,
             which is normalize(x, y, 1): always facing out of the surface, flat at (0, 0), and
             two parameters per texel instead of three with a unit-length constraint.
+        kd_mips, ks_mips, normal_mips: with ``fitted_mips``, ``FittedMips`` of the three (their
+            mip levels as variables of their own, ``lookalike.fit.fitted_mips``), else ``None``.
         emissive: ``TexturePyramid`` of ``[S, S, 3]`` linear emission divided by
             ``emissive_scale`` (the start's brightest texel, at least 1), in its own group
             ``"emissive"``, where the start emits (else ``None``): Adam's steps are then relative
@@ -82,6 +85,7 @@ class TexturedMesh(torch.nn.Module):
         mask_anneal: the share of the run over which a ``"MASK"`` material's coverage ramp
             narrows from ``coverage_ramp`` to the hard test (``at_progress``); 0 keeps it.
         coverage_ramp: the ramp's width at the start (``Material.coverage_ramp``).
+        fitted_mips: fit every mip level of kd, ks and normal as its own variable.
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
@@ -89,7 +93,8 @@ class TexturedMesh(torch.nn.Module):
                  msaa: int = 1, alpha_mode: str = "OPAQUE", double_sided: bool = False, wrap: str = "clamp",
                  texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
                  occlusion: torch.Tensor | None = None, layers: int = 1,
-                 position_steps: torch.Tensor | None = None, mask_anneal: float = 0.0, coverage_ramp: float = 0.0):
+                 position_steps: torch.Tensor | None = None, mask_anneal: float = 0.0, coverage_ramp: float = 0.0,
+                 fitted_mips: bool = False):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -105,6 +110,8 @@ class TexturedMesh(torch.nn.Module):
         self.kd = TexturePyramid(kd, texture_scales)
         self.ks = TexturePyramid(ks, texture_scales)
         self.normal = TexturePyramid(normal_to_slopes(normal.float()), texture_scales)
+        self.kd_mips, self.ks_mips, self.normal_mips = (
+            (FittedMips(*t.shape, texture_scales) if fitted_mips else None) for t in (self.kd, self.ks, self.normal))
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
         self.register_buffer("rest_delta", self.laplacian.differentials(unit))
         self.limits = limits
@@ -126,12 +133,16 @@ class TexturedMesh(torch.nn.Module):
     def _bound_textures(self) -> None:
         """Give each texture pyramid the ranges of ``limits`` (it projects itself onto them
         whenever it is read): kd into ``limits.kd``, each specular channel into its range, each
-        normal slope into [-limits.normal_max_slope, limits.normal_max_slope], emission >= 0."""
+        normal slope into [-limits.normal_max_slope, limits.normal_max_slope], emission >= 0;
+        their fitted mips (where there are) into the same ranges."""
         limits = self.limits
-        self.kd.set_bounds(*limits.kd)
         ranges = torch.tensor([limits.gamma, limits.roughness, limits.metalness], dtype=torch.float32)
-        self.ks.set_bounds(ranges[:, 0], ranges[:, 1])
-        self.normal.set_bounds(-limits.normal_max_slope, limits.normal_max_slope)
+        bounds = {"kd": limits.kd, "ks": (ranges[:, 0], ranges[:, 1]),
+                  "normal": (-limits.normal_max_slope, limits.normal_max_slope)}
+        for name, (low, high) in bounds.items():
+            getattr(self, name).set_bounds(low, high)
+            if getattr(self, f"{name}_mips") is not None:
+                getattr(self, f"{name}_mips").set_bounds(low, high)
         if self.emissive is not None:
             self.emissive.set_bounds(0.0, None)
 
@@ -139,7 +150,7 @@ class TexturedMesh(torch.nn.Module):
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
                    texture_scales: tuple[float, ...] = (1.0,), layers: int = 1, position_steps: str = "uniform",
-                   mask_anneal: float = 0.0) -> TexturedMesh:
+                   mask_anneal: float = 0.0, fitted_mips: bool = False) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
@@ -148,7 +159,7 @@ class TexturedMesh(torch.nn.Module):
         and every texel is clamped into ``limits``. ``layers``, ``mask_anneal``: see the class;
         ``position_steps``: ``"local"`` steps each vertex by its local size
         (``lookalike.fit.position_steps``), ``"uniform"`` all alike. A trained ``"MASK"``
-        material's ``coverage_ramp`` is where the ramp starts."""
+        material's ``coverage_ramp`` is where the ramp starts; ``fitted_mips``: see the class."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
         ks = material.ks.data
@@ -164,7 +175,7 @@ class TexturedMesh(torch.nn.Module):
                      msaa=msaa, alpha_mode=material.alpha_mode if train_alpha else "OPAQUE",
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
                      layers=layers, position_steps=steps, mask_anneal=mask_anneal,
-                     coverage_ramp=material.coverage_ramp if train_alpha else 0.0,
+                     coverage_ramp=material.coverage_ramp if train_alpha else 0.0, fitted_mips=fitted_mips,
                      **_emission_and_occlusion(material, size))
         return latent
 
@@ -190,8 +201,9 @@ class TexturedMesh(torch.nn.Module):
         return self.kd.shape[-1] == 4
 
     def parameter_groups(self) -> dict[str, list[torch.nn.Parameter]]:
+        maps = (self.kd, self.ks, self.normal, self.kd_mips, self.ks_mips, self.normal_mips)
         groups = {"positions": [self.v_pos],
-                  "textures": [*self.kd.parameters(), *self.ks.parameters(), *self.normal.parameters()]}
+                  "textures": [p for texture in maps if texture is not None for p in texture.parameters()]}
         if self.emissive is not None:
             groups["emissive"] = list(self.emissive.parameters())
         return groups
@@ -210,20 +222,31 @@ class TexturedMesh(torch.nn.Module):
         if self.mask_anneal > 0:
             self.coverage_ramp = self.start_ramp * max(0.0, 1.0 - (fraction or 0.0) / self.mask_anneal)
 
-    def base_color(self) -> torch.Tensor:
-        """``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained)."""
+    def base_color(self) -> Texture:
+        """The ``[S, S, 4]`` base colour and alpha (alpha 1 where it is not trained), with its
+        fitted mips where it has them."""
         kd = self.kd()
-        if self.trains_alpha:
-            return kd
-        return torch.cat([kd, torch.ones_like(kd[..., :1])], dim=-1)
+        levels = [kd, *_mips(self.kd_mips, kd)]
+        if not self.trains_alpha:
+            levels = [torch.cat([level, torch.ones_like(level[..., :1])], dim=-1) for level in levels]
+        return Texture(levels[0], wrap=self.wrap, mips=levels[1:] or None)
 
     def emission(self) -> torch.Tensor | None:
         """``[S, S, 3]`` linear emission (``emissive * emissive_scale``), or ``None``."""
         return None if self.emissive is None else self.emissive() * self.emissive_scale
 
-    def unit_normal(self) -> torch.Tensor:
-        """``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1)."""
-        return slopes_to_normal(self.normal())
+    def unit_normal(self) -> Texture:
+        """The ``[S, S, 3]`` unit tangent-space normal map, normalize(x, y, 1), with its fitted
+        mips (each level's slopes made unit normals) where it has them."""
+        slopes = self.normal()
+        levels = [slopes_to_normal(level) for level in (slopes, *_mips(self.normal_mips, slopes))]
+        return Texture(levels[0], wrap=self.wrap, mips=levels[1:] or None)
+
+    def specular(self) -> Texture:
+        """The ``[S, S, 3]`` specular map (gamma, roughness, metalness) with its fitted mips
+        where it has them."""
+        ks = self.ks()
+        return Texture(ks, wrap=self.wrap, mips=_mips(self.ks_mips, ks) or None)
 
     def as_asset(self, coverage_ramp: float | None = None) -> Asset:
         """The model as an ``Asset`` in world coordinates, differentiable with respect to the
@@ -233,9 +256,9 @@ class TexturedMesh(torch.nn.Module):
                     t_nrm_idx=self.t_nrm_idx)
         material = Material(
             name="lookalike",
-            kd=Texture(self.base_color(), wrap=self.wrap),
-            ks=Texture(self.ks(), wrap=self.wrap),
-            normal=Texture(self.unit_normal(), wrap=self.wrap),
+            kd=self.base_color(),
+            ks=self.specular(),
+            normal=self.unit_normal(),
             alpha_mode=self.alpha_mode,
             coverage_ramp=self.coverage_ramp if coverage_ramp is None else coverage_ramp,
             double_sided=self.double_sided,
@@ -285,6 +308,11 @@ class TexturedMesh(torch.nn.Module):
         """Nothing to do: the texture pyramids project themselves onto ``limits`` whenever they
         are read (``_bound_textures``), so the loop's call after every update costs nothing and
         each pyramid is summed once per step, by the render."""
+
+
+def _mips(mips: FittedMips | None, texture: torch.Tensor) -> list[torch.Tensor]:
+    """The fitted mip levels of ``texture`` (``[]`` without ``mips``, or for a constant)."""
+    return [] if mips is None else mips(texture)
 
 
 def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:

@@ -130,20 +130,23 @@ class GltfData:
             out = values.astype(np.int64)
         return out[:, 0] if acc.type == "SCALAR" else out
 
-    def image(self, index: int) -> np.ndarray:
-        """``images[index]`` decoded to ``[H, W, 4]`` float32 RGBA in ``[0, 1]`` (not linearised)."""
+    def image_bytes(self, index: int) -> bytes:
+        """The encoded bytes (PNG, JPEG, KTX2, ...) of ``images[index]``, from its bufferView or uri."""
         images = self.gltf.images
         if not 0 <= index < len(images):
             raise AssetError(self.path, f"image {index} does not exist")
         image = images[index]
         if image.bufferView is not None:
             data, offset, length, _ = self.buffer_view(image.bufferView)
-            encoded = data[offset:offset + length]
-        elif image.uri:
-            encoded = _decode_uri(image.uri, self.path.parent, self.path, "texture")
-        else:
-            raise AssetError(self.path, f"image {index} has neither uri nor bufferView")
-        return decode_image(encoded, f"{self.path} (image {image.uri or index})")
+            return data[offset:offset + length]
+        if image.uri:
+            return _decode_uri(image.uri, self.path.parent, self.path, "texture")
+        raise AssetError(self.path, f"image {index} has neither uri nor bufferView")
+
+    def image(self, index: int) -> np.ndarray:
+        """``images[index]`` decoded to ``[H, W, 4]`` float32 RGBA in ``[0, 1]`` (not linearised)."""
+        encoded = self.image_bytes(index)
+        return decode_image(encoded, f"{self.path} (image {self.gltf.images[index].uri or index})")
 
 
 def parse_gltf(path: Path) -> pygltflib.GLTF2:

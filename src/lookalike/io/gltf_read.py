@@ -45,6 +45,7 @@ from ..errors import AssetError
 from .arrays import unique_rows
 from .gltf_data import GltfData, parse_gltf
 from .image_files import resize, srgb_to_linear
+from .ktx2 import decode_mip_chain, find_encoder
 from .normal_frames import import_normal_maps
 from .registry import reader
 from .transforms import matrix_to_trs
@@ -285,6 +286,8 @@ class _MaterialReader:
     def __init__(self, data: GltfData):
         self.data = data
         self.images: dict[int, np.ndarray] = {}
+        self.chains: dict[int, list[np.ndarray] | None] = {}
+        self.decoder = find_encoder()
 
     def _pixels(self, info: dict) -> np.ndarray:
         """``[H, W, 4]`` raw RGBA of the image behind a textureInfo."""
@@ -303,15 +306,40 @@ class _MaterialReader:
             self.images[source] = self.data.image(source)
         return self.images[source]
 
-    def _texture(self, info: dict, pixels: np.ndarray) -> Texture:
+    def _mip_chain(self, info: dict) -> list[np.ndarray] | None:
+        """Levels 1.. ``[h, w, 4]`` raw RGBA of the KTX2 mip chain (``KHR_texture_basisu``)
+        behind a textureInfo, decoded where the ``basisu`` transcoder is found
+        (``io.ktx2``); ``None`` without one, or where the texture has no KTX2 source. An engine
+        that reads KTX2 samples these levels instead of building mips from the PNG."""
+        basisu = (self.data.gltf.textures[info["index"]].extensions or {}).get("KHR_texture_basisu")
+        source = basisu.get("source") if isinstance(basisu, dict) else None
+        if source is None or self.decoder is None:
+            return None
+        if source not in self.chains:
+            try:
+                levels = decode_mip_chain(self.data.image_bytes(source), self.decoder)
+            except ValueError as e:
+                raise AssetError(self.data.path, f"image {source}: {e}") from None
+            self.chains[source] = [level.astype(np.float32) / 255.0 for level in levels[1:]]
+        return self.chains[source]
+
+    def _texture(self, info: dict, convert, pixels: np.ndarray | None = None) -> Texture:
+        """The texture behind ``info``, its texels ``convert([h, w, 4] raw RGBA)`` (of
+        ``pixels`` where given, else of its image), with its KTX2 mip levels converted alike
+        where it has them (``_mip_chain``) and ``pixels`` is not given."""
         uv_set, transform = _texture_transform(info)
         textures = self.data.gltf.textures
         sampler_index = textures[info["index"]].sampler
         wrap = "wrap"
         if sampler_index is not None and 0 <= sampler_index < len(self.data.gltf.samplers):
             wrap = _WRAP_MODES.get(self.data.gltf.samplers[sampler_index].wrapS or 10497, "wrap")
-        return Texture(torch.from_numpy(np.ascontiguousarray(pixels, dtype=np.float32)), uv_set=uv_set,
-                       transform=transform, wrap=wrap)
+        chain = self._mip_chain(info) if pixels is None else None
+
+        def tensor(raw: np.ndarray) -> torch.Tensor:
+            return torch.from_numpy(np.ascontiguousarray(convert(raw), dtype=np.float32))
+
+        return Texture(tensor(self._pixels(info) if pixels is None else pixels), uv_set=uv_set, transform=transform,
+                       wrap=wrap, mips=[tensor(level) for level in chain] if chain else None)
 
     def material(self, m) -> Material:
         pbr = m.pbrMetallicRoughness
@@ -319,9 +347,8 @@ class _MaterialReader:
         rough_factor = pbr.roughnessFactor if pbr and pbr.roughnessFactor is not None else 1.0
         metal_factor = pbr.metallicFactor if pbr and pbr.metallicFactor is not None else 1.0
         if pbr and pbr.baseColorTexture is not None:
-            info = _texture_info(pbr.baseColorTexture)
-            px = self._pixels(info)
-            kd = self._texture(info, np.concatenate([srgb_to_linear(px[..., :3]), px[..., 3:]], -1) * base_factor)
+            kd = self._texture(_texture_info(pbr.baseColorTexture),
+                               lambda px: np.concatenate([srgb_to_linear(px[..., :3]), px[..., 3:]], -1) * base_factor)
         else:
             kd = Texture.constant(base_factor)
         specular = (m.extensions or {}).get("KHR_materials_specular", {})
@@ -330,35 +357,41 @@ class _MaterialReader:
         mr_info = _texture_info(pbr.metallicRoughnessTexture) if pbr and pbr.metallicRoughnessTexture else None
         if mr_info is None and spec_info is None:
             ks = Texture.constant([1.0 - spec_factor, rough_factor, metal_factor])
+        elif mr_info is not None and spec_info is not None and spec_info.get("index") == mr_info.get("index"):
+            ks = self._texture(mr_info, lambda px: np.stack(  # one image, as lookalike writes it: mips kept
+                [1.0 - spec_factor * px[..., 3], rough_factor * px[..., 1], metal_factor * px[..., 2]], axis=-1))
         else:
             layout = mr_info or spec_info
             h, w = self._pixels(layout).shape[:2]
             mr = self._pixels(mr_info) if mr_info else np.ones((h, w, 4), np.float32)
             spec = resize(self._pixels(spec_info), h, w)[..., 3] if spec_info else np.ones((h, w), np.float32)
-            ks = self._texture(layout, np.stack(
+            ks = self._texture(layout, lambda px: px, np.stack(
                 [1.0 - spec_factor * spec, rough_factor * mr[..., 1], metal_factor * mr[..., 2]], axis=-1))
         normal = None
         if m.normalTexture is not None:
             info = _texture_info(m.normalTexture)
             scale = float(info.get("scale", 1.0) if info.get("scale") is not None else 1.0)
-            n = self._pixels(info)[..., :3] * 2.0 - 1.0
-            n[..., :2] *= scale
-            n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
-            normal = self._texture(info, n)
+
+            def unit_normal(px: np.ndarray) -> np.ndarray:
+                n = px[..., :3] * 2.0 - 1.0
+                n[..., :2] *= scale
+                return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+
+            normal = self._texture(info, unit_normal)
         emissive_factor = np.asarray(m.emissiveFactor or [0, 0, 0], np.float32)
         emissive_factor *= float((m.extensions or {}).get("KHR_materials_emissive_strength", {})
                                  .get("emissiveStrength", 1.0))
         emissive = None
         if m.emissiveTexture is not None and emissive_factor.any():
             info = _texture_info(m.emissiveTexture)
-            emissive = self._texture(info, srgb_to_linear(self._pixels(info)[..., :3]) * emissive_factor)
+            emissive = self._texture(info, lambda px: srgb_to_linear(px[..., :3]) * emissive_factor)
         elif emissive_factor.any():
             emissive = Texture.constant(emissive_factor)
         occlusion = None
         if m.occlusionTexture is not None:  # R channel; strength s gives 1 + s * (R - 1)
             info = _texture_info(m.occlusionTexture)
             strength = float(info.get("strength", 1.0) if info.get("strength") is not None else 1.0)
-            occlusion = self._texture(info, 1.0 + strength * (self._pixels(info)[..., :1] - 1.0))
+            occlusion = self._texture(info, lambda px: 1.0 + strength * (px[..., :1] - 1.0))
         alpha_mode = m.alphaMode or "OPAQUE"
         if alpha_mode not in ("OPAQUE", "MASK", "BLEND"):
             raise AssetError(self.data.path, f"material {m.name!r} has unknown alphaMode {alpha_mode!r}")

@@ -19,7 +19,10 @@ specular factor scales only the dielectric lobe, while the paper's ``gamma`` als
 (sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
 then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
 image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
-its own.
+its own. A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
+written as a KTX2 mip chain of exactly those levels (UASTC, ``io.ktx2``) through
+``KHR_texture_basisu`` where the ``basisu`` encoder is found, the PNG staying the fallback for
+viewers without a transcoder (which then build box-filtered mips from it).
 
 Unskinned assets are one mesh node with no transform (the geometry is in the asset's frame).
 Skinned assets keep every node of their ``Skin`` (so joint indices and animation targets keep
@@ -47,7 +50,8 @@ import numpy as np
 from ..asset import Asset, Material, Texture
 from ..errors import AssetError
 from .arrays import constant_texel, unique_rows
-from .image_files import encode_png, linear_to_srgb
+from .image_files import encode_png, linear_to_srgb, resize
+from .ktx2 import encode_mip_chain, find_encoder
 from .mikktspace import mikktspace_tangents
 from .normal_frames import export_normal_maps
 from .registry import writer
@@ -68,6 +72,7 @@ class GlbBuilder:
         self.length = 0
         self.extensions: set[str] = set()
         self.texture_cache: dict[tuple, int] = {}
+        self.encoder = find_encoder()
 
     def view(self, data: bytes, target: int | None = None) -> int:
         """Append ``data`` (4-byte aligned) as a bufferView; returns its index."""
@@ -98,21 +103,34 @@ class GlbBuilder:
         self.doc["accessors"].append(acc)
         return len(self.doc["accessors"]) - 1
 
-    def texture(self, pixels: np.ndarray, wrap: str, key: tuple) -> int:
+    def texture(self, pixels: np.ndarray, wrap: str, key: tuple, mips: list[np.ndarray] | None = None,
+                linear: bool = True) -> int:
         """Index of a texture holding ``pixels [H, W, C]`` (values in [0, 1], already encoded),
         written once per ``key`` (a tensor in it counts by identity, and the key keeps it alive,
-        so a texture freed while the file is built cannot pass its identity to another)."""
+        so a texture freed while the file is built cannot pass its identity to another). With
+        ``mips`` (levels 1.. encoded alike) and a KTX2 encoder (``io.ktx2.find_encoder``), the
+        chain is also written as KTX2 (``linear``: non-colour data) through
+        ``KHR_texture_basisu``, the PNG staying the fallback source."""
         if key not in self.texture_cache:
-            image = {"bufferView": self.view(encode_png(pixels)), "mimeType": "image/png"}
-            self.doc.setdefault("images", []).append(image)
+            texture = {"source": self.image(encode_png(pixels), "image/png")}
+            if mips and self.encoder is not None:
+                chain = [_rgba8(level) for level in (pixels, *mips)]
+                ktx2 = self.image(encode_mip_chain(chain, linear, self.encoder), "image/ktx2")
+                texture["extensions"] = {"KHR_texture_basisu": {"source": ktx2}}
+                self.extensions.add("KHR_texture_basisu")
             samplers = self.doc.setdefault("samplers", [])
             sampler = {"magFilter": 9729, "minFilter": 9987, "wrapS": _WRAP[wrap], "wrapT": _WRAP[wrap]}
             if sampler not in samplers:
                 samplers.append(sampler)
-            self.doc.setdefault("textures", []).append(
-                {"source": len(self.doc["images"]) - 1, "sampler": samplers.index(sampler)})
+            texture["sampler"] = samplers.index(sampler)
+            self.doc.setdefault("textures", []).append(texture)
             self.texture_cache[key] = len(self.doc["textures"]) - 1
         return self.texture_cache[key]
+
+    def image(self, data: bytes, mime_type: str) -> int:
+        """Append an image of ``data`` (``mime_type``) in a bufferView; returns its index."""
+        self.doc.setdefault("images", []).append({"bufferView": self.view(data), "mimeType": mime_type})
+        return len(self.doc["images"]) - 1
 
     def glb(self) -> bytes:
         """The GLB container: 12-byte header, JSON chunk (space padded), BIN chunk (zero padded)."""
@@ -137,9 +155,22 @@ class GlbBuilder:
             raise AssetError(path, f"cannot write file: {e.strerror or e}") from None
 
 
-def _texture_info(builder: GlbBuilder, texture: Texture, pixels: np.ndarray, channel: str) -> dict:
-    """A glTF textureInfo for ``texture`` encoded as ``pixels``, with KHR_texture_transform."""
-    info = {"index": builder.texture(pixels, texture.wrap, (texture.data, channel))}
+def _rgba8(pixels: np.ndarray) -> np.ndarray:
+    """``[H, W, C]`` values in [0, 1] as ``[H, W, 4]`` uint8 RGBA (missing channels: G = B = R
+    for one channel, alpha 1)."""
+    rgba = np.ones(pixels.shape[:2] + (4,), np.float32)
+    rgba[..., :3] = pixels[..., :3] if pixels.shape[-1] >= 3 else pixels[..., :1]
+    if pixels.shape[-1] == 4:
+        rgba[..., 3] = pixels[..., 3]
+    return np.round(np.clip(rgba, 0, 1) * 255).astype(np.uint8)
+
+
+def _texture_info(builder: GlbBuilder, texture: Texture, encode, channel: str, linear: bool = True) -> dict:
+    """A glTF textureInfo for ``texture``, its texels (and own mip levels) written as
+    ``encode([h, w, C] array)`` gives them, with KHR_texture_transform."""
+    pixels = encode(texture.data.detach().numpy())
+    mips = [encode(level.detach().numpy()) for level in texture.mips] if texture.mips else None
+    info = {"index": builder.texture(pixels, texture.wrap, (texture.data, channel), mips, linear)}
     if texture.uv_set:
         info["texCoord"] = texture.uv_set
     if texture.transform is not None:
@@ -177,10 +208,13 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
     if kd is not None:
         pbr["baseColorFactor"] = np.clip(kd, 0, 1).tolist()
     else:
-        data = material.kd.data.detach().numpy()
-        rgb = linear_to_srgb(data[..., :3])
-        pixels = rgb if np.all(data[..., 3] == 1.0) else np.concatenate([rgb, data[..., 3:]], axis=-1)
-        pbr["baseColorTexture"] = _texture_info(builder, material.kd, pixels, "kd")
+        opaque = bool(np.all(material.kd.data.detach().numpy()[..., 3] == 1.0))
+
+        def srgb_colour(data: np.ndarray) -> np.ndarray:
+            rgb = linear_to_srgb(data[..., :3])
+            return rgb if opaque else np.concatenate([rgb, data[..., 3:]], axis=-1)
+
+        pbr["baseColorTexture"] = _texture_info(builder, material.kd, srgb_colour, "kd", linear=False)
     ks = constant_or_mean(material.ks)
     orm = material.occlusion is not None and _same_layout(material.occlusion, material.ks)
     if ks is not None:
@@ -190,12 +224,16 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
             out.setdefault("extensions", {})["KHR_materials_specular"] = {
                 "specularFactor": float(np.clip(1 - ks[0], 0, 1))}
     else:
-        data = material.ks.data.detach().numpy()
-        gamma = data[..., 0]
+        gamma = material.ks.data.detach().numpy()[..., 0]
         varies = not np.all(gamma == gamma.flat[0])
-        red = material.occlusion.data.detach().numpy()[..., 0] if orm else np.ones_like(gamma)
-        pixels = np.stack([red, data[..., 1], data[..., 2]] + ([1.0 - gamma] if varies else []), -1)
-        info = _texture_info(builder, material.ks, pixels, "ks")
+        occlusion = material.occlusion.data.detach().numpy()[..., :1] if orm else None
+
+        def orm_pixels(data: np.ndarray) -> np.ndarray:
+            red = (np.ones_like(data[..., 0]) if occlusion is None
+                   else resize(occlusion.astype(np.float32), *data.shape[:2])[..., 0])
+            return np.stack([red, data[..., 1], data[..., 2]] + ([1.0 - data[..., 0]] if varies else []), -1)
+
+        info = _texture_info(builder, material.ks, orm_pixels, "ks")
         pbr["metallicRoughnessTexture"] = info
         if orm:
             out["occlusionTexture"] = dict(info)
@@ -207,8 +245,7 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
     if "KHR_materials_specular" in out.get("extensions", {}):
         builder.extensions.add("KHR_materials_specular")
     if material.normal is not None and has_uv and constant_texel(material.normal) is None:
-        pixels = material.normal.data.detach().numpy() * 0.5 + 0.5
-        out["normalTexture"] = _texture_info(builder, material.normal, pixels, "normal")
+        out["normalTexture"] = _texture_info(builder, material.normal, lambda data: data * 0.5 + 0.5, "normal")
     if material.emissive is not None:
         ke = constant_or_mean(material.emissive)
         if ke is not None:
@@ -218,19 +255,19 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
                 out.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
                 builder.extensions.add("KHR_materials_emissive_strength")
         else:
-            data = np.clip(material.emissive.data.detach().numpy(), 0, None)
-            strength = max(float(data.max()), 1.0)
+            strength = max(float(material.emissive.data.detach().max()), 1.0)
             out["emissiveFactor"] = [1.0, 1.0, 1.0]
-            out["emissiveTexture"] = _texture_info(builder, material.emissive, linear_to_srgb(data / strength),
-                                                   "emissive")
+            out["emissiveTexture"] = _texture_info(
+                builder, material.emissive, lambda data: linear_to_srgb(np.clip(data, 0, None) / strength), "emissive",
+                linear=False)
             if strength > 1.0:
                 out.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": strength}
                 builder.extensions.add("KHR_materials_emissive_strength")
     if material.occlusion is not None and has_uv and "occlusionTexture" not in out:
         value = constant_texel(material.occlusion)
         if value is None or value[0] < 1.0:  # occlusion 1 everywhere is no occlusion
-            pixels = np.clip(material.occlusion.data.detach().numpy()[..., :1], 0, 1)
-            out["occlusionTexture"] = _texture_info(builder, material.occlusion, pixels, "occlusion")
+            out["occlusionTexture"] = _texture_info(builder, material.occlusion,
+                                                    lambda data: np.clip(data[..., :1], 0, 1), "occlusion")
     if material.alpha_mode != "OPAQUE":
         out["alphaMode"] = material.alpha_mode
     if material.alpha_mode == "MASK":

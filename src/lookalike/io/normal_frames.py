@@ -112,8 +112,8 @@ def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarr
 
 
 def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> list[Material]:
-    """Materials with every normal map converted; ``frames(uv_set) -> (file normals, file
-    tangents)`` gives the file's corner frame of a UV set."""
+    """Materials with every normal map (and each of its own mip levels) converted;
+    ``frames(uv_set) -> (file normals, file tangents)`` gives the file's corner frame of a UV set."""
     out = []
     t_mat_idx = mesh.t_mat_idx.numpy()
     cache = {}
@@ -128,9 +128,10 @@ def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> li
         ours, theirs = cache[normal.uv_set]
         src, dst = (theirs, ours) if to_ours else (ours, theirs)
         uv = apply_uv_transform(corner_uvs(mesh, normal.uv_set)[used], normal.transform)
-        pixels = reexpress_normal_map(normal.data.detach().numpy(), uv, tuple(a[used] for a in src),
-                                      tuple(a[used] for a in dst), gutter=GUTTER_TEXELS)
-        out.append(replace(material, normal=replace(normal, data=torch.from_numpy(pixels), mips=None)))
+        levels = [torch.from_numpy(reexpress_normal_map(level.detach().numpy(), uv, tuple(a[used] for a in src),
+                                                        tuple(a[used] for a in dst), gutter=GUTTER_TEXELS))
+                  for level in [normal.data, *(normal.mips or [])]]
+        out.append(replace(material, normal=replace(normal, data=levels[0], mips=levels[1:] or None)))
     return out
 
 

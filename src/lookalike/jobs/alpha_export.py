@@ -164,7 +164,7 @@ def _dithered(model: Asset) -> Asset:
     def dither(material):
         kd = material.kd.data.detach().clone()
         kd[..., 3] = dithered_alpha(kd[..., 3])
-        return dataclasses.replace(material, kd=dataclasses.replace(material.kd, data=kd), alpha_cutoff=0.5)
+        return dataclasses.replace(material, kd=dataclasses.replace(material.kd, data=kd, mips=None), alpha_cutoff=0.5)
 
     return dataclasses.replace(model, materials=[dither(m) if m.alpha_mode == "MASK" else m for m in model.materials])
 

@@ -25,6 +25,7 @@ from ..errors import ConfigError
 from ..io.atomic import write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
+from ..io.ktx2 import find_encoder
 from ..limits import MAX_TEXTURE_SIZE
 from ..settings import Config, RenderConfig, ViewsConfig
 from ..shading.view_sampling import FRAMING
@@ -119,14 +120,16 @@ def screen_size_settings(pixels: int) -> dict:
     """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
     pixel (a power of two), the reference supersampled, the model drawn with one sample per
-    pixel and the training distances spread around the size (``LEVEL.defaults``).
-    ``ConfigError`` below ``MIN_PIXELS``."""
+    pixel and the training distances spread around the size (``LEVEL.defaults``); every mip
+    level of its maps fitted where they can be written as KTX2 mip chains (the ``basisu``
+    encoder is found, ``io.ktx2``), else box-filtered from the maps as an engine builds them
+    from a PNG. ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
     return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
             "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
-            "distance_spread": LEVEL.defaults.views.distance_spread}
+            "distance_spread": LEVEL.defaults.views.distance_spread, "fitted_mips": find_encoder() is not None}
 
 
 def level_settings(level: Level, seconds: float) -> dict:
@@ -138,8 +141,9 @@ def level_settings(level: Level, seconds: float) -> dict:
 def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, config: Config | str | Path | None = None,
         time_budget: float = CHAIN_BUDGET, **options) -> list[dict]:
     """Fit the chain ``levels`` of ``input`` into ``outdir/lod0 ...``; returns ``lods.json``'s
-    levels (each: triangles, pixels, texture size, the switch distance, the run's folder, its
-    model's file bytes and GPU memory (``io.gpu_memory.gpu_bytes``) and held-out scores).
+    levels (each: triangles, pixels, texture size, whether its mips were fitted, the switch
+    distance, the run's folder and seconds, its model's file bytes and GPU memory
+    (``io.gpu_memory.gpu_bytes``) and held-out scores).
     ``options``: the run options (``jobs.run.RunOptions``); with ``resume``, finished levels are
     kept and an interrupted one resumed, else ``outdir`` is refused where it holds anything,
     unless ``force``."""
@@ -162,8 +166,10 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
         ours = metrics["heldout"]["ours"]
         model = folder / MODEL_NAME
         rows.append({"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
-                     "texture_size": settings["texture_size"], "switch_distance": starts[k],
-                     "folder": folder.name, "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),
+                     "texture_size": settings["texture_size"], "fitted_mips": settings["fitted_mips"],
+                     "switch_distance": starts[k],
+                     "folder": folder.name, "seconds": metrics["seconds"]["total"],
+                     "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),
                      "psnr": ours["psnr"], "flip": ours["flip"], "interrupted": metrics["interrupted"]})
         if metrics["interrupted"]:
             break

@@ -96,7 +96,7 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
                "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
                "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
                "texture_scales": cfg.latent.texture_scales, "position_steps": cfg.optim.position_steps,
-               "mask_anneal": cfg.latent.mask_anneal}
+               "mask_anneal": cfg.latent.mask_anneal, "fitted_mips": cfg.latent.fitted_mips}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
 
 

