@@ -1,21 +1,14 @@
 """Fitted mip levels: user mips receive exactly the gradients of the levels a lookup uses,
 levels no view reaches stay the box filter of the level above, the latent exports its mips,
-and a striped sphere prefiltered for 32 pixels draws at one sample per pixel closer to its
-supersampled reference than with box-filtered mips."""
+and the setting reaches the run's latent."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import torch
 
 import lookalike.render as dr
-from lookalike.asset import Asset, Material, Texture
 from lookalike.fit.fitted_mips import FittedMips, box_down
-from lookalike.fit.textured_mesh import TexturedMesh, render_asset
 from lookalike.render.mipmap import texture_construct_mip
-from io_factory import uv_sphere
 from test_fit_latent import make_latent
 
 
@@ -70,48 +63,11 @@ def test_fitted_mips_are_clamped_into_the_texture_s_range_and_exported_with_it()
     assert any(name.startswith("normal_mips") for name in names) and grouped == {id(p) for p in latent.parameters()}
 
 
-def _striped_sphere() -> Asset:
-    """A unit UV sphere painted with 32 stripes of contrasting colour along u."""
-    mesh = uv_sphere(24, 48)
-    u = (torch.arange(256) + 0.5) / 256
-    stripes = (torch.sin(2 * math.pi * 32 * u) > 0).float()
-    colour = torch.stack([0.1 + 0.8 * stripes, 0.2 + 0.5 * stripes, 0.8 - 0.6 * stripes, torch.ones(256)], -1)
-    kd = colour[None].expand(256, 256, 4).contiguous()
-    material = Material(kd=Texture(kd), ks=Texture.constant([0.0, 0.6, 0.0]))
-    mesh.t_mat_idx = torch.zeros(mesh.t_pos_idx.shape[0], dtype=torch.long)
-    return Asset(mesh=mesh, materials=[material])
+def test_the_setting_gives_the_run_s_latent_fitted_mips():
+    from lookalike.jobs.run import mesh_latent
+    from lookalike.settings import with_overrides
+    from test_fit_simplify import bumpy_sphere
 
-
-def test_a_striped_sphere_prefiltered_for_32_pixels_beats_box_filtered_mips_at_one_sample():
-    from lookalike.fit.reference import MeshReference
-    from lookalike.report.metrics import psnr
-    from lookalike.shading.view_sampling import random_lights, random_views
-
-    asset = _striped_sphere()
-    reference = MeshReference(asset)
-    centre, radius = reference.bounding_sphere()
-    resolution = 34
-
-    def views(seed: int, n: int):
-        rng = np.random.default_rng(seed)
-        camera = random_views(centre, radius, n, rng)
-        return camera, random_lights(camera, centre, rng)
-
-    heldout = views(1, 8)
-    target = reference.render(*heldout, resolution, 8)[..., :3]
-
-    def score(model: Asset) -> float:
-        return psnr(target, render_asset(model, *heldout, resolution=resolution, msaa=1)[..., :3])
-
-    latent = TexturedMesh.from_asset(asset, centre, radius, limits=make_latent().limits, msaa=1, train_alpha=False,
-                                     texture_scales=(0.5, 0.5), fitted_mips=True)
-    before = score(latent.export())
-    optimiser = torch.optim.Adam(latent.parameter_groups()["textures"], lr=0.02)
-    for step in range(40):
-        camera, light = views(100 + step, 2)
-        optimiser.zero_grad()
-        image = latent.render(camera, light, resolution)[..., :3]
-        (image - reference.render(camera, light, resolution, 8)[..., :3]).square().mean().backward()
-        optimiser.step()
-    after = score(latent.export())
-    assert after > before + 1.0, (before, after)
+    start = make_latent(size=8).export()
+    assert mesh_latent(bumpy_sphere(), start, with_overrides(None, fitted_mips=True), moving=False).kd_mips is not None
+    assert mesh_latent(bumpy_sphere(), start, with_overrides(None), moving=False).kd_mips is None

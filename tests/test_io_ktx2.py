@@ -122,3 +122,12 @@ def test_a_model_s_own_mips_are_written_as_ktx2_and_read_back_level_for_level(tm
     io.save(asset, tmp_path / "png.glb")                      # without an encoder: PNG alone, mips box-filtered
     assert "KHR_texture_basisu" not in json.loads(_glb_json(tmp_path / "png.glb")).get("extensionsUsed", [])
     assert io.load(tmp_path / "png.glb").materials[0].kd.mips is None
+
+
+def test_gpu_memory_counts_a_ktx2_texture_as_transcoded_blocks_not_its_png_fallback(tmp_path, monkeypatch):
+    from lookalike import io
+    from lookalike.io.gpu_memory import gpu_bytes
+
+    _basisu(monkeypatch)
+    io.save(_asset_with_fitted_mips(), tmp_path / "mips.glb")
+    assert gpu_bytes(tmp_path / "mips.glb")["textures"] == round(16 * 16 * 1 * 4 / 3)

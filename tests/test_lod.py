@@ -39,6 +39,13 @@ def test_the_switch_distance_puts_the_sphere_at_the_level_s_size():
     assert 1080 * 2.0 / (2 * d * math.tan(math.radians(30.0))) == pytest.approx(128)
 
 
+def test_the_chain_s_budget_follows_the_levels_sizes():
+    from lookalike.jobs.lod import level_budgets
+
+    budgets = level_budgets([Level(8000, 512), Level(2000, 128), Level(500, 32)], 900.0)
+    assert budgets == pytest.approx([900 * 512 / 704, 900 * 128 / 704, 900 * 64 / 704])
+
+
 def test_a_level_is_fitted_at_its_size_as_an_engine_draws_it():
     settings = level_settings(Level(500, 32), 60.0)
     assert settings["resolution"] == max(16, -(-32 * FRAMING // 1))

@@ -8,7 +8,7 @@ model drawn with one sample per pixel and mipmapped lookups, as an engine draws 
 settings of its size (``level_settings``: views that show the sphere at that size, textures
 sized to the level). Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a
 chain run again resumes an interrupted level and keeps the finished ones. The time budget is
-the chain's, split over the levels by their pixel counts. ``lods.json`` lists the levels;
+the chain's, split over the levels by their sizes (``level_budgets``). ``lods.json`` lists the levels;
 ``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``).
 """
 
@@ -25,12 +25,11 @@ from ..errors import ConfigError
 from ..io.atomic import write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
-from ..io.ktx2 import find_encoder
 from ..limits import MAX_TEXTURE_SIZE
-from ..settings import Config, RenderConfig, ViewsConfig
+from ..settings import Config, RenderConfig, ViewsConfig, load_config
 from ..shading.view_sampling import FRAMING
 from .outdir import CHECKPOINT_NAME, check_outdir
-from .outputs import METRICS_NAME, MODEL_NAME
+from .outputs import CONFIG_NAME, METRICS_NAME, MODEL_NAME
 from .run import Application, run
 from .simplify import build_initial_guess
 
@@ -51,6 +50,7 @@ MIN_TRIANGLES = 100
 CHAIN_NAME = "lods.glb"
 """The chain in one file, as ``MSFT_lod`` lays it out (``io.gltf_lod_chain``)."""
 
+BUDGET_MIN_PIXELS = 64
 CHAIN_BUDGET = 900.0
 """The whole chain's default time budget, in seconds."""
 
@@ -120,16 +120,23 @@ def screen_size_settings(pixels: int) -> dict:
     """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
     pixel (a power of two), the reference supersampled, the model drawn with one sample per
-    pixel and the training distances spread around the size (``LEVEL.defaults``); every mip
-    level of its maps fitted where they can be written as KTX2 mip chains (the ``basisu``
-    encoder is found, ``io.ktx2``), else box-filtered from the maps as an engine builds them
-    from a PNG. ``ConfigError`` below ``MIN_PIXELS``."""
+    pixel and the training distances spread around the size (``LEVEL.defaults``).
+    ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
     return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
             "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
-            "distance_spread": LEVEL.defaults.views.distance_spread, "fitted_mips": find_encoder() is not None}
+            "distance_spread": LEVEL.defaults.views.distance_spread}
+
+
+def level_budgets(levels: list[Level], seconds: float) -> list[float]:
+    """``seconds`` split over ``levels`` in proportion to their sizes in pixels (at least
+    ``BUDGET_MIN_PIXELS``): a small level's step is cheap, but its fit needs about as many
+    steps as a large one's and starts further from its target, so it gets more than its share
+    of pixels (a 32-pixel level of 8000@512, 2000@128, 500@32 gets 9 %, not 1.5 %)."""
+    weights = [max(level.pixels, BUDGET_MIN_PIXELS) for level in levels]
+    return [seconds * weight / sum(weights) for weight in weights]
 
 
 def level_settings(level: Level, seconds: float) -> dict:
@@ -153,20 +160,21 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
     resume = options.pop("resume", False)
     if not resume:
         check_outdir(outdir, force=options.get("force", False), resume=False)
-    weights = [max(level.pixels, 64) ** 2 for level in levels]
+    budgets = level_budgets(levels, time_budget)
     starts = [0.0] + [switch_distance(radius, c * VIEWPORT_HEIGHT) for c in switch_coverages(levels)[:-1]]
     rows = []
-    for k, (level, weight) in enumerate(zip(levels, weights)):
+    for k, (level, seconds) in enumerate(zip(levels, budgets)):
         folder = outdir / f"lod{k}"
-        settings = level_settings(level, time_budget * weight / sum(weights))
+        settings = level_settings(level, seconds)
         if not (resume and _finished(folder)):
             run(LEVEL, asset, folder, config=config, **settings,
                 **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
         metrics = json.loads((folder / METRICS_NAME).read_text())
         ours = metrics["heldout"]["ours"]
         model = folder / MODEL_NAME
+        fitted_mips = load_config(folder / CONFIG_NAME).latent.fitted_mips
         rows.append({"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
-                     "texture_size": settings["texture_size"], "fitted_mips": settings["fitted_mips"],
+                     "texture_size": settings["texture_size"], "fitted_mips": fitted_mips,
                      "switch_distance": starts[k],
                      "folder": folder.name, "seconds": metrics["seconds"]["total"],
                      "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),

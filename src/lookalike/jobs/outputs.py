@@ -26,6 +26,7 @@ from ..report.record import RunRecord
 
 MODEL_NAME = "model.glb"
 REPORT_NAME = "report.html"
+CONFIG_NAME = "config.toml"
 METRICS_NAME = "metrics.json"
 
 

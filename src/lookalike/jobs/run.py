@@ -61,7 +61,7 @@ from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .input_asset import prepare_input
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
-from .outputs import MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
+from .outputs import CONFIG_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
 from .written_model import WrittenModel
@@ -479,7 +479,7 @@ def write_outputs(s: _Session, cfg: Config, export: Asset, record: RunRecord) ->
     with staged_outputs(s.outdir) as staging:
         with s.stage("export"):
             write_model(export, staging, cfg.io.export_obj)
-        write_text_atomic(staging / "config.toml", to_toml(cfg))
+        write_text_atomic(staging / CONFIG_NAME, to_toml(cfg))
         if s.recorder is not None:
             record.profile = s.recorder.as_dict()
         with s.stage("report"):
