@@ -8,8 +8,8 @@ model drawn with one sample per pixel and mipmapped lookups, as an engine draws 
 settings of its size (``level_settings``: views that show the sphere at that size, textures
 sized to the level). Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a
 chain run again resumes an interrupted level and keeps the finished ones. The time budget is
-the chain's, split over the levels by their sizes (``level_budgets``). ``lods.json`` lists the levels;
-``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``).
+the chain's, split over the levels by their sizes (``level_budgets``). ``lods.json`` lists the
+levels; ``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``).
 """
 
 from __future__ import annotations
