@@ -5,7 +5,10 @@ draw, and file bytes (PNG, quantised buffers) say little about that."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
+
+from PIL import Image
 
 from .gltf_data import GltfData, parse_gltf
 from .ktx2 import read_ktx2
@@ -45,7 +48,7 @@ def gpu_bytes(path: str | Path) -> dict[str, int]:
             parsed = read_ktx2(data.image_bytes(basisu["source"]))
             images[basisu["source"]] = (parsed.width, parsed.height, BLOCK_TEXEL_BYTES)
         elif texture.source is not None:
-            height, width = data.image(texture.source).shape[:2]
-            images[texture.source] = (width, height, RGBA8_TEXEL_BYTES)
+            with Image.open(io.BytesIO(data.image_bytes(texture.source))) as image:  # the header, not the pixels
+                images[texture.source] = (*image.size, RGBA8_TEXEL_BYTES)
     textures = sum(round(width * height * texel * MIP_CHAIN) for width, height, texel in images.values())
     return {"buffers": int(buffers), "textures": int(textures), "total": int(buffers + textures)}

@@ -43,8 +43,6 @@ INDEX = struct.Struct("<IIIIQQ")
 """dfdByteOffset, dfdByteLength, kvdByteOffset, kvdByteLength, sgdByteOffset, sgdByteLength."""
 LEVEL = struct.Struct("<QQQ")
 """byteOffset, byteLength, uncompressedByteLength of one level."""
-ZSTANDARD = 2
-"""``supercompressionScheme`` of Zstandard."""
 
 ENCODER_ENVIRONMENT = "LOOKALIKE_BASISU"
 """Names the ``basisu`` executable where it is not on ``PATH``."""
