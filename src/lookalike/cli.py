@@ -10,7 +10,7 @@ import signal
 import sys
 
 from .commands import command_modules
-from .errors import LookalikeError
+from .errors import LookalikeError, UserCodeError
 from .version import __version__
 
 
@@ -83,6 +83,9 @@ def main(argv: list[str] | None = None) -> int:
     with StopSignals() as stop:
         try:
             status = _command_module(args.command).run(args)
+        except UserCodeError as e:
+            print(f"lookalike {args.command}: error in your code: {e}", file=sys.stderr)
+            return 2
         except LookalikeError as e:
             print(f"lookalike {args.command}: error: {e}", file=sys.stderr)
             return 2

@@ -25,3 +25,17 @@ class AssetError(LookalikeError):
 
 class ConfigError(LookalikeError):
     """A configuration value or command-line option is invalid."""
+
+
+class UserCodeError(LookalikeError):
+    """The user's own code (a field in a ``.py`` file) raised, or a shader of theirs did not
+    compile: the message is their file, line and error, not ours.
+
+    ``UserCodeError("field.py", 7, "ZeroDivisionError: division by zero", "sdf")`` reads
+    ``"field.py, line 7, in sdf: ZeroDivisionError: division by zero"``.
+    """
+
+    def __init__(self, path: str | Path, line: int | None, problem: str, function: str | None = None):
+        self.path, self.line, self.problem = Path(path), line, problem
+        where = "".join([f", line {line}" if line else "", f", in {function}" if function else ""])
+        super().__init__(f"{self.path}{where}: {problem}")

@@ -7,6 +7,7 @@ import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .implicit import ImplicitSurface
 from .material import Material
 from .mesh import Mesh
 from .skin import Animation, Skin
@@ -22,6 +23,8 @@ class Asset:
         skin: skeleton, or ``None``.
         animations: clips that drive ``skin``.
         source: the file it was read from, if any.
+        field: the implicit surface the asset was made from (``mesh`` is then its marching-cubes
+            mesh, and a reference shows the field itself), or ``None``.
     """
 
     mesh: Mesh
@@ -29,6 +32,7 @@ class Asset:
     skin: Skin | None = None
     animations: list[Animation] = field(default_factory=list)
     source: Path | None = None
+    field: ImplicitSurface | None = None
 
     @property
     def name(self) -> str:
@@ -36,12 +40,14 @@ class Asset:
 
     def fingerprint(self) -> str:
         """SHA-256 (hex) of the content: positions, triangles, normals, UVs, vertex colours,
-        material indices and every material's textures and alpha mode; the same wherever the
-        asset was read from, different when any of these differ."""
+        material indices and every material's textures and alpha mode, and the implicit surface's
+        source; the same wherever the asset was read from, different when any of these differ."""
         mesh = self.mesh
         tensors = [mesh.v_pos, mesh.t_pos_idx, mesh.t_mat_idx, *(t for uv in mesh.uv for t in uv)]
         tensors += [t for t in (mesh.v_nrm, mesh.t_nrm_idx, mesh.v_color) if t is not None]
         digest = hashlib.sha256()
+        if self.field is not None:
+            digest.update(self.field.fingerprint().encode())
         for material in self.materials:
             digest.update(material.alpha_mode.encode())
             tensors += [t.data for t in (material.kd, material.ks, material.normal) if t is not None]

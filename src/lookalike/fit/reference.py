@@ -3,8 +3,9 @@
 The optimisation treats the reference renderer as a black box: a :class:`Reference` renders
 target images for given cameras, lights and, where it moves, poses. :class:`MeshReference` is
 an input asset rendered by our own pipeline, supersampled; :class:`SkinnedReference` is an
-animated one, posed by its skeleton at each view's clip and time. Future references (a signed
-distance field, a path tracer) implement the same protocol.
+animated one, posed by its skeleton at each view's clip and time; :class:`FieldReference` is
+an implicit surface, sphere-traced. Future references (a path tracer) implement the same
+protocol.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.pipeline import FixedAsset, render
 from ..shading.relight import CapturedView, capture_view
+from ..shading.glsl_tracing import GlslTracer
+from ..shading.sphere_tracing import render_field
 
 RENDER_CHUNK = 4
 """Views rendered together over a large batch (bounds the memory of supersampled renders)."""
@@ -100,6 +103,27 @@ class SkinnedReference:
         lo, hi = points.min(dim=0).values, points.max(dim=0).values
         centre = 0.5 * (lo + hi)
         return centre, float((points - centre).norm(dim=-1).max())
+
+
+class FieldReference:
+    """An implicit surface (``lookalike.asset.implicit.ImplicitSurface``) sphere-traced,
+    supersampled: in torch (``lookalike.shading.sphere_tracing``), or a GLSL field in OpenGL
+    (``lookalike.shading.glsl_tracing``); ``sphere``: the bounding sphere of what it shows (its
+    marching-cubes mesh's, tighter than its bounds)."""
+
+    def __init__(self, surface, sphere: tuple[torch.Tensor, float]):
+        self.surface, self.sphere = surface, sphere
+        self.tracer = GlslTracer(surface) if surface.kind == "glsl" else None
+
+    @torch.no_grad()
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               pose: Poses | None = None) -> torch.Tensor:
+        if self.tracer is not None:
+            return self.tracer.render(camera, light, resolution, spp)
+        return render_field(self.surface, camera, light, resolution, spp)
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        return self.sphere
 
 
 CHUNK_SAMPLES = RENDER_CHUNK * 4096 ** 2

@@ -318,7 +318,12 @@ def _mips(mips: FittedMips | None, texture: torch.Tensor) -> list[torch.Tensor]:
 def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:
     """The material channels (``"kd"``, ``"ks"``) that hold one value over the whole of
     ``asset``: every material's texture of that channel varies by at most ``tolerance`` and all
-    materials agree (and, for ``"kd"``, the mesh has no vertex colours)."""
+    materials agree (and, for ``"kd"``, the mesh has no vertex colours); for an implicit
+    surface, both where its field gives no material, else neither (its mesh's material is only
+    the mean of the field's)."""
+    if asset.field is not None:
+        return frozenset() if asset.field.material is not None else frozenset({"kd", "ks"})
+
     def constant(textures: list[torch.Tensor]) -> bool:
         texels = torch.cat([t.detach().reshape(-1, t.shape[-1]) for t in textures])
         return bool((texels.max(dim=0).values - texels.min(dim=0).values).max() <= tolerance)

@@ -13,7 +13,8 @@ is one-sided, since the renderer culls it (``first_seen``). The hit closest to `
 ``|signed distance|``) of either ray wins; on a tie the outward (``+n``) hit wins. Texels whose
 rays both miss take the closest point of the reference (``lookalike.init.closest_point``).
 
-At that point the reference's material and shading normal ``s`` (``ReferenceSurface``) are read;
+At that point the reference's material and shading normal ``s`` (``ReferenceSurface``; for an
+implicit surface's marching-cubes mesh, the field's own, ``FieldSurface``) are read;
 where the point's triangle faces away from ``n`` (a double-sided surface seen from behind, or a
 closest point) ``s`` is flipped, as the renderer flips it. The baked normal map holds
 ``normalize(s.t, s.b, s.n)``, so that our renderer's
@@ -45,6 +46,7 @@ from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from .atlas import merged_modes
 from .closest_point import SurfaceQuery
+from .field_surface import FieldSurface
 from .raycast import RayCaster, RayHits
 from .reference_surface import ReferenceSurface
 
@@ -322,7 +324,8 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     if len(texels.rows) == 0:
         raise ConfigError(f"the low-poly mesh's UV atlas covers no texel of a {texture_size}^2 texture")
     points = locate_on_reference(reference, texels, cage)
-    values = ReferenceSurface(reference).sample(torch.from_numpy(points.triangle), torch.from_numpy(points.barycentric),
+    surface = FieldSurface(reference) if reference.field is not None else ReferenceSurface(reference)
+    values = surface.sample(torch.from_numpy(points.triangle), torch.from_numpy(points.barycentric),
                                                 torch.from_numpy(texels.footprint))
     seen = values.normal.double().numpy() * np.where(points.back, -1.0, 1.0)[:, None]
     channels = {"kd": values.kd.numpy(), "ks": values.ks.numpy(), "normal": to_tangent_space(seen, texels)}

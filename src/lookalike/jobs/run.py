@@ -41,7 +41,7 @@ from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.from_settings import loop_settings, objective
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
-from ..fit.reference import MeshReference, Reference, SkinnedReference
+from ..fit.reference import FieldReference, MeshReference, Reference, SkinnedReference
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
@@ -77,14 +77,22 @@ validation renders of its candidate cutoffs (``lookalike.jobs.alpha_export``).""
 OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
 
+FIELD_MARGIN = 1.0 / 64
+"""An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
+(which marching cubes places within a cube of the surface)."""
+
 POOL_STREAM, TEXTURE_STREAM = 1, 2
 """Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
 optimisation loop itself draws from ``default_rng(seed)``)."""
 
 
 def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
-    """The input drawn by our pipeline: posed per view where ``moving``, else still, with
-    ``render.reference_layers`` depth-peeled layers."""
+    """The input drawn by its own renderer: an implicit surface sphere-traced (in a sphere
+    around its mesh, one marching-cubes cube wider); a mesh by our pipeline, posed per view
+    where ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
+    if asset.field is not None:
+        centre, radius = asset.mesh.bounding_sphere()
+        return FieldReference(asset.field, (centre, radius + FIELD_MARGIN * float((asset.field.hi - asset.field.lo).max())))
     return SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.reference_layers)
 
 

@@ -1,0 +1,128 @@
+"""Implicit surfaces: a signed distance field and its material, in the asset's units (paper
+Sec. 5.5), and their triangle mesh by marching cubes.
+
+A field's *value* at a point is its signed distance to the surface, negative inside; sphere
+tracing steps by it, so it must never exceed the true distance (a 1-Lipschitz field, as the
+usual SDF primitives and their unions are). Its *material* gives the linear base colour and,
+optionally, roughness and metalness of points on the surface.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .mesh import Mesh
+
+Field = Callable[[torch.Tensor], torch.Tensor]
+"""``[N, 3]`` float32 points -> ``[N]`` float32 signed distances (negative inside)."""
+
+MaterialField = Callable[[torch.Tensor], dict]
+"""``[N, 3]`` float32 points -> ``{"base_color": [N, 3], "roughness": [N], "metallic": [N]}``
+(linear colour; roughness and metallic optional)."""
+
+DEFAULT_BASE_COLOR = (0.75, 0.72, 0.68)
+DEFAULT_ROUGHNESS = 0.45
+"""The material of a field that gives none (or of the channels it leaves out): an untextured
+mesh's (``Material``'s defaults)."""
+
+CHUNK_POINTS = 1 << 18
+"""Points a field is asked for at once (bounds the memory of its intermediate tensors)."""
+
+
+@dataclass
+class ImplicitSurface:
+    """A surface given by a signed distance field.
+
+    Attributes:
+        sdf: ``Field``; ``material``: ``MaterialField`` or ``None`` (``DEFAULT_BASE_COLOR``, ``DEFAULT_ROUGHNESS``).
+        lo, hi: ``[3]`` float32 corners of the box that holds the surface (``bounds``).
+        text: the source it was made from (its fingerprint).
+        kind: ``"python"`` or ``"glsl"``: the language of ``text``, which picks its renderer.
+        path: the file ``text`` was read from (named in errors), or ``None``.
+    """
+
+    sdf: Field
+    material: MaterialField | None
+    lo: torch.Tensor
+    hi: torch.Tensor
+    text: str
+    kind: str = "python"
+    path: Path | None = None
+
+    def distance(self, points: torch.Tensor) -> torch.Tensor:
+        """``sdf`` of ``points [N, 3]`` -> ``[N]`` float32, asked ``CHUNK_POINTS`` at a time."""
+        return torch.cat([self.sdf(points[i:i + CHUNK_POINTS]).reshape(-1).float()
+                          for i in range(0, points.shape[0], CHUNK_POINTS)] or [points.new_zeros(0)])
+
+    def channels(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(kd [N, 3] linear base colour, ks [N, 3] = (0, roughness, metalness))`` at
+        ``points [N, 3]``, clamped to [0, 1]; the defaults where ``material`` gives none."""
+        n = points.shape[0]
+        kd = torch.tensor(DEFAULT_BASE_COLOR).expand(n, 3)
+        ks = torch.tensor([0.0, DEFAULT_ROUGHNESS, 0.0]).expand(n, 3).clone()
+        if self.material is None or n == 0:
+            return kd.clone(), ks
+        kds, roughs, metals = [], [], []
+        for i in range(0, n, CHUNK_POINTS):
+            values = self.material(points[i:i + CHUNK_POINTS])
+            count = min(CHUNK_POINTS, n - i)
+            kds.append(torch.as_tensor(values["base_color"]).float().reshape(count, 3))
+            roughs.append(torch.as_tensor(values.get("roughness", DEFAULT_ROUGHNESS)).float().expand(count))
+            metals.append(torch.as_tensor(values.get("metallic", 0.0)).float().expand(count))
+        ks[:, 1], ks[:, 2] = torch.cat(roughs), torch.cat(metals)
+        return torch.cat(kds).clamp(0.0, 1.0), ks.clamp(0.0, 1.0)
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        """``(centre [3], radius)`` of the bounds box (the surface lies inside it)."""
+        return 0.5 * (self.lo + self.hi), float(0.5 * (self.hi - self.lo).norm())
+
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of ``kind``, ``text`` and the bounds."""
+        return hashlib.sha256(f"{self.kind}\n{self.text}\n{self.lo.tolist()}{self.hi.tolist()}".encode()).hexdigest()
+
+
+def grid_points(lo: torch.Tensor, hi: torch.Tensor, cells: int) -> tuple[torch.Tensor, tuple[int, int, int], float]:
+    """The corners of a grid of cubes of side ``h`` over the box ``lo``–``hi`` (``[3]``), about
+    ``cells`` along its longest side, padded by one cube on every side: ``(points [X*Y*Z, 3]``
+    in x-major order, ``(X, Y, Z)``, ``h)``."""
+    h = float((hi - lo).max()) / cells
+    counts = [int(math.ceil(float(e) / h)) + 3 for e in (hi - lo)]
+    axes = [float(lo[k]) - h + h * torch.arange(counts[k], dtype=torch.float64) for k in range(3)]
+    grid = torch.stack(torch.meshgrid(*axes, indexing="ij"), dim=-1).reshape(-1, 3).float()
+    return grid, (counts[0], counts[1], counts[2]), h
+
+
+def field_mesh(surface: ImplicitSurface, cells: int) -> Mesh:
+    """The zero level set of ``surface`` as a welded triangle mesh (marching cubes, scikit-image's
+    ``measure.marching_cubes``, on a grid of about ``cells`` cubes along the bounds' longest
+    side), front faces outwards, with ``material``'s base colour at the vertices (``v_color``).
+    Raises ``ValueError`` saying what is wrong where the field has no zero crossing on the grid,
+    or is negative on the grid's outer layer (one cube beyond the bounds: they cut the
+    surface)."""
+    from skimage import measure
+
+    grid, shape, h = grid_points(surface.lo, surface.hi, cells)
+    values = surface.distance(grid).reshape(shape).numpy()
+    if not (values.min() < 0.0 < values.max()):
+        raise ValueError("positive everywhere in its bounds (it must be negative inside)" if values.min() >= 0.0 else
+                         "negative everywhere in its bounds (no surface: the bounds lie inside it)")
+    shell = np.ones(shape, bool)
+    shell[1:-1, 1:-1, 1:-1] = False
+    inside = np.flatnonzero(shell.reshape(-1) & (values.reshape(-1) < 0.0))
+    if inside.size:
+        x, y, z = grid[int(inside[0])].tolist()
+        raise ValueError(f"negative just outside its bounds, at ({x:.4g}, {y:.4g}, {z:.4g}): the bounds cut the "
+                         "surface; enlarge them")
+    verts, faces, _, _ = measure.marching_cubes(values, level=0.0, spacing=(h, h, h), allow_degenerate=False)
+    v_pos = torch.from_numpy(verts.astype(np.float32)) + grid[0]
+    t_pos_idx = torch.from_numpy(faces.astype(np.int64))  # counter-clockwise seen from outside
+    kd, _ = surface.channels(v_pos)
+    colour = torch.cat([kd, torch.ones(kd.shape[0], 1)], dim=1)
+    return Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, v_color=colour)

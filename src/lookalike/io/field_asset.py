@@ -1,0 +1,75 @@
+"""An implicit surface as the asset a run reads: its marching-cubes mesh, coloured at the
+vertices, with the surface itself attached (``Asset.field``) for the reference to draw."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+
+from ..asset import Asset, Material, Texture
+from ..asset.implicit import ImplicitSurface, field_mesh
+from ..errors import AssetError
+
+FIELD_CELLS = 160
+"""Marching-cubes cubes along the bounds' longest side: the asset's mesh (what plain decimation
+and the classic bake start from) resolves detail down to about 1/160 of the object."""
+
+PALETTE_STEPS = 8
+"""Roughness and metalness of the asset's triangles are rounded to multiples of 1 / this, one
+material per pair that occurs (a mesh holds colour per vertex, not roughness)."""
+
+
+def palette_materials(mesh, ks: torch.Tensor) -> tuple[list[Material], torch.Tensor]:
+    """One material per (roughness, metalness) pair of ``mesh``'s triangles (the mean of
+    ``ks [V, 3]`` over each triangle's corners, rounded to ``PALETTE_STEPS``), white base colour
+    (the vertex colours give it), and each triangle's material index ``[T]``."""
+    per_triangle = ks[mesh.t_pos_idx].mean(dim=1)[:, 1:]
+    keys = torch.round(per_triangle * PALETTE_STEPS).long()
+    pairs, index = torch.unique(keys, dim=0, return_inverse=True)
+    materials = [Material(kd=Texture.constant([1.0, 1.0, 1.0, 1.0]),
+                          ks=Texture.constant([0.0, *(pair.float() / PALETTE_STEPS).tolist()])) for pair in pairs]
+    return materials, index
+
+
+def field_asset(surface: ImplicitSurface, path: Path, cells: int = FIELD_CELLS) -> Asset:
+    """``surface`` (read from ``path``) as an ``Asset``: ``field_mesh`` at ``cells`` with its
+    base colour at the vertices, its roughness and metalness as a palette of materials
+    (``palette_materials``), and ``field = surface``. ``AssetError`` where the field has no
+    surface in its bounds."""
+    try:
+        mesh = field_mesh(surface, cells)
+    except ValueError as e:
+        raise AssetError(path, f"the field is {e}") from None
+    _, ks = surface.channels(mesh.v_pos)
+    materials, mesh.t_mat_idx = palette_materials(mesh, ks)
+    return Asset(mesh=mesh, materials=materials, field=surface)
+
+
+def checked_distances(values, points: torch.Tensor, path: Path) -> torch.Tensor:
+    """A field's ``values`` at ``points [N, 3]`` as ``[N]`` float32; ``AssetError`` naming
+    ``path`` where there is not one per point or one is not finite (with where it is)."""
+    values = torch.as_tensor(values).detach().float()
+    if values.numel() != points.shape[0]:
+        raise AssetError(path, f"sdf(p) returned shape {tuple(values.shape)} for {points.shape[0]} points; "
+                         "it must return one distance per point, [N]")
+    values = values.reshape(-1)
+    bad = torch.nonzero(~torch.isfinite(values))
+    if bad.numel():
+        x, y, z = points[bad[0, 0]].tolist()
+        raise AssetError(path, f"the field is {values[bad[0, 0]].item()} at ({x:.4g}, {y:.4g}, {z:.4g})")
+    return values
+
+
+def parse_bounds(values, path: Path) -> tuple[torch.Tensor, torch.Tensor]:
+    """``((xmin, ymin, zmin), (xmax, ymax, zmax))`` as two ``[3]`` float32 tensors; ``AssetError``
+    unless it is two triples with every minimum below its maximum."""
+    try:
+        lo, hi = (torch.tensor([float(x) for x in corner], dtype=torch.float32) for corner in values)
+    except (TypeError, ValueError):
+        lo = hi = None
+    if lo is None or lo.shape != (3,) or hi.shape != (3,):
+        raise AssetError(path, f"bounds must be ((xmin, ymin, zmin), (xmax, ymax, zmax)), not {values!r}")
+    if not bool((lo < hi).all()) or not bool(torch.isfinite(lo).all() and torch.isfinite(hi).all()):
+        raise AssetError(path, f"bounds must have each minimum below its maximum, not {values!r}")
+    return lo, hi

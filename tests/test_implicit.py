@@ -1,0 +1,181 @@
+"""Implicit surfaces: the sphere tracers (torch and GLSL), marching cubes, the field's own bake,
+the readers' answers to bad fields, and a short run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from field_factory import box_field, sphere_field, sphere_volume, write_fields
+from lookalike import io
+from lookalike.asset.implicit import field_mesh
+from lookalike.cli import main
+from lookalike.errors import AssetError, UserCodeError
+from lookalike.fit.reference import FieldReference
+from lookalike.init import decimate
+from lookalike.init.field_surface import FieldSurface
+from lookalike.report.metrics import psnr
+from lookalike.shading.sphere_tracing import HIT_FRACTION, field_normals, primary_rays, sphere_trace
+from lookalike.shading.view_sampling import random_lights, random_views
+
+
+def gl_available() -> bool:
+    try:
+        import moderngl
+        moderngl.create_standalone_context(backend="egl", require=330).release()
+        return True
+    except Exception:
+        return False
+
+
+needs_gl = pytest.mark.skipif(not gl_available(), reason="no headless OpenGL (Debian's libegl1, libegl-mesa0, "
+                              "libgl1-mesa-dri; see the README)")
+
+
+def traced(surface, views: int = 3, size: int = 64):
+    """Rays of ``views`` random cameras at ``size`` pixels and where they hit ``surface``."""
+    centre, radius = surface.bounding_sphere()
+    camera = random_views(torch.zeros(3), 0.6, views, np.random.default_rng(5))
+    origins, directions, footprint = (x.reshape(-1, *x.shape[2:]) for x in primary_rays(camera, size, size))
+    t, hit = sphere_trace(surface.distance, origins, directions, footprint, surface.lo, surface.hi)
+    return origins, directions, footprint, t, hit
+
+
+def test_the_tracer_finds_a_sphere_within_a_fraction_of_a_pixel_with_its_normals():
+    origins, directions, footprint, t, hit = traced(sphere_field(0.5))
+    # the exact intersection of each ray with the sphere
+    b = (origins * directions).sum(-1)
+    disc = b * b - ((origins * origins).sum(-1) - 0.25)
+    exact = disc > 0
+    margin = (disc.clamp(min=0).sqrt() / 1.0) > 2 * footprint * (-b)  # rays clearly inside the silhouette
+    assert bool(hit[exact & margin].all()) and not bool(hit[~exact & (disc < -(footprint * -b) ** 2 * 16)].any())
+    points = origins[hit] + t[hit, None] * directions[hit]
+    error = (points.norm(dim=-1) - 0.5).abs()
+    assert float((error / (footprint[hit] * t[hit])).max()) <= HIT_FRACTION * 1.01
+    normals = field_normals(sphere_field(0.5).distance, points, 1e-4)
+    cosine = (normals * points / points.norm(dim=-1, keepdim=True)).sum(-1)
+    assert float(cosine.min()) > 0.9999
+
+
+def test_the_tracer_finds_a_box_within_a_fraction_of_a_pixel_with_its_face_normals():
+    half = torch.tensor([0.4, 0.25, 0.3])
+    field = box_field(tuple(half.tolist()))
+    origins, directions, footprint, t, hit = traced(field)
+    assert int(hit.sum()) > 1000
+    points = origins[hit] + t[hit, None] * directions[hit]
+    error = field.distance(points).abs() / (footprint[hit] * t[hit])  # in pixels
+    # a ray grazing an edge may stop at its late-hit test, still within a quarter of a pixel
+    assert float(error.max()) < 0.25 and float(error.quantile(0.99)) <= HIT_FRACTION * 1.01
+    q = points.abs() / half
+    axis = q.argmax(dim=-1)
+    clear = (q.topk(2, dim=-1).values[:, 0] - q.topk(2, dim=-1).values[:, 1]) > 0.02  # away from edges
+    expected = torch.nn.functional.one_hot(axis, 3).float() * points.sign()
+    normals = field_normals(field.distance, points, 1e-4)
+    assert float((normals[clear] * expected[clear]).sum(-1).min()) > 0.9999
+
+
+@needs_gl
+def test_the_python_and_glsl_renderers_of_one_field_agree(tmp_path):
+    python, glsl = write_fields(tmp_path)
+    from_python, from_glsl = io.load(python), io.load(glsl)
+    assert from_glsl.field.kind == "glsl" and from_python.field.kind == "python"
+    centre, radius = from_python.mesh.bounding_sphere()
+    camera = random_views(centre, radius, 4, np.random.default_rng(2))
+    light = random_lights(camera, centre, np.random.default_rng(3))
+    images = [FieldReference(a.field, (centre, radius)).render(camera, light, 128, 2) for a in (from_python, from_glsl)]
+    assert float(images[0][..., 3].mean()) > 0.1
+    assert psnr(images[0], images[1]) > 40.0
+
+
+def test_marching_cubes_and_decimation_of_a_sphere_is_watertight_with_its_volume():
+    mesh = decimate(field_mesh(sphere_field(0.5), 48), 500)
+    faces = mesh.t_pos_idx
+    edges = torch.cat([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    # watertight and consistently oriented: every directed edge once, and its reverse once
+    directed = set(map(tuple, edges.tolist()))
+    assert len(directed) == edges.shape[0] and all((b, a) in directed for a, b in directed)
+    v = mesh.v_pos[faces].double()
+    volume = float((torch.linalg.cross(v[:, 0], v[:, 1]) * v[:, 2]).sum() / 6)
+    assert volume == pytest.approx(sphere_volume(0.5), rel=0.02)
+
+
+def test_the_field_bake_reads_the_field_on_its_surface_not_the_mesh(tmp_path):
+    python, _ = write_fields(tmp_path)
+    asset = io.load(python)
+    triangle = torch.arange(0, asset.mesh.num_triangles, 97)
+    bary = torch.full((triangle.shape[0], 3), 1.0 / 3.0)
+    values = FieldSurface(asset).sample(triangle, bary, torch.zeros(triangle.shape[0]))
+    corners = asset.mesh.v_pos[asset.mesh.t_pos_idx[triangle]].mean(dim=1)
+    # the sampled points lie on the surface: the field's own normal and colour there
+    assert float(asset.field.distance(corners).abs().max()) > 1e-4
+    assert values.kd.shape == (triangle.shape[0], 4) and float(values.ks[:, 1].min()) >= 0.3 - 1e-6
+    assert float(values.normal.norm(dim=-1).sub(1).abs().max()) < 1e-5
+
+
+@pytest.mark.parametrize("source, words", [
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) + 1.0\n", "positive everywhere"),
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 3.0\n", "negative everywhere"),
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 1.5\n", "cut the surface"),
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return (p.norm(dim=-1) - 0.5) / 0.0 * 0.0\n", "is nan at"),
+    ("def sdf(p):\n    return p.norm(dim=-1) - 0.5\n", "defines no bounds"),
+    ("bounds = ((1, -1, -1), (-1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 0.5\n", "minimum below"),
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\n", "defines no function sdf"),
+    ("bounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm() - 0.5\n", "[N]"),
+])
+def test_a_bad_python_field_gets_one_line_naming_the_file(tmp_path, source, words):
+    path = tmp_path / "bad.py"
+    path.write_text(source)
+    with pytest.raises(AssetError) as caught:
+        io.load(path)
+    assert str(path) in str(caught.value) and words in str(caught.value)
+
+
+def test_an_error_in_the_users_python_is_reported_at_their_line(tmp_path, capsys):
+    path = tmp_path / "field.py"
+    path.write_text("import torch\nbounds = ((-1, -1, -1), (1, 1, 1))\n\ndef sdf(p):\n"
+                    "    scale = {}['size']\n    return p.norm(dim=-1) - scale\n")
+    with pytest.raises(UserCodeError) as caught:
+        io.load(path)
+    assert str(caught.value) == f"{path}, line 5, in sdf: KeyError: 'size'"
+    path.write_text("import torch\nbounds = (\n")
+    with pytest.raises(UserCodeError, match=r"line 2.*SyntaxError"):
+        io.load(path)
+    assert main(["simplify", str(path), "-o", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error in your code" in err[0] and "field.py, line 2" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+@needs_gl
+def test_a_glsl_field_that_does_not_compile_is_reported_at_its_line(tmp_path):
+    path = tmp_path / "field.glsl"
+    path.write_text("// bounds: -1 -1 -1 1 1 1\n\nfloat map(vec3 p) {\n    float r = length(p)\n"
+                    "    return r - 0.5;\n}\n")
+    with pytest.raises(UserCodeError) as caught:
+        io.load(path)
+    assert f"{path}, line 5: GLSL:" in str(caught.value)
+    path.write_text("float map(vec3 p) { return length(p) - 0.5; }\n")
+    with pytest.raises(AssetError, match="bounds"):
+        io.load(path)
+
+
+def test_the_fingerprint_follows_the_fields_source(tmp_path):
+    python, _ = write_fields(tmp_path)
+    first = io.load(python)
+    python.write_text(python.read_text().replace("0.5\n", "0.5  # the same field\n"))
+    second = io.load(python)
+    assert torch.equal(first.mesh.v_pos, second.mesh.v_pos) and first.fingerprint() != second.fingerprint()
+
+
+@pytest.mark.slow
+def test_a_short_run_on_a_field_beats_marching_cubes_then_decimation(tmp_path):
+    from lookalike.jobs.simplify import simplify
+    from lookalike.settings import config_from_dict
+    python, _ = write_fields(tmp_path)
+    tiny = {"views": {"pool_size": 16, "heldout": 8, "batch_size": 2}, "render": {"resolution": 96},
+            "latent": {"texture_size": 64}, "optim": {"checkpoint_seconds": 1e9}}
+    result = simplify(python, tmp_path / "out", triangles=200, iterations=40, config=config_from_dict(tiny),
+                      progress=False)
+    heldout = result.metrics["heldout"]
+    assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 1.0
