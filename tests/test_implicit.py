@@ -9,14 +9,14 @@ import torch
 
 from field_factory import box_field, sphere_field, sphere_volume, write_fields
 from lookalike import io
-from lookalike.asset.implicit import field_mesh
+from lookalike.asset.implicit import field_mesh, field_normals
 from lookalike.cli import main
 from lookalike.errors import AssetError, UserCodeError
 from lookalike.fit.reference import FieldReference
 from lookalike.init import decimate
 from lookalike.init.field_surface import FieldSurface
 from lookalike.report.metrics import psnr
-from lookalike.shading.sphere_tracing import HIT_FRACTION, field_normals, primary_rays, sphere_trace
+from lookalike.shading.sphere_tracing import HIT_FRACTION, primary_rays, sphere_trace
 from lookalike.shading.view_sampling import random_lights, random_views
 
 
@@ -53,7 +53,7 @@ def test_the_tracer_finds_a_sphere_within_a_fraction_of_a_pixel_with_its_normals
     points = origins[hit] + t[hit, None] * directions[hit]
     error = (points.norm(dim=-1) - 0.5).abs()
     assert float((error / (footprint[hit] * t[hit])).max()) <= HIT_FRACTION * 1.01
-    normals = field_normals(sphere_field(0.5).distance, points, 1e-4)
+    normals = field_normals(sphere_field(0.5), points)
     cosine = (normals * points / points.norm(dim=-1, keepdim=True)).sum(-1)
     assert float(cosine.min()) > 0.9999
 
@@ -71,7 +71,7 @@ def test_the_tracer_finds_a_box_within_a_fraction_of_a_pixel_with_its_face_norma
     axis = q.argmax(dim=-1)
     clear = (q.topk(2, dim=-1).values[:, 0] - q.topk(2, dim=-1).values[:, 1]) > 0.02  # away from edges
     expected = torch.nn.functional.one_hot(axis, 3).float() * points.sign()
-    normals = field_normals(field.distance, points, 1e-4)
+    normals = field_normals(field, points)
     assert float((normals[clear] * expected[clear]).sum(-1).min()) > 0.9999
 
 
@@ -179,3 +179,36 @@ def test_a_short_run_on_a_field_beats_marching_cubes_then_decimation(tmp_path):
                       progress=False)
     heldout = result.metrics["heldout"]
     assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 1.0
+
+
+def test_the_sphere_start_is_a_sphere_of_the_count_and_its_laplacian_is_absolute():
+    from lookalike.fit.textured_mesh import TexturedMesh
+    from lookalike.init.sphere_start import tessellated_sphere
+    from lookalike.init.unwrap import unwrap
+
+    centre = torch.tensor([0.1, 0.2, 0.3])
+    sphere = tessellated_sphere(centre, 2.0, 500)
+    assert 450 <= sphere.num_triangles <= 500
+    assert float((sphere.v_pos - centre).norm(dim=-1).sub(2.0).abs().max()) < 0.05
+    mesh = unwrap(sphere, texture_size=32)
+    textures = (torch.full((4, 4, 3), 0.5), torch.full((4, 4, 3), 0.5), torch.tensor([0.0, 0.0, 1.0]).expand(4, 4, 3))
+    relative, absolute = (TexturedMesh(mesh, *textures, centre, 2.0, absolute_laplacian=a) for a in (False, True))
+    assert relative.regularizers()["laplacian"] == 0.0 and float(absolute.regularizers()["laplacian"]) > 0.0
+
+
+@pytest.mark.slow
+def test_a_run_from_a_sphere_moves_towards_the_field(tmp_path):
+    from lookalike.jobs.simplify import simplify
+    from lookalike.settings import config_from_dict
+    python, _ = write_fields(tmp_path)
+    tiny = {"views": {"pool_size": 16, "heldout": 8, "batch_size": 2, "validation": 0}, "render": {"resolution": 64},
+            "latent": {"texture_size": 32}, "optim": {"checkpoint_seconds": 1e9}}
+    result = simplify(python, tmp_path / "out", triangles=320, iterations=100, init="sphere",
+                      config=config_from_dict(tiny), progress=False)
+    model = io.load(result.model)
+    field = io.load(python).field
+    fitted_error = float(field.distance(model.mesh.v_pos).abs().mean())
+    centre, radius = io.load(python).mesh.bounding_sphere()
+    sphere_error = float(field.distance(centre + radius * torch.nn.functional.normalize(model.mesh.v_pos - centre, dim=-1))
+                         .abs().mean())
+    assert fitted_error < 0.6 * sphere_error

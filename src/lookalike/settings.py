@@ -47,7 +47,7 @@ from .limits import (
 
 LOSSES = ("l1-tonemapped", "l2-tonemapped", "l2", "smape", "relative-l2")
 """The image losses ``optim.loss`` names (``lookalike.fit.losses.IMAGE_LOSSES``)."""
-INITS = ("bake", "source", "average", "random")
+INITS = ("bake", "source", "average", "random", "sphere")
 WARM_INITS = ("bake", "source")
 ALPHA_EXPORTS = ("auto", "mask", "blend")
 POSITION_STEPS = ("uniform", "local")
@@ -86,7 +86,10 @@ class LatentConfig:
             along the low-poly normals), ``"source"`` (the input's own UVs and textures, where it
             has one material with UVs; else as ``"average"``), ``"average"`` (a fresh atlas
             holding the input's mean material) or ``"random"`` (a fresh atlas with uniform
-            noise, as in the paper). Fresh normal maps start flat.
+            noise, as in the paper), or ``"sphere"`` (the paper's start for implicit surfaces: the
+            mesh too starts as a tessellated sphere around the input, with its mean material, and
+            the Laplacian regulariser holds the positions' own smoothness, not their change's).
+            Fresh normal maps start flat.
         texture_scales: how far each level of the textures moves per step, relative to a
             plain texture, finest level first, then levels of 2, 4 and 8 texels
             (``lookalike.fit.texture_pyramid``): the fine level takes small steps, so texels the
@@ -405,15 +408,18 @@ COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0,
 """Where the textures start from scratch (``average``, ``random``)."""
 WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
+SPHERE_START = StartDefaults(lr_positions=0.01, lr_textures=0.03, lr_decades=2.0, outline_views=2)
+"""Where the mesh too starts from scratch (``sphere``): its vertices travel a good part of the
+radius, and the outline views pull the silhouette into shape."""
 
 
 def start_defaults(config: Config) -> StartDefaults:
     """``WARM_START`` for a user's mesh (``io.init_mesh``: it is fitted onto the input's surface
-    and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``, else
-    ``COLD_START``."""
+    and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``,
+    ``SPHERE_START`` for ``sphere``, else ``COLD_START``."""
     if config.io.init_mesh or config.latent.init in WARM_INITS:
         return WARM_START
-    return COLD_START
+    return SPHERE_START if config.latent.init == "sphere" else COLD_START
 
 
 def learning_rates(config: Config) -> tuple[float, float]:

@@ -39,15 +39,24 @@ def field_row(case: BenchAsset, metrics: dict) -> dict:
 
 def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: dict | None) -> dict:
     """Judge the run of ``case`` in Blender against the field's marching-cubes mesh at
-    ``JUDGE_CELLS`` (``lookalike.jobs.judge.judge_run``); with the gain of ours over our bake in
-    Cycles with shadows and whether it meets the bar."""
+    ``JUDGE_CELLS`` (``lookalike.jobs.judge.judge_run``), the baselines the run's own
+    (``baselines``, or made again from its input and settings: not from the fine mesh); with the
+    gain of ours over our bake in Cycles with shadows and whether it meets the bar."""
     from .. import io
+    from ..init.initial_guess import target_triangle_count
     from ..io.field_asset import field_asset
     from ..jobs.judge import judge_run
+    from ..jobs.simplify import build_initial_guess
+    from ..settings import load_config
 
     path = assets_dir / case.path
-    fine = field_asset(io.load(path).field, path, cells=JUDGE_CELLS)
-    judged = judge_run(run_dir, fine, baselines)
+    asset = io.load(path)
+    if baselines is None:
+        cfg = load_config(run_dir / "config.toml")
+        count = target_triangle_count(cfg.latent.triangles, cfg.latent.ratio, asset.mesh.num_triangles)
+        guess = build_initial_guess(asset, cfg, count)
+        baselines = {"decimated": guess.baseline, "baked": guess.baked}
+    judged = judge_run(run_dir, field_asset(asset.field, path, cells=JUDGE_CELLS), baselines)
     cycles = judged["scores"]["cycles"]
     judged["gain_over_baked_db"] = cycles["ours"]["psnr"] - cycles["baked"]["psnr"]
     judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]

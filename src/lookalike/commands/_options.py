@@ -50,7 +50,8 @@ def add_fit_arguments(parser: argparse.ArgumentParser, defaults: Config, init: b
     length.add_argument("--iterations", type=int, metavar="N", help="number of optimisation steps (overrides the budget)")
     if init:
         parser.add_argument("--init", choices=INITS, help="how the textures start: the classic projection bake, the "
-                            "input's own maps, its mean material, or noise as in the paper "
+                            "input's own maps, its mean material, noise as in the paper, or (sphere) a tessellated sphere with the mean "
+                            "material as the start of the mesh too "
                             f"{default_text(defaults, 'init')}")
     parser.add_argument("--seed", type=int, metavar="S",
                         help=f"random seed {default_text(defaults, 'seed')}: same seed, same result")

@@ -61,7 +61,9 @@ class TexturedMesh(torch.nn.Module):
     smoothing groups, fixed at the start; the normals themselves are recomputed from the current
     positions at every render, ``lookalike.asset.normals.split_normals``), ``v_tex [VT, 2]``
     float32 and ``t_tex_idx [T, 3]`` int64 (the UV atlas), ``centre [3]`` and ``radius []`` float32, and
-    ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions,
+    ``rest_delta [V, 3]`` float32, the Laplacian differentials of the initial positions (zero
+    with ``absolute_laplacian``: the paper's regulariser for a start that is not the shape, a
+    sphere, which penalises the positions' roughness itself),
     ``position_steps [V, 1]`` float32 or ``None`` (every vertex steps alike).
 
     Args:
@@ -94,7 +96,7 @@ class TexturedMesh(torch.nn.Module):
                  texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
                  occlusion: torch.Tensor | None = None, layers: int = 1,
                  position_steps: torch.Tensor | None = None, mask_anneal: float = 0.0, coverage_ramp: float = 0.0,
-                 fitted_mips: bool = False):
+                 fitted_mips: bool = False, absolute_laplacian: bool = False):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -113,7 +115,9 @@ class TexturedMesh(torch.nn.Module):
         self.kd_mips, self.ks_mips, self.normal_mips = (
             (FittedMips(*t.shape, texture_scales) if fitted_mips else None) for t in (self.kd, self.ks, self.normal))
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
-        self.register_buffer("rest_delta", self.laplacian.differentials(unit))
+        rest = self.laplacian.differentials(unit)
+        self.register_buffer("rest_delta", torch.zeros_like(rest) if absolute_laplacian else rest)
+        self.laplacian_scale = float((rest ** 2).sum(dim=-1).mean())
         self.limits = limits
         self.msaa = msaa
         self.alpha_mode = alpha_mode
@@ -150,7 +154,7 @@ class TexturedMesh(torch.nn.Module):
     def from_asset(cls, asset: Asset, centre: torch.Tensor, radius: float, limits: ClampConfig, msaa: int,
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
                    texture_scales: tuple[float, ...] = (1.0,), layers: int = 1, position_steps: str = "uniform",
-                   mask_anneal: float = 0.0, fitted_mips: bool = False) -> TexturedMesh:
+                   mask_anneal: float = 0.0, fitted_mips: bool = False, absolute_laplacian: bool = False) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
@@ -159,7 +163,8 @@ class TexturedMesh(torch.nn.Module):
         and every texel is clamped into ``limits``. ``layers``, ``mask_anneal``: see the class;
         ``position_steps``: ``"local"`` steps each vertex by its local size
         (``lookalike.fit.position_steps``), ``"uniform"`` all alike. A trained ``"MASK"``
-        material's ``coverage_ramp`` is where the ramp starts; ``fitted_mips``: see the class."""
+        material's ``coverage_ramp`` is where the ramp starts; ``fitted_mips``,
+        ``absolute_laplacian``: see the class."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
         ks = material.ks.data
@@ -176,7 +181,7 @@ class TexturedMesh(torch.nn.Module):
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
                      layers=layers, position_steps=steps, mask_anneal=mask_anneal,
                      coverage_ramp=material.coverage_ramp if train_alpha else 0.0, fitted_mips=fitted_mips,
-                     **_emission_and_occlusion(material, size))
+                     absolute_laplacian=absolute_laplacian, **_emission_and_occlusion(material, size))
         return latent
 
     def get_extra_state(self) -> dict:
@@ -302,7 +307,7 @@ class TexturedMesh(torch.nn.Module):
     def regularizer_scales(self) -> dict[str, float]:
         """``{"laplacian": mean_i |delta'_i|^2}``, the absolute Laplacian energy of the initial
         mesh (the relative term itself is zero at the start)."""
-        return {"laplacian": float((self.rest_delta ** 2).sum(dim=-1).mean())}
+        return {"laplacian": self.laplacian_scale}
 
     def clamp_(self) -> None:
         """Nothing to do: the texture pyramids project themselves onto ``limits`` whenever they

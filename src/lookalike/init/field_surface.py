@@ -5,7 +5,7 @@ material and gradient normal, not the mesh's interpolation of them.
 Each point ``p`` on the mesh (within a marching-cubes cube of the surface) is moved onto the zero
 level set by Newton steps along the gradient, ``p <- p - f(p) g / |g|^2`` (``PROJECTION_STEPS``),
 then read: base colour, roughness and metalness from ``material(p)``, the shading normal from the
-field's unit gradient (``lookalike.shading.sphere_tracing.field_normals``), as the sphere tracer
+field's unit gradient (``lookalike.asset.implicit.field_normals``), as the sphere tracer
 shades the same point.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import torch
 
 from ..asset.asset import Asset
-from ..shading.sphere_tracing import NORMAL_STEP, field_gradient
+from ..asset.implicit import NORMAL_STEP, field_gradient, field_normals
 from .reference_surface import SurfaceValues
 
 PROJECTION_STEPS = 3
@@ -38,7 +38,6 @@ class FieldSurface:
         for _ in range(PROJECTION_STEPS):
             value, gradient = field_gradient(field.distance, points, self.step)
             points = points - (value / (gradient * gradient).sum(-1).clamp(min=1e-12))[:, None] * gradient
-        _, gradient = field_gradient(field.distance, points, self.step)
-        normal = gradient / gradient.norm(dim=-1, keepdim=True).clamp(min=1e-20)
+        normal = field_normals(field, points)
         kd, ks = field.channels(points)
         return SurfaceValues(kd=torch.cat([kd, torch.ones_like(kd[:, :1])], dim=1), ks=ks, emissive=None, normal=normal)

@@ -151,9 +151,13 @@ class GlslMaterial:
 BOUNDS_LINE = re.compile(r"^\s*//\s*bounds\s*:(.*)$", re.MULTILINE | re.IGNORECASE)
 
 
+VERSION_LINE = re.compile(r"^[ \t]*#[ \t]*version\b.*$", re.MULTILINE)
+
+
 def load_glsl_field(path: Path) -> ImplicitSurface:
-    """The ``ImplicitSurface`` that the GLSL file ``path`` defines."""
-    source = path.read_text(encoding="utf-8", errors="replace")
+    """The ``ImplicitSurface`` that the GLSL file ``path`` defines (a ``#version`` line of its
+    own is blanked: the generated shader states its version first)."""
+    source = VERSION_LINE.sub("", path.read_text(encoding="utf-8", errors="replace"))
     if not re.search(r"\bfloat\s+map\s*\(\s*vec3", source):
         raise AssetError(path, "defines no function float map(vec3 p) (the signed distance, negative inside)")
     found = BOUNDS_LINE.search(source)

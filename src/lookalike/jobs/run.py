@@ -104,7 +104,8 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
                "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
                "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
                "texture_scales": cfg.latent.texture_scales, "position_steps": cfg.optim.position_steps,
-               "mask_anneal": cfg.latent.mask_anneal, "fitted_mips": cfg.latent.fitted_mips}
+               "mask_anneal": cfg.latent.mask_anneal, "fitted_mips": cfg.latent.fitted_mips,
+               "absolute_laplacian": cfg.latent.init == "sphere"}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
 
 

@@ -8,6 +8,7 @@ A skinned input with animations is fitted over them (paper Sec. 5.3, ``jobs.anim
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,8 @@ from .. import io
 from ..asset import Asset
 from ..asset.parts import aggregate_traits
 from ..init import decimate
-from ..init.initial_guess import InitialGuess, Ranges, initial_guess, initial_guess_from_mesh
+from ..init.initial_guess import InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh
+from ..init.sphere_start import tessellated_sphere
 from ..phases import phase
 from ..settings import Config
 from .run import TEXTURE_STREAM, Application, keywords_doc, run
@@ -24,18 +26,25 @@ from .run_result import RunResult
 
 
 def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
-    """The user's mesh (``cfg.io.init_mesh``) with its own textures or a bake, else our
-    decimation to ``count`` triangles with ``cfg.latent.init``'s textures."""
+    """The user's mesh (``cfg.io.init_mesh``) with its own textures or a bake; for
+    ``latent.init = "sphere"``, a tessellated sphere of ``count`` triangles around the input
+    (its bounding sphere) with the input's mean material, beside plain decimation as the
+    baseline; else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures."""
     size = cfg.latent.texture_size
     if cfg.io.init_mesh:
         lod = io.load(cfg.io.init_mesh)
         return initial_guess_from_mesh(asset, lod, Path(cfg.io.init_mesh).name, size)
     clamp = cfg.clamp
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
+    rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
     with phase("decimation"):
         decimated = decimate(asset.mesh, count)
-    return initial_guess(asset, decimated, cfg.latent.init, size, ranges,
-                         np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+    if cfg.latent.init == "sphere":
+        centre, radius = asset.mesh.bounding_sphere()
+        guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
+        return dataclasses.replace(guess, baseline=decimation_baseline(asset, decimated),
+                                   notes=["started from a tessellated sphere around the input (--init sphere)"])
+    return initial_guess(asset, decimated, cfg.latent.init, size, ranges, rng)
 
 
 def aggregate_remarks(asset: Asset) -> list[str]:

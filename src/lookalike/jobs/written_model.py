@@ -47,9 +47,13 @@ class WrittenModel:
         return written_alpha(start, self.mode, self.choice)
 
     def validate(self, latent: Latent) -> float:
-        """The loop's validator: the state of ``latent`` as written with the start's choice,
-        or at its own cutoff where the fit trains the alpha test in (``annealed``)."""
-        return self.score(written_alpha(latent.export(), self.mode, AlphaChoice() if self.annealed else self.choice))
+        """The loop's validator: the state of ``latent`` as written with the start's choice;
+        where the fit trains the alpha test in (``annealed``), the better of that and its own
+        cutoff (parts thinner than the cutoff's coverage, hair or grass blades, vanish at it
+        and show only dithered or at a lower cutoff)."""
+        model = latent.export()
+        choices = {self.choice, AlphaChoice()} if self.annealed else {self.choice}
+        return max(self.score(written_alpha(model, self.mode, choice)) for choice in choices)
 
     def finished(self, best: Asset) -> Asset:
         """The fit's best model as written, its alpha choice made again for it."""

@@ -15,7 +15,8 @@ from . import bsdf
 from .camera import Camera
 from .light import PointLight
 from .pipeline import box_downsample
-from .sphere_tracing import HIT_FRACTION, LATE_HIT_FRACTION, MAX_STEPS, NORMAL_STEP
+from ..asset.implicit import NORMAL_STEP
+from .sphere_tracing import HIT_FRACTION, LATE_HIT_FRACTION, MAX_STEPS
 
 TRACER_UNIFORMS = """uniform mat4 lk_inverse_mvp;
 uniform vec3 lk_eye;
@@ -89,7 +90,7 @@ void main() {
 }
 """
 """One sample per fragment: ``sphere_tracing.primary_rays``, ``box_span``, ``sphere_trace``,
-``field_normals`` and ``point_lighting.lit_radiance_python`` (``bsdf.shade``) in GLSL."""
+``asset.implicit.field_normals`` and ``point_lighting.lit_radiance_python`` (``bsdf.shade``) in GLSL."""
 
 
 def tracer_constants() -> str:

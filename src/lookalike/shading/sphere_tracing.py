@@ -5,7 +5,7 @@ be the reference).
 Each sample's ray steps from where it enters the field's bounds by the field's value, ``t +=
 sdf(o + t d)``, until that value falls below ``HIT_FRACTION`` of the sample's footprint at ``t``
 (a hit), or ``t`` leaves the bounds (a miss); only the rays still marching are evaluated. At a
-hit, the normal is the field's gradient (central differences on a tetrahedron, Quilez) and the
+hit, the normal is the field's gradient (``lookalike.asset.implicit.field_normals``) and the
 material is the field's; the light is unshadowed, as the rasterizer's is. Coverage (the share of
 samples that hit) is the alpha.
 """
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import torch
 
+from ..asset.implicit import field_normals
 from .camera import Camera
 from .light import PointLight
 from .pipeline import box_downsample
@@ -27,11 +28,6 @@ MAX_STEPS = 256
 ``LATE_HIT_FRACTION`` of its footprint (a grazing ray converging slowly), else misses."""
 
 LATE_HIT_FRACTION = 2.0
-
-NORMAL_STEP = 1e-4
-"""The gradient's difference step, relative to the radius of the bounds."""
-
-TETRAHEDRON = torch.tensor([[1.0, -1.0, -1.0], [-1.0, -1.0, 1.0], [-1.0, 1.0, -1.0], [1.0, 1.0, 1.0]])
 
 
 def primary_rays(camera: Camera, height: int, width: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -91,23 +87,6 @@ def sphere_trace(distance, origins: torch.Tensor, directions: torch.Tensor, foot
     return t, hit
 
 
-def field_gradient(distance, points: torch.Tensor, step: float) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(f(p) [N], gradient [N, 3])`` of ``distance`` at ``points [N, 3]``: central
-    differences on a tetrahedron (Quilez), ``sum_k e_k f(p + h e_k) / 4h`` over its corners
-    ``e_k``, four evaluations; ``f(p)`` is the mean of the four values."""
-    corners = TETRAHEDRON.to(points)
-    values = distance((points[:, None, :] + step * corners).reshape(-1, 3)).reshape(-1, 4)
-    return values.mean(dim=1), values @ corners / (4.0 * step)
-
-
-def field_normals(distance, points: torch.Tensor, step: float) -> torch.Tensor:
-    """Unit gradients ``[N, 3]`` of ``distance`` at ``points [N, 3]`` (``field_gradient``)."""
-    if points.shape[0] == 0:
-        return points.clone()
-    _, gradient = field_gradient(distance, points, step)
-    return gradient / gradient.norm(dim=-1, keepdim=True).clamp(min=1e-20)
-
-
 def render_field(surface, camera: Camera, light: PointLight, resolution: int, spp: int = 1) -> torch.Tensor:
     """B views of ``surface`` (an ``ImplicitSurface``) at ``resolution`` pixels square with
     ``spp x spp`` samples per pixel: ``[B, H, W, 4]`` linear RGB (premultiplied by coverage, as
@@ -120,8 +99,7 @@ def render_field(surface, camera: Camera, light: PointLight, resolution: int, sp
         t, hit = sphere_trace(surface.distance, origins, directions, footprint, surface.lo, surface.hi)
         rows = torch.nonzero(hit).squeeze(1)
         points = origins[rows] + t[rows, None] * directions[rows]
-        _, radius = surface.bounding_sphere()
-        normals = field_normals(surface.distance, points, NORMAL_STEP * radius)
+        normals = field_normals(surface, points)
         kd, ks = surface.channels(points)
         view = rows // (size * size)
         radiance = lit_radiance(kd, ks, normals, -directions[rows], points, normals, view, light)
