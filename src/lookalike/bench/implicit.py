@@ -24,7 +24,7 @@ HELP = "simplify the two bundled signed distance fields and compare with marchin
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 ASSETS = (BenchAsset("rook", "rook.py", 2000, False), BenchAsset("gear", "gear.glsl", 2000, False))
-JUDGE_CELLS = 320
+JUDGE_CELLS = 480
 """Marching-cubes cubes across the field for the mesh Cycles judges against."""
 
 

@@ -15,20 +15,28 @@ FIELD_CELLS = 160
 """Marching-cubes cubes along the bounds' longest side: the asset's mesh (what plain decimation
 and the classic bake start from) resolves detail down to about 1/160 of the object."""
 
-PALETTE_STEPS = 8
-"""Roughness and metalness of the asset's triangles are rounded to multiples of 1 / this, one
-material per pair that occurs (a mesh holds colour per vertex, not roughness)."""
+PALETTE_STEPS = 64
+"""Roughness and metalness of the asset's triangles are rounded to multiples of 1 / this (a
+mesh holds colour per vertex, not roughness), one material per pair that occurs..."""
+
+PALETTE_LIMIT = 32
+"""... and coarser, halving the steps, until at most this many materials remain."""
 
 
-def palette_materials(mesh, ks: torch.Tensor) -> tuple[list[Material], torch.Tensor]:
-    """One material per (roughness, metalness) pair of ``mesh``'s triangles (the mean of
-    ``ks [V, 3]`` over each triangle's corners, rounded to ``PALETTE_STEPS``), white base colour
-    (the vertex colours give it), and each triangle's material index ``[T]``."""
-    per_triangle = ks[mesh.t_pos_idx].mean(dim=1)[:, 1:]
-    keys = torch.round(per_triangle * PALETTE_STEPS).long()
-    pairs, index = torch.unique(keys, dim=0, return_inverse=True)
+def palette_materials(surface: ImplicitSurface, mesh) -> tuple[list[Material], torch.Tensor]:
+    """One material per (roughness, metalness) pair of ``mesh``'s triangles (the field's at
+    each triangle's centroid, rounded to ``PALETTE_STEPS``, coarser where that gives more than
+    ``PALETTE_LIMIT``), white base colour (the vertex colours give it), and each triangle's
+    material index ``[T]``."""
+    _, ks = surface.channels(mesh.v_pos[mesh.t_pos_idx].mean(dim=1))
+    steps = PALETTE_STEPS
+    while True:
+        pairs, index = torch.unique(torch.round(ks[:, 1:] * steps).long(), dim=0, return_inverse=True)
+        if pairs.shape[0] <= PALETTE_LIMIT or steps == 1:
+            break
+        steps //= 2
     materials = [Material(kd=Texture.constant([1.0, 1.0, 1.0, 1.0]),
-                          ks=Texture.constant([0.0, *(pair.float() / PALETTE_STEPS).tolist()])) for pair in pairs]
+                          ks=Texture.constant([0.0, *(pair.float() / steps).tolist()])) for pair in pairs]
     return materials, index
 
 
@@ -41,8 +49,7 @@ def field_asset(surface: ImplicitSurface, path: Path, cells: int = FIELD_CELLS) 
         mesh = field_mesh(surface, cells)
     except ValueError as e:
         raise AssetError(path, f"the field is {e}") from None
-    _, ks = surface.channels(mesh.v_pos)
-    materials, mesh.t_mat_idx = palette_materials(mesh, ks)
+    materials, mesh.t_mat_idx = palette_materials(surface, mesh)
     return Asset(mesh=mesh, materials=materials, field=surface)
 
 
