@@ -142,3 +142,17 @@ def test_state_dict_round_trip_rebuilds_the_same_model():
     assert again.limits == ClampConfig(kd=(0.1, 0.9)) and again.msaa == 2
     assert again.double_sided and again.wrap == "wrap"
     assert laplacian(again) == expected_laplacian  # the initial mesh's differentials came along
+
+
+def test_a_constant_colour_never_holds_a_trained_alpha_constant():
+    from lookalike.asset import Asset, Material, Texture
+    from test_pipeline import quad
+
+    kd = torch.ones(8, 8, 4) * torch.tensor([0.3, 0.5, 0.2, 1.0])
+    kd[:, :4, 3] = 0.0                                       # one colour; coverage on half the card
+    asset = Asset(quad(), [Material(kd=Texture(kd), alpha_mode="MASK", double_sided=True)])
+    common = dict(centre=torch.zeros(3), radius=1.0, limits=ClampConfig(), msaa=1, constant=frozenset({"kd", "ks"}))
+    trained = TexturedMesh.from_asset(asset, train_alpha=True, **common).export().materials[0].kd.data
+    assert trained.shape[:2] == (8, 8) and torch.equal(trained[..., 3], kd[..., 3])
+    held = TexturedMesh.from_asset(asset, train_alpha=False, **common).export().materials[0].kd.data
+    assert held.shape[:2] == (1, 1)

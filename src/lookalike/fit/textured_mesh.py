@@ -158,7 +158,8 @@ class TexturedMesh(torch.nn.Module):
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
-        are held as one value, the mean of the start's texels. Normals are lifted to face out
+        are held as one value, the mean of the start's texels (``"kd"`` never where its alpha
+        is trained: the coverage varies). Normals are lifted to face out
         by at least ``1 / limits.normal_max_slope`` (a bake can see a few texels from behind),
         and every texel is clamped into ``limits``. ``layers``, ``mask_anneal``: see the class;
         ``position_steps``: ``"local"`` steps each vertex by its local size
@@ -171,6 +172,8 @@ class TexturedMesh(torch.nn.Module):
         size = max(kd.shape[:2], ks.shape[:2])
         normal = (material.normal.data if material.normal is not None
                   else torch.tensor([0.0, 0.0, 1.0]).expand(*size, 3))
+        if train_alpha:  # coverage varies over the cards even where the colour does not
+            constant = constant - {"kd"}
         kd, ks = (texels.reshape(-1, texels.shape[-1]).mean(dim=0).reshape(1, 1, -1) if name in constant else texels
                   for name, texels in (("kd", kd), ("ks", ks)))
         mesh = Mesh(v_pos=asset.mesh.v_pos, t_pos_idx=asset.mesh.t_pos_idx, uv=[asset.mesh.uv[0]],
