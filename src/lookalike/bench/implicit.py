@@ -12,13 +12,12 @@ materials), in Cycles and in our renderer, with the same bar in Cycles with shad
 
 from __future__ import annotations
 
-import json
 import tempfile
 from pathlib import Path
 
 from ._table import judged_table, runs_table
-from .quality import (BAR_GAIN_OVER_BAKED_DB, BAR_MINUTES, TIME_BUDGET_S, BenchAsset, check_judge, output_root,
-                      simplify_case, table_row)
+from .quality import (BAR_GAIN_OVER_BAKED_DB, BAR_MINUTES, TIME_BUDGET_S, BenchAsset, case_rows, check_judge,
+                      output_root, table_row)
 
 HELP = "simplify the two bundled signed distance fields and compare with marching cubes + decimation/bake"
 
@@ -75,18 +74,8 @@ def run(out: str | Path | None = None, time_budget: float = TIME_BUDGET_S, asset
     assets_dir = Path(assets_dir)
     with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
         root = output_root(out, scratch)
-        rows = []
-        for case in assets:
-            run_dir = root / case.name
-            if reuse and (run_dir / "metrics.json").is_file():
-                metrics, baselines = json.loads((run_dir / "metrics.json").read_text()), None
-            else:
-                result = simplify_case(case, assets_dir, run_dir, time_budget)
-                metrics, baselines = result.metrics, result.baselines
-            row = field_row(case, metrics)
-            if judge is not None:
-                row["judge"] = judged_field(case, assets_dir, run_dir, baselines)
-            rows.append(row)
+        rows = case_rows(assets, assets_dir, root, time_budget, reuse, field_row,
+                         judged_field if judge is not None else None)
         return {"time_budget_s": time_budget,
                 "bar": {"minutes": BAR_MINUTES, "gain_over_baked_db": BAR_GAIN_OVER_BAKED_DB},
                 "runs": rows,

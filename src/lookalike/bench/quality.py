@@ -156,19 +156,30 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         raise ConfigError("--reuse judges earlier runs: name their folder with --out (or $LOOKALIKE_BENCH_OUT)")
     with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
         root = output_root(out, scratch)
-        rows = []
-        for case in assets:
-            run_dir = root / case.name
-            if reuse and (run_dir / "metrics.json").is_file():
-                metrics, baselines = json.loads((run_dir / "metrics.json").read_text()), None
-            else:
-                result = simplify_case(case, assets_dir, run_dir, time_budget)
-                metrics, baselines = result.metrics, getattr(result, "baselines", None)
-            row = table_row(case, metrics)
-            if judge is not None:
-                row["judge"] = judged_row(case, assets_dir, run_dir, baselines)
-            rows.append(row)
+        rows = case_rows(assets, assets_dir, root, time_budget, reuse, table_row,
+                         judged_row if judge is not None else None)
         return summary(rows, time_budget, None if root == Path(scratch) else root, judged=judge is not None)
+
+
+def case_rows(assets: tuple[BenchAsset, ...], assets_dir: Path, root: Path, time_budget: float, reuse: bool,
+              row_of, judge_of=None) -> list[dict]:
+    """One row per case: its run in ``root/<name>`` (the one already there where ``reuse`` and
+    it has a ``metrics.json``, else ``simplify_case``), ``row_of(case, metrics)``, and where
+    ``judge_of`` is given its ``"judge"``, ``judge_of(case, assets_dir, run_dir, baselines)``
+    (``baselines`` the run's, ``None`` for a reused run)."""
+    rows = []
+    for case in assets:
+        run_dir = root / case.name
+        if reuse and (run_dir / "metrics.json").is_file():
+            metrics, baselines = json.loads((run_dir / "metrics.json").read_text()), None
+        else:
+            result = simplify_case(case, assets_dir, run_dir, time_budget)
+            metrics, baselines = result.metrics, getattr(result, "baselines", None)
+        row = row_of(case, metrics)
+        if judge_of is not None:
+            row["judge"] = judge_of(case, assets_dir, run_dir, baselines)
+        rows.append(row)
+    return rows
 
 
 def check_judge(judge: str) -> None:
