@@ -132,7 +132,9 @@ def test_the_loop_settings_follow_the_configuration(init):
     settings = loop_settings(cfg, outline=True)
     lr_positions, lr_textures = learning_rates(cfg)
     assert settings.learning_rates == {"positions": lr_positions, "textures": lr_textures, "emissive": lr_textures,
-                                       "weights": 0.1}
+                                       "displacement": lr_textures, "weights": 0.1}
+    heights = config_from_dict({"optim": {"lr_displacement": 0.001}})
+    assert loop_settings(heights, outline=True).learning_rates["displacement"] == 0.001
     emissive = config_from_dict({"optim": {"lr_emissive": 0.002}})
     assert loop_settings(emissive, outline=True).learning_rates["emissive"] == 0.002
     assert (settings.views_per_step, settings.iterations, settings.lr_decay, settings.seed) == (3, 40, 0.01, 9)

@@ -13,7 +13,8 @@ from lookalike.commands import command_modules
 from lookalike.settings import Config, parse_duration, setting_value
 
 SETTING_OF_OPTION = {"ratio": "ratio", "texture_size": "texture_size", "resolution": "resolution",
-                     "time_budget": "time_budget", "init": "init", "seed": "seed", "alpha": "alpha_mode"}
+                     "time_budget": "time_budget", "init": "init", "seed": "seed", "alpha": "alpha_mode",
+                     "levels": "tessellation_levels"}
 """Options (by ``dest``) that set a setting, and its name."""
 
 
@@ -25,6 +26,9 @@ def application_of(command: str):
     if command == "cards":
         from lookalike.jobs.cards import CARDS
         return CARDS
+    if command == "displace":
+        from lookalike.jobs.displace import DISPLACE
+        return DISPLACE
     return None
 
 
@@ -35,7 +39,7 @@ def stated_defaults(command: str) -> dict[str, str]:
     sub = next(a for a in parser._actions if a.dest == "command").choices[command]
     stated = {}
     for action in sub._actions:
-        match = re.search(r"\(default ([^:,)][^,)]*)[,)]", action.help or "")
+        match = re.search(r"\(default ([^:,)](?:[^,)]|,(?=\S))*)[,)]", action.help or "")  # "0,1,2" is one value
         if match:
             stated[action.dest] = (match.group(1), action.default)
     return stated
@@ -44,6 +48,8 @@ def stated_defaults(command: str) -> dict[str, str]:
 def same(stated: str, actual, dest: str) -> bool:
     if dest == "time_budget":
         return parse_duration(stated.replace(" ", "")) == parse_duration(actual)
+    if isinstance(actual, tuple):
+        return stated == ",".join(map(str, actual))
     return stated == str(actual)
 
 

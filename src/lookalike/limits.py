@@ -30,3 +30,6 @@ MAX_WORKERS = 1024
 MAX_SKIN_CANDIDATES = 64
 """Candidate joints per vertex of a skinned fit: its blended skinning matrices take
 ``12 x candidates`` floats per vertex in every render."""
+
+MAX_TESSELLATION_LEVEL = 5
+"""Finest subdivision level a displacement map is fitted for (``4^5`` triangles per base triangle)."""

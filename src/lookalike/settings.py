@@ -41,6 +41,7 @@ from .limits import (
     MAX_RESOLUTION,
     MAX_SKIN_CANDIDATES,
     MAX_SPP,
+    MAX_TESSELLATION_LEVEL,
     MAX_TEXTURE_SIZE,
     MAX_VIEWS,
 )
@@ -120,6 +121,8 @@ class LatentConfig:
             over the box filter of the level above, ``lookalike.fit.fitted_mips``), fitted to
             the views that see it; written as KTX2 mip chains (``lookalike.io.ktx2``). Off,
             the mips are the box filter of the texture, as an engine builds them from a PNG.
+        tessellation_levels: for ``displace``, the levels of subdivision (each 1 -> 4 triangles)
+            the base mesh and its maps must look right at; each step draws the next in turn.
     """
 
     triangles: int | None = None
@@ -133,6 +136,7 @@ class LatentConfig:
     alpha_mode: str = "auto"
     mask_anneal: float = 1.0
     fitted_mips: bool = False
+    tessellation_levels: tuple[int, ...] = (0, 1, 2, 3)
 
 
 @dataclass
@@ -249,6 +253,8 @@ class OptimConfig:
         lr_emissive: Adam's lr_0 for the emission map (where the input emits), in units of the
             start's brightest emission (at least 1; see ``lookalike.fit.textured_mesh``);
             ``None`` takes the texels' rate.
+        lr_displacement: Adam's lr_0 for the heights of a displacement map (values in [0, 1]
+            of its range, ``lookalike.fit.displaced_mesh``); ``None`` takes the texels' rate.
         lr_weights: Adam's lr_0 for the logits of the skinning weights of an animated input
             (``lookalike.fit.skinned_mesh``).
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
@@ -284,6 +290,7 @@ class OptimConfig:
     lr_positions: float | None = None
     lr_textures: float | None = None
     lr_emissive: float | None = None
+    lr_displacement: float | None = None
     lr_weights: float = 0.1
     lr_decay: float | None = None
     outline_views: int | None = None
@@ -340,6 +347,10 @@ class Config:
             (lat.init in INITS, f"latent.init must be one of {', '.join(INITS)}, not {lat.init!r}"),
             (all(scale >= 0 for scale in lat.texture_scales) and lat.texture_scales[0] > 0,
              f"latent.texture_scales must not be negative, and the first must be positive: {lat.texture_scales}"),
+            (len(lat.tessellation_levels) >= 1 and len(set(lat.tessellation_levels)) == len(lat.tessellation_levels)
+             and all(0 <= level <= MAX_TESSELLATION_LEVEL for level in lat.tessellation_levels),
+             f"latent.tessellation_levels (--levels) must be distinct levels in [0, {MAX_TESSELLATION_LEVEL}], "
+             f"not {','.join(map(str, lat.tessellation_levels))}"),
             (16 <= ren.resolution <= MAX_RESOLUTION,
              f"render.resolution (--resolution) must lie in [16, {MAX_RESOLUTION}], not {ren.resolution}"),
             (1 <= ren.target_spp <= MAX_SPP, f"render.target_spp must lie in [1, {MAX_SPP}], not {ren.target_spp}"),
@@ -372,7 +383,7 @@ class Config:
              f"optim.iterations must not be negative, not {opt.iterations}"),
             (opt.loss in LOSSES, f"optim.loss must be one of {', '.join(LOSSES)}, not {opt.loss!r}"),
             (all(lr is None or lr >= 0 for lr in (opt.lr_positions, opt.lr_textures, opt.lr_emissive,
-                                                   opt.lr_weights)),
+                                                   opt.lr_displacement, opt.lr_weights)),
              "learning rates must not be negative"),
             (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
             (opt.outline_views is None or opt.outline_views >= 0, "optim.outline_views must not be negative"),
@@ -536,9 +547,12 @@ def _coerce(key: str, value: Any, hint: Any, where: str) -> Any:
         return None
     for option in options:
         if typing.get_origin(option) is tuple:
-            n = len(typing.get_args(option))
-            if isinstance(value, (list, tuple)) and len(value) == n and all(_is_number(v) for v in value):
-                return tuple(float(v) for v in value)
+            args = typing.get_args(option)
+            variadic = len(args) == 2 and args[1] is Ellipsis
+            whole = args[0] is int
+            if (isinstance(value, (list, tuple)) and (variadic or len(value) == len(args))
+                    and all(type(v) is int if whole else _is_number(v) for v in value)):
+                return tuple(v if whole else float(v) for v in value)
         elif option is float and _is_number(value):
             return float(value)
         elif option in (int, str, bool) and type(value) is option:

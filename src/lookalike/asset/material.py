@@ -12,6 +12,8 @@ sampled with glTF's UV convention: ``uv = (0, 0)`` is the top-left corner of the
              File formats convert from and to MikkTSpace at the boundary.
 - ``emissive`` ``[H, W, 3]`` linear emitted radiance (factor and strength multiplied in, so values
              may exceed 1), added to the shaded colour, or ``None``.
+- ``displacement`` a ``Displacement``: heights ``[H, W, 1]`` that move the vertices of the
+             mesh, tessellated, along their normals (``lookalike.asset.displacement``), or ``None``.
 - ``occlusion`` ``[H, W, 1]`` ambient occlusion in [0, 1] (glTF ``occlusionTexture``'s R channel
              with its ``strength`` applied: ``1 + strength * (R - 1)``), or ``None``. Only
              engines' ambient light uses it; our point-light renderer does not.
@@ -59,6 +61,30 @@ class Texture:
 
 
 @dataclass
+class Displacement:
+    """A displacement map (paper Sec. 5.1): the mesh is drawn subdivided ``level`` times (edge
+    midpoints, ``lookalike.asset.subdivide``) and each vertex moved along its normal by
+    ``scale * (h - offset)``, ``h`` the map's mip ``mips[level]`` sampled at the vertex's UV
+    (Blender's Displace modifier's strength and midlevel).
+
+    Attributes:
+        heights: ``[S, S, 1]`` texture of heights in [0, 1] (its mips, where given, are the maps
+            the levels that read mips sample; else box-filtered).
+        scale: world units per unit of height.
+        offset: the height that leaves a vertex in place.
+        level: the tessellation level it is drawn at.
+        mips: the mip each level reads, level 0 first (levels past the end read the last): the
+            one its edge length calls for.
+    """
+
+    heights: Texture
+    scale: float
+    offset: float = 0.5
+    level: int = 0
+    mips: tuple[int, ...] = (0,)
+
+
+@dataclass
 class Material:
     """A PBR material (paper, Sec. 5.2; glTF metallic-roughness).
 
@@ -78,6 +104,7 @@ class Material:
         emissive: optional emission texture, 3 channels (linear), rendered additively.
         occlusion: optional ambient occlusion texture, 1 channel, strength applied; kept and
             written for engines (it darkens ambient light only, which we do not render).
+        displacement: optional ``Displacement`` of the mesh drawn with this material.
     """
 
     name: str = "material"
@@ -90,6 +117,7 @@ class Material:
     double_sided: bool = False
     emissive: Texture | None = None
     occlusion: Texture | None = None
+    displacement: Displacement | None = None
 
     def __post_init__(self):
         if self.alpha_mode not in ALPHA_MODES:

@@ -101,6 +101,34 @@ def vertex_normals(v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> torch.Tensor
     return split_normals(v_pos, t_pos_idx, t_pos_idx, v_pos.shape[0])
 
 
+def angle_weighted_normals(v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> torch.Tensor:
+    """Unit vertex normals ``[V, 3]``: ``normalize(sum_t angle_t(v) * n_t)`` over the triangles
+    ``t`` at each vertex, ``angle_t(v)`` the corner angle and ``n_t`` the unit face normal
+    (Blender's vertex normals). A vertex keeps its normal when the triangles around it are
+    subdivided at edge midpoints, so displacement moves it alike at every tessellation level.
+    Differentiable in ``v_pos``."""
+    corners = v_pos[t_pos_idx]  # [T, 3, 3]
+    ahead, behind = corners.roll(-1, dims=1) - corners, corners.roll(1, dims=1) - corners
+    angle = torch.atan2(torch.linalg.cross(ahead, behind, dim=-1).norm(dim=-1), (ahead * behind).sum(dim=-1))
+    unit = safe_normalize(face_normals(v_pos, t_pos_idx))
+    weighted = angle[..., None] * unit[:, None, :]  # [T, 3, 3]
+    summed = torch.zeros_like(v_pos).index_add(0, t_pos_idx.reshape(-1), weighted.reshape(-1, 3))
+    return _unit_or_fallback(summed)
+
+
+def angle_weighted_normals_python(v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> torch.Tensor:
+    """``angle_weighted_normals`` by a loop over triangles and corners (for tests)."""
+    summed = [torch.zeros(3, dtype=v_pos.dtype) for _ in range(v_pos.shape[0])]
+    for tri in t_pos_idx.tolist():
+        normal = torch.linalg.cross(v_pos[tri[1]] - v_pos[tri[0]], v_pos[tri[2]] - v_pos[tri[0]])
+        normal = normal / normal.norm()
+        for k in range(3):
+            a, b = v_pos[tri[(k + 1) % 3]] - v_pos[tri[k]], v_pos[tri[(k + 2) % 3]] - v_pos[tri[k]]
+            angle = torch.arccos((a @ b / (a.norm() * b.norm())).clamp(-1.0, 1.0))
+            summed[tri[k]] = summed[tri[k]] + angle * normal
+    return _unit_or_fallback(torch.stack(summed))
+
+
 def _first_occurrence_labels(labels: np.ndarray) -> np.ndarray:
     """``labels [N]`` renumbered 0, 1, ... in the order each first occurs."""
     _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)

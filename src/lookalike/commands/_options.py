@@ -20,18 +20,23 @@ def default_text(defaults: Config, key: str, shown=None) -> str:
     return f"(default {shown(value) if shown else value})"
 
 
-def add_job_arguments(parser: argparse.ArgumentParser, verb: str, outdir_suffix: str, defaults: Config) -> None:
-    """``INPUT``, ``-o OUTDIR`` and the target count (``--triangles N`` or ``--ratio R``)."""
+def add_job_arguments(parser: argparse.ArgumentParser, verb: str, outdir_suffix: str, defaults: Config,
+                      base: bool = False) -> None:
+    """``INPUT``, ``-o OUTDIR`` and the target count (``--triangles N`` or ``--ratio R``; with
+    ``base``, the count of a base mesh, also ``--base-triangles N``)."""
     parser.add_argument("input", help=f"the asset to {verb} (glTF/GLB, OBJ, PLY)")
     parser.add_argument("-o", "--output", metavar="OUTDIR", default=None,
                         help=f"output folder (default: INPUT's name + '{outdir_suffix}' in the current folder)")
-    add_count_arguments(parser, defaults)
+    add_count_arguments(parser, defaults, base)
 
 
-def add_count_arguments(parser: argparse.ArgumentParser, defaults: Config) -> None:
-    """The target count: ``--triangles N`` or ``--ratio R``."""
+def add_count_arguments(parser: argparse.ArgumentParser, defaults: Config, base: bool = False) -> None:
+    """The target count: ``--triangles N`` (with ``base``, also ``--base-triangles N``: the
+    count of a base mesh) or ``--ratio R``."""
     count = parser.add_mutually_exclusive_group()
-    count.add_argument("--triangles", type=int, metavar="N", help="target triangle count")
+    names = ("--base-triangles", "--triangles") if base else ("--triangles",)
+    count.add_argument(*names, dest="triangles", type=int, metavar="N",
+                       help="triangle count of the base mesh" if base else "target triangle count")
     count.add_argument("--ratio", type=float, metavar="R",
                        help=f"target count as a fraction of the input's {default_text(defaults, 'ratio')}")
 

@@ -10,7 +10,7 @@ from .objective import Objective
 
 def loop_settings(config: Config, outline: bool) -> LoopSettings:
     """The loop's settings for ``config``: learning rates of the ``"positions"``,
-    ``"textures"``, ``"emissive"`` and ``"weights"`` groups, and the outline views per step on
+    ``"textures"``, ``"emissive"``, ``"displacement"`` and ``"weights"`` groups, and the outline views per step on
     top of the batch where ``outline`` (a latent whose coverage is geometry's alone), at most the
     pool's views besides the batch."""
     opt, views = config.optim, config.views
@@ -19,8 +19,9 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
     if views.pool_size:
         count = min(count, views.pool_size - views.batch_size)
     lr_emissive = lr_textures if opt.lr_emissive is None else opt.lr_emissive
+    lr_displacement = lr_textures if opt.lr_displacement is None else opt.lr_displacement
     return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive,
-                                        "weights": opt.lr_weights},
+                                        "displacement": lr_displacement, "weights": opt.lr_weights},
                         views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
                         lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
                         validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,

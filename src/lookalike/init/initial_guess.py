@@ -20,7 +20,7 @@ up to the input's brightest emission); where it has an ambient occlusion map, an
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -67,12 +67,15 @@ class InitialGuess:
         bake: the classic bake onto ``start``'s mesh (material and how the projection went)
             where the start is a bake, else ``None``.
         notes: remarks for the report (e.g. why the user's UVs were replaced).
+        comparisons: further models scored beside the baselines, as ``(key, label, asset)``
+            (e.g. the classic bake at each triangle count a displaced model is drawn at).
     """
 
     start: Asset
     baseline: Asset
     bake: BakeResult | None
     notes: list[str]
+    comparisons: list[tuple[str, str, Asset]] = field(default_factory=list)
 
     @property
     def baked(self) -> Asset | None:

@@ -39,6 +39,7 @@ import numpy as np
 import torch
 
 from ..asset import Animation, Asset, Channel, Material, Mesh, Node, Skin, Texture
+from ..asset.material import Displacement
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
 from ..errors import AssetError
@@ -399,7 +400,24 @@ class _MaterialReader:
             name=m.name or "material", kd=kd, ks=ks, normal=normal, alpha_mode=alpha_mode,
             alpha_cutoff=0.5 if m.alphaCutoff is None else float(m.alphaCutoff),
             double_sided=bool(m.doubleSided), emissive=emissive, occlusion=occlusion,
+            displacement=self.displacement(m.extras),
         )
+
+    def displacement(self, extras) -> Displacement | None:
+        """The ``Displacement`` in a material's ``extras.displacement`` as lookalike writes it
+        (``io.gltf_write``), or ``None``."""
+        entry = extras.get("displacement") if isinstance(extras, dict) else None
+        if not isinstance(entry, dict):
+            return None
+        try:
+            heights = self._texture(_texture_info(entry["texture"]), lambda px: px[..., :1])
+            mips = [self._texture(_texture_info(info), lambda px: px[..., :1]).data
+                    for info in entry.get("mipTextures", [])]
+            heights.mips = mips or None
+            return Displacement(heights, float(entry["scale"]), float(entry.get("offset", 0.5)),
+                                int(entry.get("level", 0)), tuple(int(k) for k in entry.get("mips", [0])))
+        except (KeyError, TypeError, ValueError) as e:
+            raise AssetError(self.data.path, f"material extras.displacement is malformed: {e}") from None
 
 
 def _scene_nodes(gltf, parents: np.ndarray) -> list[Node]:

@@ -19,7 +19,9 @@ specular factor scales only the dielectric lobe, while the paper's ``gamma`` als
 (sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
 then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
 image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
-its own. A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
+its own. A displacement map (``Material.displacement``) is a 16-bit PNG texture named in the
+material's ``extras.displacement`` with its scale, offset and levels (no glTF extension holds
+one). A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
 written as a KTX2 mip chain of exactly those levels (UASTC, ``io.ktx2``) through
 ``KHR_texture_basisu`` where the ``basisu`` encoder is found, the PNG staying the fallback for
 viewers without a transcoder (which then build box-filtered mips from it).
@@ -48,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ..asset import Asset, Material, Texture
+from ..asset.material import Displacement
 from ..errors import AssetError
 from .arrays import constant_texel, unique_rows
 from .image_files import encode_png, linear_to_srgb, resize
@@ -104,15 +107,16 @@ class GlbBuilder:
         return len(self.doc["accessors"]) - 1
 
     def texture(self, pixels: np.ndarray, wrap: str, key: tuple, mips: list[np.ndarray] | None = None,
-                linear: bool = True) -> int:
+                linear: bool = True, bits: int = 8) -> int:
         """Index of a texture holding ``pixels [H, W, C]`` (values in [0, 1], already encoded),
         written once per ``key`` (a tensor in it counts by identity, and the key keeps it alive,
         so a texture freed while the file is built cannot pass its identity to another). With
         ``mips`` (levels 1.. encoded alike) and a KTX2 encoder (``io.ktx2.find_encoder``), the
         chain is also written as KTX2 (``linear``: non-colour data) through
-        ``KHR_texture_basisu``, the PNG staying the fallback source."""
+        ``KHR_texture_basisu``, the PNG staying the fallback source; ``bits``: the PNG's depth
+        (``io.image_files.encode_png``)."""
         if key not in self.texture_cache:
-            texture = {"source": self.image(encode_png(pixels), "image/png")}
+            texture = {"source": self.image(encode_png(pixels, bits), "image/png")}
             if mips and self.encoder is not None:
                 chain = [_rgba8(level) for level in (pixels, *mips)]
                 ktx2 = self.image(encode_mip_chain(chain, linear, self.encoder), "image/ktx2")
@@ -274,7 +278,28 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
         out["alphaCutoff"] = float(material.alpha_cutoff)
     if material.double_sided:
         out["doubleSided"] = True
+    if material.displacement is not None and has_uv:
+        out["extras"] = {"displacement": _displacement(builder, material.displacement)}
     return out
+
+
+def _displacement(builder: GlbBuilder, displacement: Displacement) -> dict:
+    """The material's ``extras.displacement``: its 16-bit height texture (UV set 0), ``scale``
+    and ``offset`` (a vertex moves by ``scale * (h - offset)`` along its normal), the ``level``
+    the file's model is drawn at, the ``mips`` each level reads (``Displacement``) and, where
+    the map has mip levels of its own (seams stitched for the levels that read them),
+    ``mipTextures``, levels 1.. as 16-bit textures."""
+    def texture(data) -> dict:
+        pixels = np.clip(data.detach().numpy()[..., :1], 0, 1)
+        return {"index": builder.texture(pixels, "clamp", (data, "displacement"), bits=16)}
+
+    heights = displacement.heights
+    entry = {"texture": texture(heights.data), "scale": float(displacement.scale),
+             "offset": float(displacement.offset), "level": int(displacement.level),
+             "mips": [int(k) for k in displacement.mips]}
+    if heights.mips:
+        entry["mipTextures"] = [texture(level) for level in heights.mips]
+    return entry
 
 
 def _unit(x: np.ndarray) -> np.ndarray:

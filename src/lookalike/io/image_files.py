@@ -57,12 +57,19 @@ def read_image(path: str | Path) -> np.ndarray:
     return decode_image(data, path)
 
 
-def encode_png(pixels: np.ndarray) -> bytes:
-    """Encode ``[H, W, C]`` float values in ``[0, 1]`` (C = 1, 3 or 4) as an 8-bit PNG;
+def encode_png(pixels: np.ndarray, bits: int = 8) -> bytes:
+    """Encode ``[H, W, C]`` float values in ``[0, 1]`` (C = 1, 3 or 4) as an 8-bit PNG, or with
+    ``bits = 16`` one channel as a 16-bit grey PNG (heights, whose steps must not show);
     values are clamped and rounded to the nearest level."""
     pixels = np.asarray(pixels, dtype=np.float32)
-    if pixels.ndim != 3 or pixels.shape[-1] not in (1, 3, 4):
-        raise ValueError(f"encode_png needs [H, W, 1|3|4] pixels, got {tuple(pixels.shape)}")
+    if pixels.ndim != 3 or pixels.shape[-1] not in (1, 3, 4) or (bits == 16 and pixels.shape[-1] != 1):
+        raise ValueError(f"encode_png needs [H, W, 1|3|4] pixels (one channel at 16 bits), got "
+                         f"{tuple(pixels.shape)} at {bits} bits")
+    if bits == 16:
+        buffer = io.BytesIO()
+        grey = np.round(np.clip(pixels[..., 0], 0.0, 1.0) * 65535.0).astype(np.uint16)
+        Image.fromarray(grey).save(buffer, format="PNG")
+        return buffer.getvalue()
     levels = np.round(np.clip(pixels, 0.0, 1.0) * 255.0).astype(np.uint8)
     mode = {1: "L", 3: "RGB", 4: "RGBA"}[pixels.shape[-1]]
     buffer = io.BytesIO()
@@ -70,11 +77,11 @@ def encode_png(pixels: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def write_png(pixels: np.ndarray, path: str | Path) -> None:
-    """Write ``encode_png(pixels)`` to ``path``."""
+def write_png(pixels: np.ndarray, path: str | Path, bits: int = 8) -> None:
+    """Write ``encode_png(pixels, bits)`` to ``path``."""
     path = Path(path)
     try:
-        path.write_bytes(encode_png(pixels))
+        path.write_bytes(encode_png(pixels, bits))
     except OSError as e:
         raise AssetError(path, f"cannot write image: {e.strerror or e}") from None
 

@@ -7,13 +7,19 @@ import dataclasses
 import torch
 
 from ..asset import Asset, Material
+from ..asset.displacement import tessellated
 
 
 def prepare_input(asset: Asset, material_override: Material | None, moving: bool = False) -> tuple[Asset, list[str]]:
-    """``asset`` with ``material_override`` applied (a copy; the input is not modified), and
+    """``asset`` tessellated where it is displaced (``lookalike.asset.displacement``), with
+    ``material_override`` applied (a copy; the input is not modified), and
     remarks about it for the report; ``moving``: it is fitted over its animations
     (``jobs.animated.is_animated``)."""
     notes = []
+    if asset.materials and asset.materials[0].displacement is not None:
+        level = asset.materials[0].displacement.level
+        asset = tessellated(asset)
+        notes.append(f"the input's displacement map was applied to its mesh subdivided {level} times")
     if material_override is not None:
         mesh = dataclasses.replace(asset.mesh, t_mat_idx=torch.zeros_like(asset.mesh.t_mat_idx))
         asset = dataclasses.replace(asset, mesh=mesh, materials=[material_override])

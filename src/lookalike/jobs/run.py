@@ -114,6 +114,22 @@ def no_remarks(asset: Asset) -> list[str]:
     return []
 
 
+def no_variants(model: Asset, cfg: Config) -> list[tuple[str, str, Asset]]:
+    """No other form of the result to score."""
+    return []
+
+
+def as_fitted(model: Asset) -> Asset:
+    """The fitted model as it is."""
+    return model
+
+
+def no_files(model: Asset, guess: InitialGuess, cfg: Config, folder: Path,
+             methods: list[MethodResult]) -> list[dict] | None:
+    """No files of the application's own, and no table for the report."""
+    return None
+
+
 @dataclass(frozen=True)
 class Application:
     """What one application of the fit brings to the run they share (``run``).
@@ -129,6 +145,14 @@ class Application:
         remarks: ``input -> [str]``, what to say about the input (logged, and in the report).
         reference: ``(input, cfg, moving) -> Reference``, what the views show.
         latent: ``(input, start, cfg, moving) -> Latent``, the model the loop fits.
+        variants: ``(model, cfg) -> [(key, label, asset)]``, other forms of the written model
+            scored beside it (e.g. a displaced model at each tessellation level).
+        written_form: ``model -> asset``, what ``model.glb`` holds (e.g. a displaced model
+            tessellated at its level, for viewers that cannot displace).
+        files: ``(model, guess, cfg, folder, methods) -> rows or None``, writes the
+            application's own files into the output folder (given the initial guess and all the
+            scored methods) and returns the rows of its table in the report and the metrics
+            (``RunRecord.levels``).
     """
 
     command: str
@@ -139,6 +163,9 @@ class Application:
     remarks: Callable[[Asset], list[str]] = no_remarks
     reference: Callable[[Asset, Config, bool], Reference] = input_reference
     latent: Callable[[Asset, Asset, Config, bool], Latent] = mesh_latent
+    variants: Callable[[Asset, Config], list[tuple[str, str, Asset]]] = no_variants
+    written_form: Callable[[Asset], Asset] = as_fitted
+    files: Callable[[Asset, InitialGuess, Config, Path, list[MethodResult]], list[dict] | None] = no_files
 
 
 @dataclass(frozen=True)
@@ -264,7 +291,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         heldout, validation, source = reference_views(cfg, asset, reference, moving)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers)
-    written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start))
+    written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
+                           forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
     with s.stage("alpha of the start"):
         start_written = written.start(start)
     methods = score_baselines(s, cfg, heldout, draw, guess, start_written)
@@ -273,7 +301,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                     checkpointer=checkpointer, cores=CoreShare())
     if s.saved is not None and "latent" in s.saved:
         fitter.load_state_dict(s.saved)
-    seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None)
+    seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None,
+                          len(s.app.variants(start_written, cfg)))
     fit, export = optimise(s, fitter, seconds, written, start_written, notes)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
@@ -283,16 +312,19 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         if interrupted:  # our fit is done: a resume goes straight on to the bind-pose fit
             checkpointer.save(fitter.state_dict())
     with s.stage("scoring ours"):
+        methods += [heldout.score(key, label, variant, draw, cfg.latent.texture_size)
+                    for key, label, variant in s.app.variants(export, cfg)]
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
     motion = moving_picture(s, cfg, reference, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
-    metrics = write_outputs(s, cfg, export, record)
+    metrics = write_outputs(s, cfg, export, guess, record)
     if not interrupted:
         (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
     baselines = {methods[0].key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
     if s.app.start_label is not None:
         baselines["start"] = start_written
+    baselines.update({key: model for key, _, model in guess.comparisons})
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
 
@@ -394,12 +426,16 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference,
 
 def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess: InitialGuess,
                     start: Asset) -> list[MethodResult]:
-    """The held-out scores of plain decimation (or the user's mesh) and of the application's
-    start (or, where it has no label of its own, the classic bake)."""
+    """The held-out scores of plain decimation (or the user's mesh), of the initial guess's
+    comparisons, and of the application's start (or, where it has no label of its own, the
+    classic bake)."""
     key, label = (("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh
                   else ("decimated", "Plain decimation"))
     with s.stage("scoring plain decimation"):
         methods = [heldout.score(key, label, guess.baseline, draw, None)]
+    for key, label, model in guess.comparisons:
+        with s.stage(f"scoring {label}"):
+            methods.append(heldout.score(key, label, model, draw, cfg.latent.texture_size))
     if s.app.start_label is not None:
         with s.stage("scoring the start"):
             methods.append(heldout.score("start", s.app.start_label, start, draw, cfg.latent.texture_size))
@@ -409,17 +445,18 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
     return methods
 
 
-def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_alpha: bool) -> float | None:
+def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_alpha: bool,
+                variants: int = 0) -> float | None:
     """The loop's share of this session's ``budget``: what is left after the set-up, less the
     outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far, plus the
-    validation scorings that choose what is written); ``None``
-    where ``optim.iterations`` fixes the steps."""
+    validation scorings that choose what is written, and one for each of ``variants`` of the
+    result); ``None`` where ``optim.iterations`` fixes the steps."""
     if cfg.optim.iterations is not None:
         return None
-    scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static)
+    scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static) + variants
     if choose_alpha:
         scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
-    scorings += 2 * cfg.views.validation / cfg.views.heldout  # ours and the start compared as written
+    scorings += 2 * (1 + variants) * cfg.views.validation / cfg.views.heldout  # ours and the start as written
     scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
     output_time = scorings * scoring + OUTPUT_TIME_MARGIN
     return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
@@ -471,7 +508,8 @@ def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, me
     """What the report and the metrics say of the run."""
     return RunRecord(
         asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
-        methods=methods, input_triangles=asset.mesh.num_triangles, output_triangles=export.mesh.num_triangles,
+        methods=methods, input_triangles=asset.mesh.num_triangles,
+        output_triangles=s.app.written_form(export).mesh.num_triangles,
         texture_size=cfg.latent.texture_size, resolution=cfg.render.resolution,
         loss_history=np.asarray(fit.losses, dtype=np.float64),
         validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
@@ -482,12 +520,14 @@ def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, me
         view_labels=animated.pose_labels(asset, heldout.pose) if moving else None)
 
 
-def write_outputs(s: _Session, cfg: Config, export: Asset, record: RunRecord) -> dict:
-    """``model.glb`` (+ ``model.obj``), ``config.toml``, ``report.html`` and ``metrics.json``,
-    all or none (``jobs.outputs.staged_outputs``); returns the metrics."""
+def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, record: RunRecord) -> dict:
+    """``model.glb`` (+ ``model.obj``), the application's own files, ``config.toml``,
+    ``report.html`` and ``metrics.json``, all or none (``jobs.outputs.staged_outputs``); returns
+    the metrics."""
     with staged_outputs(s.outdir) as staging:
         with s.stage("export"):
-            write_model(export, staging, cfg.io.export_obj)
+            write_model(s.app.written_form(export), staging, cfg.io.export_obj)
+            record.levels = s.app.files(export, guess, cfg, staging, record.methods)
         write_text_atomic(staging / CONFIG_NAME, to_toml(cfg))
         if s.recorder is not None:
             record.profile = s.recorder.as_dict()

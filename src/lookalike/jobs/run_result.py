@@ -22,7 +22,8 @@ class RunResult:
             so far and ``checkpoint.pt`` lets ``resume=True`` continue).
         baselines: the models ours was compared with, in memory and not written:
             ``{"decimated" (or "init_mesh"): Asset, "baked": Asset, "start": Asset}`` (each where
-            the run had it); e.g. for judging them in another renderer.
+            the run had it) and the initial guess's comparisons by key (``InitialGuess``); e.g.
+            for judging them in another renderer.
         command: the ``lookalike`` subcommand that ran it.
     """
 

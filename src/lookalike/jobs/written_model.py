@@ -6,6 +6,8 @@ views, the fit's best state is written as it is chosen by the loop (nothing to c
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from ..asset import Asset
 from ..fit.latent import Latent
 from ..report.heldout import AssetRenderer, HeldoutViews
@@ -15,7 +17,9 @@ from .alpha_export import AlphaChoice, alpha_label, chosen_alpha, written_alpha
 class WrittenModel:
     """Scores and chooses models as written for ``latent.alpha_mode`` ``mode`` on
     ``validation`` (``None``: no validation views), drawn by ``draw``; ``annealed``: the fit
-    trains its alpha test in (``latent.mask_anneal``), at the start's cutoff.
+    trains its alpha test in (``latent.mask_anneal``), at the start's cutoff; ``forms``: the
+    forms a model is scored in, by the mean of their PSNRs (e.g. a displaced model at each of
+    its tessellation levels; by default the model alone).
 
     Attributes:
         choice: the alpha choice of the start, with which every state of the fit is scored.
@@ -26,15 +30,17 @@ class WrittenModel:
             (the one of the model it returns).
     """
 
-    def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False):
-        self.mode, self.validation, self.draw, self.annealed = mode, validation, draw, annealed
+    def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False,
+                 forms: Callable[[Asset], list[Asset]] = lambda model: [model]):
+        self.mode, self.validation, self.draw, self.annealed, self.forms = mode, validation, draw, annealed, forms
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
         self.alpha: dict[str, str | None] = {}
 
     def score(self, asset: Asset) -> float:
-        """Mean PSNR of ``asset`` (as it is) on the validation views."""
-        return self.validation.psnr(asset, self.draw)
+        """Mean PSNR of ``asset`` (as it is) on the validation views, over its ``forms``."""
+        forms = self.forms(asset)
+        return sum(self.validation.psnr(form, self.draw) for form in forms) / len(forms)
 
     def _scorer(self):
         return None if self.validation is None else self.score

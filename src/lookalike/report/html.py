@@ -20,7 +20,7 @@ from .record import MethodResult, RunRecord
 from .metrics import PSNR_CAP_DB, SILHOUETTE_WIDTH_PX
 from .pictures import (DIFFERENCE_FULL_SCALE, animated_picture, image_grid, save_animation, signed_difference,
                      to_srgb_uint8)
-from .plot import plot_loss
+from .plot import plot_levels, plot_loss
 
 FILES_DIR = "report_files"
 JUDGE_SLOT = ("<!-- judge -->", "<!-- /judge -->")
@@ -238,6 +238,31 @@ def _methods_table(data: RunRecord) -> str:
     return table
 
 
+LEVEL_COLUMNS = {"level": "Level", "triangles": "Triangles", "bytes": "Bytes", "psnr": "PSNR (dB) ↑",
+                 "flip": "FLIP ↓", "bake_triangles": "Classic bake: triangles", "bake_bytes": "bytes",
+                 "bake_psnr": "PSNR (dB) ↑", "bake_flip": "FLIP ↓"}
+"""The columns of a report's levels table (``RunRecord.levels``), in order."""
+
+
+def _levels_section(data: RunRecord, files: Path) -> str:
+    """The levels table and its plot (``plot_levels``), or nothing where the run has none."""
+    if not data.levels:
+        return ""
+    plot_levels(data.levels, files / "levels.png")
+    columns = [key for key in LEVEL_COLUMNS if any(key in row for row in data.levels)]
+
+    def cell(value) -> str:
+        if value is None:
+            return "—"
+        return f"{value:,}" if isinstance(value, int) else f"{value:.4f}" if abs(value) < 1 else f"{value:.2f}"
+
+    head = "".join(f"<th>{LEVEL_COLUMNS[key]}</th>" for key in columns)
+    body = "".join("<tr>" + "".join(f"<td>{cell(row.get(key))}</td>" for key in columns) + "</tr>"
+                   for row in data.levels)
+    return (f'<h2>Levels</h2><div class="two"><div class="scroll"><table><tr>{head}</tr>{body}</table></div>'
+            f'<div class="plot"><img src="{FILES_DIR}/levels.png" alt="PSNR against triangles and bytes"></div></div>')
+
+
 def _flatten(config: dict, prefix: str = "") -> list[tuple[str, object]]:
     items = []
     for key, value in config.items():
@@ -302,7 +327,8 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
     textures, PSNR, FLIP and PSNR gain; every held-out view as reference, each method's render
     (PSNR under it), a red/blue difference of ours and each method's FLIP map; for an animated
     input, each view's clip and time and a moving picture over a clip (``report_files/motion.gif``);
-    the loss curve and stage timings; the configuration. Also writes ``report_files/comparison.png`` (the first
+    the application's levels table and plot (``RunRecord.levels``) where it has one; the loss
+    curve and stage timings; the configuration. Also writes ``report_files/comparison.png`` (the first
     views in one picture) and ``report_files/loss.png``.
 
     Args:
@@ -342,6 +368,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
 <h2>Scores on the held-out views</h2>
 {_methods_table(data)}
 {f'<ul class="notes">{notes}</ul>' if notes else ''}
+{_levels_section(data, files)}
 {"".join(JUDGE_SLOT)}
 <h2>Held-out views</h2>
 <div class="legend">

@@ -87,3 +87,35 @@ def plot_loss(history, path: str | Path, title: str = "Training loss", validatio
     finally:
         plt.close(fig)
     return path
+
+
+def plot_levels(rows: list[dict], path: str | Path) -> Path:
+    """Write held-out PSNR against triangles (left) and against file bytes (right), log x, for
+    ``rows`` (one per level: ``triangles``, ``bytes``, ``psnr`` of ours and ``bake_triangles``,
+    ``bake_bytes``, ``bake_psnr`` of the classic bake at that count, where scored): what one
+    base mesh with one set of maps buys against a mesh for each count."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2), dpi=150, sharey=True)
+    try:
+        for ax, x in zip(axes, ("triangles", "bytes")):
+            for prefix, label, colour in (("", "ours", "#1f4e8c"), ("bake_", "classic bake", "#c0562b")):
+                points = [(row[prefix + x], row[prefix + "psnr"]) for row in rows
+                          if row.get(prefix + "psnr") is not None]
+                if points:
+                    ax.plot(*zip(*points), color=colour, marker="o", linewidth=1.6, label=label)
+            ax.set_xscale("log")
+            ax.set_xlabel("triangles" if x == "triangles" else "file bytes")
+            ax.grid(True, color="#e3e3e3", linewidth=0.8)
+            for side in ("top", "right"):
+                ax.spines[side].set_visible(False)
+        axes[0].set_ylabel("held-out PSNR (dB)")
+        axes[0].legend(frameon=False, fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path)
+    finally:
+        plt.close(fig)
+    return path

@@ -123,6 +123,9 @@ class RunRecord:
         written_alpha: how the start, ours and the model written (``"written"``) write their
             alpha (``jobs.alpha_export.alpha_label``: ``"cutoff 0.4"``, ``"dithered"``,
             ``"blended"``, or ``None`` without alpha); empty where not chosen.
+        levels: the application's table (``Application.files``), one dict per row (e.g. a
+            displaced model's tessellation levels beside the classic bake at their triangle
+            counts), shown in the report with its plot, or ``None``.
     """
 
     asset_name: str
@@ -150,6 +153,7 @@ class RunRecord:
     motion: Motion | None = None
     written: dict[str, float] = field(default_factory=dict)
     written_alpha: dict[str, str | None] = field(default_factory=dict)
+    levels: list[dict] | None = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -191,5 +195,6 @@ class RunRecord:
                            "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},
             },
+            **({"levels": self.levels} if self.levels else {}),
             **({"profile": self.profile} if self.profile is not None else {}),
         }

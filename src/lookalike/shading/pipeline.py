@@ -41,6 +41,8 @@ import torch.nn.functional as F
 
 import lookalike.render as dr
 
+from ..asset import Asset
+from ..asset.displacement import tessellated
 from .camera import Camera
 from .gbuffer import MeshBuffers
 from .light import PointLight
@@ -101,7 +103,9 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     """Render B views of an asset.
 
     Args:
-        asset: an ``Asset`` or anything with ``.mesh`` (``Mesh``) and ``.materials``.
+        asset: an ``Asset`` (with a displacement map, drawn tessellated at its level,
+            ``lookalike.asset.displacement``) or anything with ``.mesh`` (``Mesh``) and
+            ``.materials``.
         camera: B cameras.
         light: B point lights (or 1, shared).
         resolution: ``H`` (square) or ``(H, W)`` of the output.
@@ -122,6 +126,8 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     layer of foliage covers a small part of it.
     """
     height, width = image_size(resolution)
+    if isinstance(asset, Asset):
+        asset = tessellated(asset)
     buffers = mesh_buffers(asset, camera)
     frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
     shaded = peel_and_shade(frame, (height * spp, width * spp), spp, layers, msaa and spp > 1)

@@ -1,0 +1,219 @@
+"""Displaced tessellation (paper Sec. 5.1): a base mesh subdivided ``level`` times at edge
+midpoints (``lookalike.asset.subdivide``), each fine vertex moved along its normal,
+
+    v' = v + scale * (h(v) - offset) * n(v),
+
+with ``n`` the angle-weighted normal of the undisplaced fine mesh
+(``lookalike.asset.normals.angle_weighted_normals``, Blender's: the same at a point whatever the
+level) and ``h`` the height map sampled bilinearly at the vertex's UVs, in the mip level that
+the level's edges call for (``Displacement.mips``).
+A vertex on a UV seam has one UV per side: it takes the mean of its samples, so that the
+surface never cracks; ``stitched`` then changes the map as little as possible so that every side
+reads that mean, for readers that sample one side per vertex. The topology of every level is built once per base mesh and reused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import weakref
+
+import numpy as np
+import scipy.sparse
+import scipy.sparse.linalg
+import torch
+import torch.nn.functional as F
+
+from .asset import Asset
+from .material import Displacement
+from .mesh import Mesh
+from .normals import angle_weighted_normals
+from .subdivide import MeshSubdivision
+
+
+class Tessellation:
+    """The subdivisions of one base mesh's topology, levels ``1 .. levels``, and for each level
+    the distinct (position, UV) pairs of its corners.
+
+    Attributes:
+        steps: ``MeshSubdivision`` from level ``k`` to ``k + 1``, for ``k < levels``.
+        pairs: per level, ``(position [P], uv [P])`` int64 indices of the distinct pairs.
+        counts: per level, ``[V_k]`` float32 how many pairs each position has (its UV sides).
+    """
+
+    def __init__(self, mesh: Mesh, levels: int):
+        self.steps: list[MeshSubdivision] = []
+        self.pairs: list[tuple[torch.Tensor, torch.Tensor]] = []
+        self.counts: list[torch.Tensor] = []
+        fine = Mesh(v_pos=mesh.v_pos.detach(), t_pos_idx=mesh.t_pos_idx, uv=[(mesh.v_tex.detach(), mesh.t_tex_idx)],
+                    t_nrm_idx=mesh.t_nrm_idx)
+        self._add_pairs(fine)
+        for _ in range(levels):
+            self.steps.append(MeshSubdivision(fine))
+            fine = self.steps[-1](fine)
+            self._add_pairs(fine)
+
+    @property
+    def levels(self) -> int:
+        return len(self.steps)
+
+    def _add_pairs(self, mesh: Mesh) -> None:
+        pairs = torch.unique(torch.stack([mesh.t_pos_idx.reshape(-1), mesh.t_tex_idx.reshape(-1)], dim=1), dim=0)
+        self.pairs.append((pairs[:, 0], pairs[:, 1]))
+        self.counts.append(torch.bincount(pairs[:, 0], minlength=mesh.num_vertices).float())
+
+    def subdivided(self, mesh: Mesh, level: int) -> Mesh:
+        """``mesh`` (this topology, any positions and UVs) subdivided ``level`` times, with UV
+        set 0 only; differentiable."""
+        fine = dataclasses.replace(mesh, uv=mesh.uv[:1])
+        for step in self.steps[:level]:
+            fine = step(fine)
+        return fine
+
+
+_TESSELLATIONS: dict[int, tuple[weakref.ref, weakref.ref, Tessellation]] = {}
+"""Built tessellations by ``id`` of their position index buffer, dropped when it is freed."""
+
+
+def tessellation(mesh: Mesh, levels: int) -> Tessellation:
+    """The ``Tessellation`` of ``mesh``'s topology to at least ``levels``, built once per index
+    buffer (kept while ``mesh.t_pos_idx`` lives)."""
+    key = id(mesh.t_pos_idx)
+    kept = _TESSELLATIONS.get(key)
+    if (kept is not None and kept[0]() is mesh.t_pos_idx and kept[1]() is mesh.t_tex_idx
+            and kept[2].levels >= levels):
+        return kept[2]
+    built = Tessellation(mesh, levels)
+    _TESSELLATIONS[key] = (weakref.ref(mesh.t_pos_idx, lambda _: _TESSELLATIONS.pop(key, None)),
+                           weakref.ref(mesh.t_tex_idx), built)
+    return built
+
+
+def level_mip(displacement: Displacement, level: int) -> int:
+    """The mip of the map that tessellation level ``level`` reads."""
+    return displacement.mips[min(level, len(displacement.mips) - 1)]
+
+
+def height_map(displacement: Displacement, level: int) -> torch.Tensor:
+    """``[S', S', 1]`` the heights that level ``level`` samples: the map's mip ``k``
+    (``level_mip``; its given mip where it has one, else the map box-filtered ``2^k x 2^k``)."""
+    k = level_mip(displacement, level)
+    heights = displacement.heights
+    if k == 0:
+        return heights.data
+    if heights.mips is not None and len(heights.mips) >= k:
+        return heights.mips[k - 1]
+    size = min(2 ** k, heights.data.shape[0], heights.data.shape[1])
+    return F.avg_pool2d(heights.data.permute(2, 0, 1)[None], size)[0].permute(1, 2, 0)
+
+
+def corner_heights(image: torch.Tensor, uv: torch.Tensor) -> torch.Tensor:
+    """``[N]`` heights of ``image [S, S, 1]`` sampled bilinearly (texel centres at
+    ``(i + 1/2) / S``, edges clamped) at ``uv [N, 2]``; differentiable."""
+    grid = (2.0 * uv - 1.0).to(image.dtype)[None, None]  # [1, 1, N, 2], x along columns
+    return F.grid_sample(image.permute(2, 0, 1)[None], grid, mode="bilinear", padding_mode="border",
+                         align_corners=False).reshape(-1)
+
+
+def vertex_heights(fine: Mesh, pairs: tuple[torch.Tensor, torch.Tensor], counts: torch.Tensor,
+                   image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(heights [V], sides [P])``: each position's mean height over its distinct UVs
+    ``pairs``, and each pair's own sample (they differ only on UV seams)."""
+    position, uv = pairs
+    sides = corner_heights(image, fine.v_tex[uv])
+    heights = torch.zeros(fine.num_vertices, dtype=sides.dtype).index_add(0, position, sides)
+    return heights / counts.clamp(min=1.0), sides
+
+
+def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) -> tuple[Mesh, torch.Tensor]:
+    """``(fine mesh, seam_gaps [P])``: ``mesh`` subdivided ``level`` times (default
+    ``displacement.level``) and displaced (module docstring), its shading normals left to be
+    recomputed from the displaced positions (normal slots kept, authored values dropped); and
+    each (position, UV) pair's height minus its position's mean (zero off UV seams).
+    Differentiable in positions, UVs and heights."""
+    level = displacement.level if level is None else level
+    topology = tessellation(mesh, level)
+    fine = topology.subdivided(mesh, level)
+    normals = angle_weighted_normals(fine.v_pos, fine.t_pos_idx)
+    heights, sides = vertex_heights(fine, topology.pairs[level], topology.counts[level], height_map(displacement, level))
+    v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
+    gaps = sides - heights[topology.pairs[level][0]]
+    return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
+
+
+def tessellated(asset: Asset, level: int | None = None) -> Asset:
+    """``asset`` as it is drawn: where its material has a ``Displacement``, its mesh displaced
+    at ``level`` (default the displacement's own) and its material without one; else itself.
+    ``ValueError`` for a displaced material on a mesh of several materials."""
+    displacement = asset.materials[0].displacement if asset.materials else None
+    if displacement is None:
+        return asset
+    if len(asset.materials) > 1:
+        raise ValueError("a displacement map needs a mesh of one material")
+    mesh, _ = displaced(asset.mesh, displacement, level)
+    material = dataclasses.replace(asset.materials[0], displacement=None)
+    return dataclasses.replace(asset, mesh=mesh, materials=[material])
+
+
+STITCH_DAMPING = 1e-3
+"""Ridge weight of the texels' change in ``stitched`` (``lsqr``'s ``damp``): where two seams
+ask one texel for different heights, the least-squares compromise stays within the map's range."""
+
+
+def bilinear_weights(uv: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(texels [N, 4], weights [N, 4])``: the flat indices (row * size + column) of the four
+    texels a bilinear lookup at ``uv [N, 2]`` of a ``size x size`` image reads (edges clamped),
+    and their weights, as ``corner_heights`` samples."""
+    x = np.clip(uv[:, 0] * size - 0.5, 0.0, size - 1.0)
+    y = np.clip(uv[:, 1] * size - 0.5, 0.0, size - 1.0)
+    x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = x - x0, y - y0
+    x1, y1 = np.minimum(x0 + 1, size - 1), np.minimum(y0 + 1, size - 1)
+    texels = np.stack([y0 * size + x0, y0 * size + x1, y1 * size + x0, y1 * size + x1], axis=1)
+    weights = np.stack([(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy], axis=1)
+    return texels, weights
+
+
+def stitched(image: torch.Tensor, fine: Mesh, pairs: tuple[torch.Tensor, torch.Tensor],
+             counts: torch.Tensor) -> torch.Tensor:
+    """``image [S, S, 1]`` changed as little as possible (damped least squares, ``scipy``'s
+    ``lsqr``, then clipped to [0, 1]) so that every side of every UV seam of ``fine`` reads its
+    vertex's mean height: a reader that
+    samples one side per vertex (Blender's Displace modifier, an engine's tessellator) then
+    builds the surface we draw, with no crack."""
+    position, uv = (p.numpy() for p in pairs)
+    seam = counts.numpy()[position] > 1
+    if not seam.any():
+        return image
+    size = image.shape[0]
+    values = image.detach().double().numpy().reshape(-1)
+    texels, weights = bilinear_weights(fine.v_tex.detach().double().numpy()[uv[seam]], size)
+    sides = (values[texels] * weights).sum(axis=1)
+    target = np.zeros(int(counts.shape[0]))
+    np.add.at(target, position[seam], sides)
+    target = target[position[seam]] / counts.numpy()[position[seam]]
+    rows = np.repeat(np.arange(len(sides)), 4)
+    matrix = scipy.sparse.csr_matrix((weights.reshape(-1), (rows, texels.reshape(-1))), shape=(len(sides), size * size))
+    change = scipy.sparse.linalg.lsqr(matrix, target - sides, damp=STITCH_DAMPING, atol=1e-10, btol=1e-10)[0]
+    return torch.from_numpy(np.clip(values + change, 0.0, 1.0).reshape(image.shape)).to(image.dtype)
+
+
+def stitched_displacement(mesh: Mesh, displacement: Displacement, levels: tuple[int, ...]) -> Displacement:
+    """``displacement`` with each mip that ``levels`` read stitched (``stitched``) for the seams
+    of the finest level that reads it (its vertices include the coarser levels'); the map and
+    its mips up to the coarsest read, the others box-filtered."""
+    topology = tessellation(mesh, max(levels))
+    base = dataclasses.replace(mesh, v_pos=mesh.v_pos.detach(), uv=[(mesh.v_tex.detach(), mesh.t_tex_idx)])
+    maps = {}
+    for level in sorted(levels, reverse=True):
+        k = level_mip(displacement, level)
+        if k not in maps:
+            fine = topology.subdivided(base, level)
+            maps[k] = stitched(height_map(displacement, level).detach(), fine, topology.pairs[level],
+                               topology.counts[level])
+    level_map = maps.get(0, displacement.heights.data.detach())
+    mips = []
+    for k in range(1, max(maps) + 1):
+        box = F.avg_pool2d(level_map.permute(2, 0, 1)[None], 2 ** k)[0].permute(1, 2, 0)
+        mips.append(maps.get(k, box))
+    heights = dataclasses.replace(displacement.heights, data=level_map, mips=mips or None)
+    return dataclasses.replace(displacement, heights=heights)

@@ -1,0 +1,35 @@
+"""``displace``'s outputs applied in Blender (``lookalike.blender.displace_worker``), the way
+the README tells a user to: the proof that the documented settings rebuild our surface."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .. import io
+from ..asset.displacement import level_mip
+from .process import run_worker
+
+
+def heights_image(outdir: Path, level: int) -> Path:
+    """The heights image that tessellation level ``level`` of ``outdir``'s ``base.glb`` reads:
+    ``displacement_lodK.png`` where the level reads a mip, else ``displacement.png``."""
+    displacement = io.load(outdir / "base.glb").materials[0].displacement
+    return outdir / (f"displacement_lod{level}.png" if level_mip(displacement, level) else "displacement.png")
+
+
+def blender_displaced(outdir: str | Path, level: int) -> np.ndarray:
+    """``[V, 3]`` float64 positions of ``outdir/base.glb`` subdivided ``level`` times and
+    displaced by Blender's Displace modifier with the settings in its material's
+    ``extras.displacement``. Raises ``ConfigError`` without ``bpy``, ``JudgeError`` where
+    Blender fails."""
+    outdir = Path(outdir)
+    displacement = io.load(outdir / "base.glb").materials[0].displacement
+    with tempfile.TemporaryDirectory(prefix="lookalike-displace-") as scratch:
+        output = Path(scratch) / "positions.npy"
+        run_worker("displace_worker", {"base": str(outdir / "base.glb"), "heights": str(heights_image(outdir, level)),
+                                       "level": level, "scale": displacement.scale, "offset": displacement.offset,
+                                       "output": str(output)})
+        return np.load(output)

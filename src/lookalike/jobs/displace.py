@@ -1,0 +1,197 @@
+"""``displace``: one coarse base mesh and one set of maps (displacement, normal, base colour,
+specular) that look right at every tessellation level (paper Sec. 5.1, and its supplement's
+tessellation as level of detail).
+
+The start is ``simplify``'s decimation and atlas at the base count, smooth (one normal per
+position: a hard edge would be two vertices in every engine, and displaced apart), its
+displacement map baked
+as the distance from the subdivided base to the input along each vertex's normal
+(``lookalike.init.displacement_bake``), its other maps baked on that displaced surface. The
+latent (``lookalike.fit.displaced_mesh``) fits the base positions and all maps, each step at
+the next of ``latent.tessellation_levels``. The report scores every level beside the classic
+decimate + bake at the same triangle count. Outputs besides the run's (``model.glb`` is the
+finest level): ``base.glb`` (the base mesh and its maps, the displacement map in the material's
+``extras``), ``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package
+is installed) and, for each level that reads a mip of it, ``displacement_lodK.png``, the map that
+level reads;
+``lodK.glb``, level K tessellated and displaced, for engines without tessellation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .. import io
+from ..asset import Asset, Material, Mesh
+from ..asset.displacement import height_map, level_mip, stitched_displacement, tessellated
+from ..errors import ConfigError
+from ..init import decimate
+from ..init.displacement_bake import bake_displacement
+from ..init.initial_guess import InitialGuess, Ranges, initial_guess
+from ..init.projection_bake import bake
+from ..io.image_files import write_png
+from ..phases import phase
+from ..fit.displaced_mesh import DisplacedMesh
+from ..report.record import MethodResult
+from ..settings import Config, LatentConfig
+from .run import TEXTURE_STREAM, Application, keywords_doc, mesh_latent, run
+from .run_result import RunResult
+from .simplify import build_initial_guess
+
+DISPLACE_DEFAULTS = Config(latent=LatentConfig(ratio=0.01))
+"""Where a ``displace`` run's settings start: a base of 1 % of the input's triangles, fitted at
+levels 0 to 3 (1 to 64 times the base's triangles)."""
+
+MAX_DISPLACEMENT_MIP = 1
+"""The coarsest mip a level reads: the atlas keeps ``lookalike.init.unwrap``'s 4 texels between
+charts, so a texel of mip 1 never mixes two charts' heights, while coarser mips would."""
+
+
+def level_mips(base: Mesh, finest: int, size: int) -> tuple[int, ...]:
+    """The mip each level up to ``finest`` reads of a ``size``-texel map on ``base``'s atlas:
+    ``round(log2(e))`` of the level's mean edge ``e`` in texels (``2^-level`` of the base's),
+    within [0, ``MAX_DISPLACEMENT_MIP``]: a vertex reads the mean of the texels around it up to
+    its neighbours."""
+    corners = base.v_tex[base.t_tex_idx]  # [T, 3, 2]
+    edge = float((corners - corners.roll(1, dims=1)).norm(dim=-1).mean()) * size
+    return tuple(min(max(round(math.log2(max(edge / 2 ** level, 1.0))), 0), MAX_DISPLACEMENT_MIP)
+                 for level in range(finest + 1))
+
+
+def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
+    """``simplify``'s start at the base count, displaced (module docstring); plain decimation as
+    the baseline, and the classic decimate + bake at each level's count as comparisons.
+    ``ConfigError`` for ``latent.init`` other than ``"bake"``."""
+    if cfg.latent.init != "bake":
+        raise ConfigError(f"displace bakes its maps on the displaced surface: latent.init must be 'bake', not "
+                          f"{cfg.latent.init!r}")
+    levels = sorted(cfg.latent.tessellation_levels)
+    guess = build_initial_guess(asset, cfg, count)
+    base = dataclasses.replace(guess.start, mesh=dataclasses.replace(guess.start.mesh, t_nrm_idx=None))
+    size = cfg.latent.texture_size
+    with phase("displacement bake"):
+        displacement = bake_displacement(asset, base.mesh, levels[-1], size, level_mips(base.mesh, levels[-1], size))
+    with phase("bake on the displaced surface"):
+        surface = tessellated(Asset(mesh=base.mesh, materials=[Material(displacement=displacement)]))
+        maps = bake(asset, surface.mesh, cfg.latent.texture_size).material
+    material = dataclasses.replace(base.materials[0], kd=maps.kd, ks=maps.ks, normal=maps.normal,
+                                   displacement=stitched_displacement(base.mesh, displacement, tuple(levels)))
+    start = dataclasses.replace(base, materials=[material])
+    notes = [f"base mesh of {base.mesh.num_triangles:,} triangles, displacement map {size}², fitted at tessellation "
+             f"levels {', '.join(map(str, levels))}"]
+    return dataclasses.replace(guess, start=start, notes=guess.notes + notes,
+                               comparisons=classic_bakes(asset, cfg, guess, levels))
+
+
+def classic_bakes(asset: Asset, cfg: Config, guess: InitialGuess, levels: list[int]) -> list[tuple[str, str, Asset]]:
+    """The classic decimate + bake at the triangle count of each of ``levels`` (the base's count
+    times 4^level) below the input's, as ``(key, label, asset)``."""
+    clamp = cfg.clamp
+    ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
+    rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
+    bakes = []
+    for level in levels:
+        count = guess.start.mesh.num_triangles * 4 ** level
+        if count >= asset.mesh.num_triangles:
+            continue
+        if level == 0 and guess.baked is not None:
+            baked = guess.baked
+        else:
+            with phase("classic bakes"):
+                baked = initial_guess(asset, decimate(asset.mesh, count), "bake", cfg.latent.texture_size, ranges,
+                                      rng).baked
+        bakes.append((f"bake_l{level}", f"Classic bake, {count:,}", baked))
+    return bakes
+
+
+def at_level(model: Asset, level: int) -> Asset:
+    """``model`` (a displaced asset) drawn at tessellation level ``level``."""
+    material = model.materials[0]
+    displacement = dataclasses.replace(material.displacement, level=level)
+    return dataclasses.replace(model, materials=[dataclasses.replace(material, displacement=displacement)])
+
+
+def level_variants(model: Asset, cfg: Config) -> list[tuple[str, str, Asset]]:
+    """``model`` at each of its coarser levels, scored beside it (which is the finest)."""
+    return [(f"ours_l{level}", f"Ours, level {level}", at_level(model, level))
+            for level in sorted(cfg.latent.tessellation_levels)[:-1]]
+
+
+def displaced_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> DisplacedMesh:
+    """The run's textured mesh (``mesh_latent``) as a ``DisplacedMesh`` fitted at the run's levels."""
+    if moving:
+        raise ConfigError("displace fits a still model: give a static mesh, or --static for a skinned one")
+    return DisplacedMesh(mesh_latent(asset, start, cfg, False), start.materials[0].displacement,
+                         cfg.latent.tessellation_levels, cfg.latent.texture_scales)
+
+
+def glb_bytes(model: Asset) -> int:
+    """The size of ``model`` written as ``.glb``."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "model.glb"
+        io.save(model, path)
+        return path.stat().st_size
+
+
+def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: Path,
+                       methods: list[MethodResult]) -> list[dict]:
+    """Write ``base.glb``, the displacement maps and ``lodK.glb`` (module docstring) into
+    ``folder``; the rows of the report's levels table."""
+    levels = sorted(cfg.latent.tessellation_levels)
+    displacement = model.materials[0].displacement
+    io.save(model, folder / "base.glb")
+    heights = displacement.heights
+    write_png(heights.data.numpy(), folder / "displacement.png", bits=16)
+    write_exr(heights.data.numpy(), folder / "displacement.exr")
+    for level in levels:
+        if level_mip(displacement, level):
+            write_png(height_map(displacement, level).numpy(), folder / f"displacement_lod{level}.png", bits=16)
+    scores = {m.key: m for m in methods}
+    bakes = {key: asset for key, _, asset in guess.comparisons}
+    base_bytes = (folder / "base.glb").stat().st_size
+    rows = []
+    for level in levels:
+        drawn = tessellated(model, level)
+        io.save(drawn, folder / f"lod{level}.glb")
+        ours = scores["ours" if level == levels[-1] else f"ours_l{level}"]
+        row = {"level": level, "triangles": drawn.mesh.num_triangles, "bytes": base_bytes,
+               "lod_bytes": (folder / f"lod{level}.glb").stat().st_size, "psnr": ours.psnr, "flip": ours.flip}
+        baked = scores.get(f"bake_l{level}")
+        if baked is not None:
+            row.update({"bake_triangles": baked.triangles, "bake_bytes": glb_bytes(bakes[f"bake_l{level}"]),
+                        "bake_psnr": baked.psnr, "bake_flip": baked.flip})
+        rows.append(row)
+    return rows
+
+
+def write_exr(heights: np.ndarray, path: Path) -> None:
+    """``heights [S, S, 1]`` as a one-channel float32 EXR, where the ``OpenEXR`` package is
+    installed (else nothing)."""
+    try:
+        import OpenEXR
+    except ImportError:
+        return
+    with OpenEXR.File({"type": OpenEXR.scanlineimage}, {"Y": np.ascontiguousarray(heights[..., 0], np.float32)}) as exr:
+        exr.write(str(path))
+
+
+DISPLACE = Application(command="displace", outdir_suffix="-displaced", initial_guess=displace_guess,
+                       defaults=DISPLACE_DEFAULTS, start_label="Displaced bake", latent=displaced_latent,
+                       variants=level_variants, written_form=tessellated, files=write_displacement)
+"""``displace``: a base mesh with a displacement map, fitted at every tessellation level."""
+
+
+def displace(input: str | Path | Asset, outdir: str | Path | None = None, *, config: Config | str | Path | None = None,
+             **keywords) -> RunResult:
+    return run(DISPLACE, input, outdir, config=config, **keywords)
+
+
+displace.__doc__ = keywords_doc(DISPLACE, "Fit a base mesh with a displacement map that looks like ``input`` at every "
+                                "tessellation level into ``outdir``.",
+                                ("triangles", "ratio", "tessellation_levels", "texture_size", "resolution",
+                                 "time_budget", "iterations", "seed", "export_obj"))
