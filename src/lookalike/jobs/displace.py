@@ -4,16 +4,16 @@ tessellation as level of detail).
 
 The start is ``simplify``'s decimation and atlas at the base count, smooth (one normal per
 position: a hard edge would be two vertices in every engine, and displaced apart), its
-displacement map baked
-as the distance from the subdivided base to the input along each vertex's normal
-(``lookalike.init.displacement_bake``), its other maps baked on that displaced surface. The
-latent (``lookalike.fit.displaced_mesh``) fits the base positions and all maps, each step at
-the next of ``latent.tessellation_levels``. The report scores every level beside the classic
-decimate + bake at the same triangle count. Outputs besides the run's (``model.glb`` is the
-finest level): ``base.glb`` (the base mesh and its maps, the displacement map in the material's
-``extras``), ``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package
-is installed) and, for each level that reads a mip of it, ``displacement_lodK.png``, the map that
-level reads;
+displacement map baked as the distance from the subdivided base to the input along each
+vertex's normal (``lookalike.init.displacement_bake``), its other maps baked on that surface at
+the finest level (a normal map averaged over the levels' bakes measured worse,
+``docs/benchmarks.md``). The latent (``lookalike.fit.displaced_mesh``) fits the base positions
+and all maps, each step at the next of ``latent.tessellation_levels``, its states scored on the
+mean over the levels. The report scores every level beside the classic decimate + bake at the
+same triangle count. Outputs besides the run's (``model.glb`` is the finest level):
+``base.glb`` (the base mesh and its maps, the displacement map in the material's ``extras``),
+``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package is installed)
+and, for each level that reads a mip of it, ``displacement_lodK.png``, the map that level reads;
 ``lodK.glb``, level K tessellated and displaced, for engines without tessellation.
 """
 
@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import io
-from ..asset import Asset, Material, Mesh
-from ..asset.displacement import height_map, level_mip, stitched_displacement, tessellated
+from ..asset import Asset, Mesh
+from ..asset.displacement import displaced, height_map, level_mip, stitched_displacement, tessellated
 from ..errors import ConfigError
 from ..init import decimate
 from ..init.displacement_bake import bake_displacement
@@ -76,11 +76,11 @@ def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess
     size = cfg.latent.texture_size
     with phase("displacement bake"):
         displacement = bake_displacement(asset, base.mesh, levels[-1], size, level_mips(base.mesh, levels[-1], size))
+    displacement = stitched_displacement(base.mesh, displacement, tuple(levels))
     with phase("bake on the displaced surface"):
-        surface = tessellated(Asset(mesh=base.mesh, materials=[Material(displacement=displacement)]))
-        maps = bake(asset, surface.mesh, cfg.latent.texture_size).material
+        maps = bake(asset, displaced(base.mesh, displacement)[0], size).material
     material = dataclasses.replace(base.materials[0], kd=maps.kd, ks=maps.ks, normal=maps.normal,
-                                   displacement=stitched_displacement(base.mesh, displacement, tuple(levels)))
+                                   displacement=displacement)
     start = dataclasses.replace(base, materials=[material])
     notes = [f"base mesh of {base.mesh.num_triangles:,} triangles, displacement map {size}², fitted at tessellation "
              f"levels {', '.join(map(str, levels))}"]
