@@ -24,6 +24,7 @@ from lookalike.fit.training_views import view_sampler
 from lookalike.jobs.cards import CARDS_DEFAULTS, cards
 from lookalike.jobs.simplify import simplify
 from lookalike.report.heldout import HeldoutViews
+from interrupt_factory import ctrl_c_at
 from test_io_gltf import assert_valid
 
 TINY = {"views": {"pool_size": 8, "refresh_every": 2, "heldout": 4, "validation": 2}, "render": {"resolution": 48},
@@ -189,22 +190,13 @@ def test_blended_cards_beat_their_billboard_cloud_and_are_written_blended(tmp_pa
 
 
 def test_cards_resumes_bit_exactly_where_ctrl_c_stopped_it(tmp_path, monkeypatch):
-    from lookalike.fit.loop import Fitter
-
     settings = {"triangles": 12, "iterations": 6, "config": config_from_dict(TINY, base=CARDS_DEFAULTS),
                 "progress": False}
     whole = cards(clumps(20), tmp_path / "whole", **settings)
-    step = Fitter.step
-
-    def interrupted_step(self):
-        if self.progress.iteration == 3:
-            raise KeyboardInterrupt
-        return step(self)
-
-    monkeypatch.setattr(Fitter, "step", interrupted_step)
+    ctrl_c_at(monkeypatch, 3)
     first = cards(clumps(20), tmp_path / "out", **settings)
     assert first.interrupted and "lookalike cards" in first.summary()
-    monkeypatch.setattr(Fitter, "step", step)
+    monkeypatch.undo()
     with pytest.raises(Exception, match="lookalike cards"):
         simplify(clumps(20), tmp_path / "out", resume=True, progress=False)
     second = cards(clumps(20), tmp_path / "out", resume=True, progress=False)

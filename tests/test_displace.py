@@ -28,6 +28,7 @@ from lookalike.settings import config_from_dict
 from lookalike.shading.camera import Camera
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render
+from interrupt_factory import ctrl_c_at
 from io_factory import plane
 from mesh_factory import icosphere
 
@@ -129,13 +130,17 @@ def test_gradients_through_subdivision_displacement_and_normals_match_finite_dif
 
 def test_stitching_makes_both_sides_of_a_seam_read_the_vertex_height():
     mesh = seamed_quad()
-    start = Displacement(Texture(0.2 + 0.6 * random_heights(32)), 0.3, 0.5, level=2, mips=(0,))  # room to move
-    before = displaced(mesh, start)[1].abs().max()
-    stitched = stitched_displacement(mesh, start, (2,))
-    fine, gaps = displaced(mesh, stitched)
-    assert before > 0.05 and gaps.abs().max() < 1e-4
+    start = Displacement(Texture(0.2 + 0.6 * random_heights(32)), 0.3, 0.5, level=2)  # room to move
+    before, gaps_before = displaced(mesh, start)
+    stitched = stitched_displacement(mesh, start, 2)
+    after, gaps = displaced(mesh, stitched)
+    assert gaps_before.abs().max() > 0.05 and gaps.abs().max() < 1e-4
+    seam = gaps_before.abs() > 0
+    moved = (after.v_pos - before.v_pos).norm(dim=1)
+    assert moved.max() < 0.3 * gaps_before.abs().max()  # seam vertices meet at their mean
     changed = (stitched.heights.data - start.heights.data).abs()
-    assert changed.max() < 2 * before and (changed > 1e-6).float().mean() < 0.1  # a few texels, a little
+    assert (changed > 1e-6).float().mean() < 0.1  # a few texels
+    assert seam.any()
 
 
 def test_a_displaced_model_never_cracks_along_its_seams_as_written(tmp_path):
@@ -149,11 +154,11 @@ def test_a_displaced_model_never_cracks_along_its_seams_as_written(tmp_path):
 
 
 def test_the_displacement_map_survives_the_gltf_round_trip(tmp_path):
-    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.25, 0.5, level=3, mips=(1, 1, 0))
+    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.25, 0.5, level=3)
     model = Asset(mesh=seamed_quad(), materials=[Material(displacement=displacement)])
     io.save(model, tmp_path / "base.glb")
     read = io.load(tmp_path / "base.glb").materials[0].displacement
-    assert (read.scale, read.offset, read.level, read.mips) == (0.25, 0.5, 3, (1, 1, 0))
+    assert (read.scale, read.offset, read.level) == (0.25, 0.5, 3)
     assert (read.heights.data - displacement.heights.data).abs().max() < 1 / 65535  # 16-bit
     gltf = json.loads((tmp_path / "base.glb").read_bytes()[20:20 + int.from_bytes(
         (tmp_path / "base.glb").read_bytes()[12:16], "little")])
@@ -165,13 +170,13 @@ def test_the_height_bake_moves_the_subdivided_base_onto_the_input():
     base = atlas_sphere(2)
     base.v_pos = base.v_pos * 0.97  # inside the input: every height positive
     reference = Asset(mesh=target)
-    displacement = bake_displacement(reference, base, 2, 64, (0,))
+    displacement = bake_displacement(reference, base, 2, 64)
     query = SurfaceQuery(target.v_pos.double().numpy(), target.t_pos_idx.numpy())
     flat = tessellation(base, 2).subdivided(base, 2)
     moved, _ = displaced(base, displacement)
     before = np.abs(query.closest(flat.v_pos.double().numpy()).distance).mean()
     after = np.abs(query.closest(moved.v_pos.double().numpy()).distance).mean()
-    assert after < 0.2 * before
+    assert after < 0.05 * before  # each vertex reads (nearly) its own height: on the input
 
 
 def bumpy_plane(n: int = 33) -> tuple[Mesh, torch.Tensor]:
@@ -188,7 +193,7 @@ def test_a_plane_displaced_by_a_known_height_field_is_recovered_from_renders():
     reference, truth = bumpy_plane()
     base = plane(3)
     material = Material(kd=Texture.constant([0.7, 0.7, 0.7, 1.0]), ks=Texture.constant([0.0, 0.5, 0.0]))
-    start = Displacement(Texture(torch.full((32, 32, 1), 0.5)), 0.3, 0.5, level=3, mips=(0,))
+    start = Displacement(Texture(torch.full((32, 32, 1), 0.5)), 0.3, 0.5, level=3)
     surface = TexturedMesh.from_asset(Asset(mesh=base, materials=[material]), torch.tensor([0.5, 0.5, 0.0]), 0.8,
                                       limits=config_from_dict({}).clamp, msaa=1, train_alpha=False)
     latent = DisplacedMesh(surface, start, (3,))
@@ -287,3 +292,21 @@ def test_displace_command_reports_bad_levels_in_one_line(tmp_path, capsys):
     assert main(["displace", str(source), "--levels", "0,9"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "--levels" in err[0] and "tessellation_levels" in err[1]
+
+
+def test_displace_resumes_bit_exactly_where_ctrl_c_stopped_it(tmp_path, monkeypatch):
+    """The level each step draws is part of the saved state: a resumed run draws the same ones."""
+    from lookalike.jobs.displace import displace
+    from test_fit_simplify import bumpy_sphere
+
+    settings = {"triangles": 60, "tessellation_levels": (0, 2), "iterations": 7, "config": config_from_dict(TINY),
+                "progress": False}
+    whole = displace(bumpy_sphere(), tmp_path / "whole", **settings)
+    ctrl_c_at(monkeypatch, 3)
+    first = displace(bumpy_sphere(), tmp_path / "out", **settings)
+    assert first.interrupted and "lookalike displace" in first.summary()
+    monkeypatch.undo()
+    second = displace(bumpy_sphere(), tmp_path / "out", resume=True, progress=False)
+    assert not second.interrupted
+    for key in ("ours", "ours_l0"):
+        assert second.metrics["heldout"][key]["psnr"] == whole.metrics["heldout"][key]["psnr"]

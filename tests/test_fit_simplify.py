@@ -17,9 +17,9 @@ from lookalike.asset import Asset, Material, Texture
 from lookalike.cli import main
 from lookalike.errors import ConfigError
 from lookalike.settings import config_from_dict, load_config
-from lookalike.fit.loop import Fitter
 from lookalike.jobs import simplify as simplify_job
 from lookalike.jobs.simplify import simplify
+from interrupt_factory import ctrl_c_at
 from mesh_factory import icosphere
 
 TINY = {"views": {"pool_size": 16, "refresh_every": 2, "heldout": 16, "batch_size": 2},
@@ -132,18 +132,11 @@ def test_an_existing_outdir_is_never_overwritten_without_force(tmp_path):
 def test_ctrl_c_leaves_the_best_result_and_a_checkpoint_that_resume_finishes(tmp_path, monkeypatch):
     outdir = tmp_path / "out"
     cfg = config_from_dict({**TINY, "views": {"pool_size": 4, "heldout": 2, "batch_size": 1}})
-    step = Fitter.step
-
-    def interrupted_step(self):
-        if self.progress.iteration == 5:
-            raise KeyboardInterrupt
-        return step(self)
-
-    monkeypatch.setattr(Fitter, "step", interrupted_step)
+    ctrl_c_at(monkeypatch, 5)
     first = simplify(bumpy_sphere(), outdir, triangles=100, iterations=8, config=cfg, progress=False)
     assert first.interrupted and first.metrics["iterations"] == 5
     assert (outdir / "checkpoint.pt").exists() and (outdir / "model.glb").exists()
-    monkeypatch.setattr(Fitter, "step", step)
+    monkeypatch.undo()
     with pytest.raises(ConfigError, match="--force"):
         simplify(bumpy_sphere(), outdir, triangles=100, progress=False)
     whole = simplify(bumpy_sphere(), tmp_path / "whole", triangles=100, iterations=8, config=cfg, progress=False)

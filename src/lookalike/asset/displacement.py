@@ -5,8 +5,10 @@ midpoints (``lookalike.asset.subdivide``), each fine vertex moved along its norm
 
 with ``n`` the angle-weighted normal of the undisplaced fine mesh
 (``lookalike.asset.normals.angle_weighted_normals``, Blender's: the same at a point whatever the
-level) and ``h`` the height map sampled bilinearly at the vertex's UVs, in the mip level that
-the level's edges call for (``Displacement.mips``).
+level) and ``h`` the height map sampled bilinearly at the vertex's UVs. Every level reads the
+map itself: a vertex of a coarse level is a vertex of every finer one, at the same point and
+with the same normal, so the levels are nested (mips would mix neighbouring charts of the atlas,
+4 texels apart, from mip 2 on, and blur the finest level's heights).
 A vertex on a UV seam has one UV per side: it takes the mean of its samples, so that the
 surface never cracks; ``stitched`` then changes the map as little as possible so that every side
 reads that mean, for readers that sample one side per vertex. The topology of every level is built once per base mesh and reused.
@@ -88,24 +90,6 @@ def tessellation(mesh: Mesh, levels: int) -> Tessellation:
     return built
 
 
-def level_mip(displacement: Displacement, level: int) -> int:
-    """The mip of the map that tessellation level ``level`` reads."""
-    return displacement.mips[min(level, len(displacement.mips) - 1)]
-
-
-def height_map(displacement: Displacement, level: int) -> torch.Tensor:
-    """``[S', S', 1]`` the heights that level ``level`` samples: the map's mip ``k``
-    (``level_mip``; its given mip where it has one, else the map box-filtered ``2^k x 2^k``)."""
-    k = level_mip(displacement, level)
-    heights = displacement.heights
-    if k == 0:
-        return heights.data
-    if heights.mips is not None and len(heights.mips) >= k:
-        return heights.mips[k - 1]
-    size = min(2 ** k, heights.data.shape[0], heights.data.shape[1])
-    return F.avg_pool2d(heights.data.permute(2, 0, 1)[None], size)[0].permute(1, 2, 0)
-
-
 def corner_heights(image: torch.Tensor, uv: torch.Tensor) -> torch.Tensor:
     """``[N]`` heights of ``image [S, S, 1]`` sampled bilinearly (texel centres at
     ``(i + 1/2) / S``, edges clamped) at ``uv [N, 2]``; differentiable."""
@@ -134,7 +118,7 @@ def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) 
     topology = tessellation(mesh, level)
     fine = topology.subdivided(mesh, level)
     normals = angle_weighted_normals(fine.v_pos, fine.t_pos_idx)
-    heights, sides = vertex_heights(fine, topology.pairs[level], topology.counts[level], height_map(displacement, level))
+    heights, sides = vertex_heights(fine, topology.pairs[level], topology.counts[level], displacement.heights.data)
     v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
     gaps = sides - heights[topology.pairs[level][0]]
     return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
@@ -154,9 +138,9 @@ def tessellated(asset: Asset, level: int | None = None) -> Asset:
     return dataclasses.replace(asset, mesh=mesh, materials=[material])
 
 
-STITCH_DAMPING = 1e-3
-"""Ridge weight of the texels' change in ``stitched`` (``lsqr``'s ``damp``): where two seams
-ask one texel for different heights, the least-squares compromise stays within the map's range."""
+MATCH_DAMPING = 1e-3
+"""Ridge weight ``d`` of the texels' change in ``matched_heights``: where two vertices ask one
+texel for different heights, the least-squares compromise stays small."""
 
 
 def bilinear_weights(uv: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -173,47 +157,33 @@ def bilinear_weights(uv: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]
     return texels, weights
 
 
-def stitched(image: torch.Tensor, fine: Mesh, pairs: tuple[torch.Tensor, torch.Tensor],
-             counts: torch.Tensor) -> torch.Tensor:
-    """``image [S, S, 1]`` changed as little as possible (damped least squares, ``scipy``'s
-    ``lsqr``, then clipped to [0, 1]) so that every side of every UV seam of ``fine`` reads its
-    vertex's mean height: a reader that
-    samples one side per vertex (Blender's Displace modifier, an engine's tessellator) then
-    builds the surface we draw, with no crack."""
-    position, uv = (p.numpy() for p in pairs)
-    seam = counts.numpy()[position] > 1
-    if not seam.any():
-        return image
+def matched_heights(image: torch.Tensor, uv: torch.Tensor, targets: np.ndarray) -> torch.Tensor:
+    """``image [S, S, 1]`` changed as little as possible so that its bilinear samples at
+    ``uv [N, 2]`` are ``targets [N]``: heights that vertices read exactly, where a map
+    interpolated between them reads them only near. The change is the damped least-squares one,
+    ``A^T (A A^T + d^2 I)^-1 r`` (``A [N, S^2]`` the lookups' weights, ``r`` what they miss,
+    ``d`` ``MATCH_DAMPING``; one sparse solve of the size of the lookups), then clipped to [0, 1]."""
     size = image.shape[0]
     values = image.detach().double().numpy().reshape(-1)
-    texels, weights = bilinear_weights(fine.v_tex.detach().double().numpy()[uv[seam]], size)
-    sides = (values[texels] * weights).sum(axis=1)
-    target = np.zeros(int(counts.shape[0]))
-    np.add.at(target, position[seam], sides)
-    target = target[position[seam]] / counts.numpy()[position[seam]]
-    rows = np.repeat(np.arange(len(sides)), 4)
-    matrix = scipy.sparse.csr_matrix((weights.reshape(-1), (rows, texels.reshape(-1))), shape=(len(sides), size * size))
-    change = scipy.sparse.linalg.lsqr(matrix, target - sides, damp=STITCH_DAMPING, atol=1e-10, btol=1e-10)[0]
+    texels, weights = bilinear_weights(uv.detach().double().numpy(), size)
+    rows = np.repeat(np.arange(len(texels)), 4)
+    matrix = scipy.sparse.csr_matrix((weights.reshape(-1), (rows, texels.reshape(-1))), shape=(len(texels), size * size))
+    residual = targets - matrix @ values
+    normal = (matrix @ matrix.T + MATCH_DAMPING ** 2 * scipy.sparse.identity(len(texels))).tocsc()
+    change = matrix.T @ scipy.sparse.linalg.spsolve(normal, residual)
     return torch.from_numpy(np.clip(values + change, 0.0, 1.0).reshape(image.shape)).to(image.dtype)
 
 
-def stitched_displacement(mesh: Mesh, displacement: Displacement, levels: tuple[int, ...]) -> Displacement:
-    """``displacement`` with each mip that ``levels`` read stitched (``stitched``) for the seams
-    of the finest level that reads it (its vertices include the coarser levels'); the map and
-    its mips up to the coarsest read, the others box-filtered."""
-    topology = tessellation(mesh, max(levels))
+def stitched_displacement(mesh: Mesh, displacement: Displacement, level: int) -> Displacement:
+    """``displacement`` with its map matched (``matched_heights``) so that every UV side of
+    every vertex of ``mesh`` subdivided ``level`` times reads the vertex's mean height: a reader
+    that samples one side per vertex (Blender's Displace modifier, an engine's tessellator)
+    builds the surface we draw, with no crack, at that level and every coarser one."""
+    topology = tessellation(mesh, level)
     base = dataclasses.replace(mesh, v_pos=mesh.v_pos.detach(), uv=[(mesh.v_tex.detach(), mesh.t_tex_idx)])
-    maps = {}
-    for level in sorted(levels, reverse=True):
-        k = level_mip(displacement, level)
-        if k not in maps:
-            fine = topology.subdivided(base, level)
-            maps[k] = stitched(height_map(displacement, level).detach(), fine, topology.pairs[level],
-                               topology.counts[level])
-    level_map = maps.get(0, displacement.heights.data.detach())
-    mips = []
-    for k in range(1, max(maps) + 1):
-        box = F.avg_pool2d(level_map.permute(2, 0, 1)[None], 2 ** k)[0].permute(1, 2, 0)
-        mips.append(maps.get(k, box))
-    heights = dataclasses.replace(displacement.heights, data=level_map, mips=mips or None)
-    return dataclasses.replace(displacement, heights=heights)
+    fine = topology.subdivided(base, level)
+    image = displacement.heights.data.detach()
+    heights, _ = vertex_heights(fine, topology.pairs[level], topology.counts[level], image)
+    position, uv = topology.pairs[level]
+    matched = matched_heights(image, fine.v_tex[uv], heights[position].double().numpy())
+    return dataclasses.replace(displacement, heights=dataclasses.replace(displacement.heights, data=matched))

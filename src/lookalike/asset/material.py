@@ -64,24 +64,20 @@ class Texture:
 class Displacement:
     """A displacement map (paper Sec. 5.1): the mesh is drawn subdivided ``level`` times (edge
     midpoints, ``lookalike.asset.subdivide``) and each vertex moved along its normal by
-    ``scale * (h - offset)``, ``h`` the map's mip ``mips[level]`` sampled at the vertex's UV
-    (Blender's Displace modifier's strength and midlevel).
+    ``scale * (h - offset)``, ``h`` the map sampled bilinearly at the vertex's UV (Blender's
+    Displace modifier's strength and midlevel).
 
     Attributes:
-        heights: ``[S, S, 1]`` texture of heights in [0, 1] (its mips, where given, are the maps
-            the levels that read mips sample; else box-filtered).
+        heights: ``[S, S, 1]`` texture of heights in [0, 1].
         scale: world units per unit of height.
         offset: the height that leaves a vertex in place.
         level: the tessellation level it is drawn at.
-        mips: the mip each level reads, level 0 first (levels past the end read the last): the
-            one its edge length calls for.
     """
 
     heights: Texture
     scale: float
     offset: float = 0.5
     level: int = 0
-    mips: tuple[int, ...] = (0,)
 
 
 @dataclass

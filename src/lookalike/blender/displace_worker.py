@@ -2,9 +2,8 @@
 displacement map applied in Blender, as the README tells a user to.
 
 Run as ``python -m lookalike.blender.displace_worker JOB.json``; imports only ``bpy``, NumPy
-and the standard library. The job (JSON) holds ``base`` (``base.glb``), ``heights`` (the 16-bit
-PNG the level reads: ``displacement.png``, or ``displacement_lodK.png`` where written),
-``level``, ``scale``, ``offset`` (from the material's ``extras.displacement``) and ``output``
+and the standard library. The job (JSON) holds ``base`` (``base.glb``), ``heights``
+(``displacement.png``), ``level``, ``scale``, ``offset`` (from the material's ``extras.displacement``) and ``output``
 (an ``.npy`` for the displaced positions, ``[V, 3]`` float64 in glTF's frame, y up).
 
 Steps, as a Blender user does them:

@@ -9,15 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import io
-from ..asset.displacement import level_mip
 from .process import run_worker
-
-
-def heights_image(outdir: Path, level: int) -> Path:
-    """The heights image that tessellation level ``level`` of ``outdir``'s ``base.glb`` reads:
-    ``displacement_lodK.png`` where the level reads a mip, else ``displacement.png``."""
-    displacement = io.load(outdir / "base.glb").materials[0].displacement
-    return outdir / (f"displacement_lod{level}.png" if level_mip(displacement, level) else "displacement.png")
 
 
 def blender_displaced(outdir: str | Path, level: int) -> np.ndarray:
@@ -29,7 +21,7 @@ def blender_displaced(outdir: str | Path, level: int) -> np.ndarray:
     displacement = io.load(outdir / "base.glb").materials[0].displacement
     with tempfile.TemporaryDirectory(prefix="lookalike-displace-") as scratch:
         output = Path(scratch) / "positions.npy"
-        run_worker("displace_worker", {"base": str(outdir / "base.glb"), "heights": str(heights_image(outdir, level)),
+        run_worker("displace_worker", {"base": str(outdir / "base.glb"), "heights": str(outdir / "displacement.png"),
                                        "level": level, "scale": displacement.scale, "offset": displacement.offset,
                                        "output": str(output)})
         return np.load(output)

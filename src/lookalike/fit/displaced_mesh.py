@@ -36,8 +36,8 @@ class DisplacedMesh(torch.nn.Module):
 
     Parameters: those of ``surface``, and ``heights``, a ``TexturePyramid`` of ``[S, S, 1]``
     heights in [0, 1], in group ``"displacement"``. Fixed: ``displacement_scale`` (world units
-    per unit of height, offset 1/2), ``mips`` (the mip each level reads, ``Displacement.mips``)
-    and ``levels`` (the tessellation levels fitted); ``level_index`` picks the level the next render draws (saved, so
+    per unit of height, offset 1/2) and ``levels`` (the tessellation levels fitted);
+    ``level_index`` picks the level the next render draws (saved, so
     that a resumed run goes on with the same one).
 
     Args:
@@ -53,17 +53,15 @@ class DisplacedMesh(torch.nn.Module):
         self.surface = surface
         self.heights = TexturePyramid(start.heights.data.float(), texture_scales, 0.0, 1.0)
         self.displacement_scale = float(start.scale)
-        self.mips = tuple(start.mips)
         self.levels = tuple(sorted(levels))
         self.level_index = 0
 
     def get_extra_state(self) -> dict:
-        return {"displacement_scale": self.displacement_scale, "mips": list(self.mips), "levels": list(self.levels),
+        return {"displacement_scale": self.displacement_scale, "levels": list(self.levels),
                 "level_index": self.level_index}
 
     def set_extra_state(self, state: dict) -> None:
         self.displacement_scale = state["displacement_scale"]
-        self.mips = tuple(state["mips"])
         self.levels = tuple(state["levels"])
         self.level_index = state["level_index"]
 
@@ -91,7 +89,7 @@ class DisplacedMesh(torch.nn.Module):
     def displacement(self, level: int | None = None) -> Displacement:
         """The ``Displacement`` drawn at ``level`` (default the current one); differentiable."""
         return Displacement(Texture(self.heights(), wrap="clamp"), self.displacement_scale, 0.5,
-                            level=self.level if level is None else level, mips=self.mips)
+                            level=self.level if level is None else level)
 
     def base_mesh(self) -> Mesh:
         """The base mesh in world coordinates with its atlas and normal slots; differentiable."""
@@ -126,9 +124,9 @@ class DisplacedMesh(torch.nn.Module):
 
     @torch.no_grad()
     def export(self) -> Asset:
-        """The model as written, at its finest level, the map of each of its levels stitched
-        across UV seams (``lookalike.asset.displacement.stitched_displacement``)."""
+        """The model as written, at its finest level, its map stitched across UV seams
+        (``lookalike.asset.displacement.stitched_displacement``)."""
         model = self.as_asset(coverage_ramp=0.0, level=self.levels[-1])
         material = model.materials[0]
-        displacement = stitched_displacement(model.mesh, material.displacement, self.levels)
+        displacement = stitched_displacement(model.mesh, material.displacement, self.levels[-1])
         return dataclasses.replace(model, materials=[dataclasses.replace(material, displacement=displacement)])

@@ -9,7 +9,9 @@ from outside, as the classic bake does
 its place. The map's scale holds the distances up to their ``COVERED_QUANTILE`` with
 ``HEADROOM`` to spare on either side of the offset 1/2. Each texel of the atlas takes the
 heights of the fine triangle that covers it, interpolated from its corners; uncovered texels
-take their nearest covered one's, so no mip pulls in background.
+take their nearest covered one's, so no filter pulls in background. Bilinear lookups at the
+vertices of that map read a local mean, not the vertex's height: the map is then matched
+(``lookalike.asset.displacement.matched_heights``) so that each vertex reads its own.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 import torch
 
 from ..asset import Asset, Mesh, Texture
-from ..asset.displacement import tessellation
+from ..asset.displacement import matched_heights, tessellation
 from ..asset.material import Displacement
 from ..asset.normals import angle_weighted_normals, face_normals, safe_normalize
 from ..asset.uv_raster import rasterize_uv
@@ -65,10 +67,9 @@ def atlas_heights(fine: Mesh, heights: np.ndarray, size: int) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(image[nearest]))[..., None]
 
 
-def bake_displacement(reference: Asset, base: Mesh, finest: int, size: int, mips: tuple[int, ...]) -> Displacement:
+def bake_displacement(reference: Asset, base: Mesh, finest: int, size: int) -> Displacement:
     """The ``Displacement`` of ``base`` (with its atlas in UV set 0) towards ``reference`` at
-    level ``finest``, its map ``size x size``, level ``L`` reading mip ``mips[L]`` (module
-    docstring)."""
+    level ``finest``, its map ``size x size`` (module docstring)."""
     fine = tessellation(base, finest).subdivided(base.detach(), finest)
     lo, hi = reference.mesh.bounds()
     cage = CAGE_FRACTION * float((hi - lo).double().norm())
@@ -77,5 +78,7 @@ def bake_displacement(reference: Asset, base: Mesh, finest: int, size: int, mips
     reach = float(np.quantile(np.abs(offsets), COVERED_QUANTILE)) if len(offsets) else 0.0
     scale = max(2.0 * HEADROOM * reach, MIN_SCALE * radius)
     heights = np.clip(0.5 + offsets / scale, 0.0, 1.0)
-    return Displacement(Texture(atlas_heights(fine, heights, size), wrap="clamp"), scale, 0.5,
-                        level=finest, mips=mips)
+    topology = tessellation(base, finest)
+    position, uv = topology.pairs[finest]
+    image = matched_heights(atlas_heights(fine, heights, size), fine.v_tex[uv], heights[position.numpy()])
+    return Displacement(Texture(image, wrap="clamp"), scale, 0.5, level=finest)

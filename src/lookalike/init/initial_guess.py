@@ -29,6 +29,7 @@ from ..asset import Asset, Material, Mesh, Texture
 from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
+from ..io.glb_bytes import from_glb_bytes, to_glb_bytes
 from ..phases import phase
 from .projection_bake import BakeResult, bake
 from .conform import conform_to_surface, reattach_detached_parts
@@ -76,6 +77,16 @@ class InitialGuess:
     bake: BakeResult | None
     notes: list[str]
     comparisons: list[tuple[str, str, Asset]] = field(default_factory=list)
+
+    def __getstate__(self) -> dict:
+        """Pickled (in checkpoints) with the comparisons as ``.glb`` bytes, as a user receives
+        them: as float arrays their maps would make most of a checkpoint's size."""
+        return {**self.__dict__, "comparisons": [(key, label, to_glb_bytes(model))
+                                                 for key, label, model in self.comparisons]}
+
+    def __setstate__(self, state: dict) -> None:
+        comparisons = [(key, label, from_glb_bytes(data)) for key, label, data in state.get("comparisons", [])]
+        self.__dict__.update({**state, "comparisons": comparisons})
 
     @property
     def baked(self) -> Asset | None:

@@ -411,11 +411,8 @@ class _MaterialReader:
             return None
         try:
             heights = self._texture(_texture_info(entry["texture"]), lambda px: px[..., :1])
-            mips = [self._texture(_texture_info(info), lambda px: px[..., :1]).data
-                    for info in entry.get("mipTextures", [])]
-            heights.mips = mips or None
             return Displacement(heights, float(entry["scale"]), float(entry.get("offset", 0.5)),
-                                int(entry.get("level", 0)), tuple(int(k) for k in entry.get("mips", [0])))
+                                int(entry.get("level", 0)))
         except (KeyError, TypeError, ValueError) as e:
             raise AssetError(self.data.path, f"material extras.displacement is malformed: {e}") from None
 

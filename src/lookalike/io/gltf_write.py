@@ -285,21 +285,12 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
 
 def _displacement(builder: GlbBuilder, displacement: Displacement) -> dict:
     """The material's ``extras.displacement``: its 16-bit height texture (UV set 0), ``scale``
-    and ``offset`` (a vertex moves by ``scale * (h - offset)`` along its normal), the ``level``
-    the file's model is drawn at, the ``mips`` each level reads (``Displacement``) and, where
-    the map has mip levels of its own (seams stitched for the levels that read them),
-    ``mipTextures``, levels 1.. as 16-bit textures."""
-    def texture(data) -> dict:
-        pixels = np.clip(data.detach().numpy()[..., :1], 0, 1)
-        return {"index": builder.texture(pixels, "clamp", (data, "displacement"), bits=16)}
-
-    heights = displacement.heights
-    entry = {"texture": texture(heights.data), "scale": float(displacement.scale),
-             "offset": float(displacement.offset), "level": int(displacement.level),
-             "mips": [int(k) for k in displacement.mips]}
-    if heights.mips:
-        entry["mipTextures"] = [texture(level) for level in heights.mips]
-    return entry
+    and ``offset`` (a vertex moves by ``scale * (h - offset)`` along its normal) and the
+    ``level`` the file's model is drawn at."""
+    data = displacement.heights.data
+    index = builder.texture(np.clip(data.detach().numpy()[..., :1], 0, 1), "clamp", (data, "displacement"), bits=16)
+    return {"texture": {"index": index}, "scale": float(displacement.scale), "offset": float(displacement.offset),
+            "level": int(displacement.level)}
 
 
 def _unit(x: np.ndarray) -> np.ndarray:

@@ -6,34 +6,33 @@ The start is ``simplify``'s decimation and atlas at the base count, smooth (one 
 position: a hard edge would be two vertices in every engine, and displaced apart), its
 displacement map baked as the distance from the subdivided base to the input along each
 vertex's normal (``lookalike.init.displacement_bake``), its other maps baked on that surface at
-the finest level (a normal map averaged over the levels' bakes measured worse,
-``docs/benchmarks.md``). The latent (``lookalike.fit.displaced_mesh``) fits the base positions
+the middle one of the levels (each level shades its own relief, and a normal map baked at one
+level suits the levels near it best; the middle one's measured best on the mean over the
+levels, ``docs/benchmarks.md``). The latent (``lookalike.fit.displaced_mesh``) fits the base positions
 and all maps, each step at the next of ``latent.tessellation_levels``, its states scored on the
 mean over the levels. The report scores every level beside the classic decimate + bake at the
 same triangle count. Outputs besides the run's (``model.glb`` is the finest level):
 ``base.glb`` (the base mesh and its maps, the displacement map in the material's ``extras``),
 ``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package is installed)
-and, for each level that reads a mip of it, ``displacement_lodK.png``, the map that level reads;
-``lodK.glb``, level K tessellated and displaced, for engines without tessellation.
+and ``lodK.glb``, level K tessellated and displaced, for engines without tessellation.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from .. import io
-from ..asset import Asset, Mesh
-from ..asset.displacement import displaced, height_map, level_mip, stitched_displacement, tessellated
+from ..asset import Asset
+from ..asset.displacement import displaced, stitched_displacement, tessellated
 from ..errors import ConfigError
 from ..init import decimate
 from ..init.displacement_bake import bake_displacement
 from ..init.initial_guess import InitialGuess, Ranges, initial_guess
 from ..init.projection_bake import bake
+from ..io.glb_bytes import to_glb_bytes
 from ..io.image_files import write_png
 from ..phases import phase
 from ..fit.displaced_mesh import DisplacedMesh
@@ -47,22 +46,6 @@ DISPLACE_DEFAULTS = Config(latent=LatentConfig(ratio=0.01))
 """Where a ``displace`` run's settings start: a base of 1 % of the input's triangles, fitted at
 levels 0 to 3 (1 to 64 times the base's triangles)."""
 
-MAX_DISPLACEMENT_MIP = 1
-"""The coarsest mip a level reads: the atlas keeps ``lookalike.init.unwrap``'s 4 texels between
-charts, so a texel of mip 1 never mixes two charts' heights, while coarser mips would."""
-
-
-def level_mips(base: Mesh, finest: int, size: int) -> tuple[int, ...]:
-    """The mip each level up to ``finest`` reads of a ``size``-texel map on ``base``'s atlas:
-    ``round(log2(e))`` of the level's mean edge ``e`` in texels (``2^-level`` of the base's),
-    within [0, ``MAX_DISPLACEMENT_MIP``]: a vertex reads the mean of the texels around it up to
-    its neighbours."""
-    corners = base.v_tex[base.t_tex_idx]  # [T, 3, 2]
-    edge = float((corners - corners.roll(1, dims=1)).norm(dim=-1).mean()) * size
-    return tuple(min(max(round(math.log2(max(edge / 2 ** level, 1.0))), 0), MAX_DISPLACEMENT_MIP)
-                 for level in range(finest + 1))
-
-
 def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     """``simplify``'s start at the base count, displaced (module docstring); plain decimation as
     the baseline, and the classic decimate + bake at each level's count as comparisons.
@@ -75,10 +58,10 @@ def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess
     base = dataclasses.replace(guess.start, mesh=dataclasses.replace(guess.start.mesh, t_nrm_idx=None))
     size = cfg.latent.texture_size
     with phase("displacement bake"):
-        displacement = bake_displacement(asset, base.mesh, levels[-1], size, level_mips(base.mesh, levels[-1], size))
-    displacement = stitched_displacement(base.mesh, displacement, tuple(levels))
+        displacement = bake_displacement(asset, base.mesh, levels[-1], size)
+    displacement = stitched_displacement(base.mesh, displacement, levels[-1])
     with phase("bake on the displaced surface"):
-        maps = bake(asset, displaced(base.mesh, displacement)[0], size).material
+        maps = bake(asset, displaced(base.mesh, displacement, levels[len(levels) // 2])[0], size).material
     material = dataclasses.replace(base.materials[0], kd=maps.kd, ks=maps.ks, normal=maps.normal,
                                    displacement=displacement)
     start = dataclasses.replace(base, materials=[material])
@@ -130,14 +113,6 @@ def displaced_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> D
                          cfg.latent.tessellation_levels, cfg.latent.texture_scales)
 
 
-def glb_bytes(model: Asset) -> int:
-    """The size of ``model`` written as ``.glb``."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "model.glb"
-        io.save(model, path)
-        return path.stat().st_size
-
-
 def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: Path,
                        methods: list[MethodResult]) -> list[dict]:
     """Write ``base.glb``, the displacement maps and ``lodK.glb`` (module docstring) into
@@ -148,9 +123,6 @@ def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: P
     heights = displacement.heights
     write_png(heights.data.numpy(), folder / "displacement.png", bits=16)
     write_exr(heights.data.numpy(), folder / "displacement.exr")
-    for level in levels:
-        if level_mip(displacement, level):
-            write_png(height_map(displacement, level).numpy(), folder / f"displacement_lod{level}.png", bits=16)
     scores = {m.key: m for m in methods}
     bakes = {key: asset for key, _, asset in guess.comparisons}
     base_bytes = (folder / "base.glb").stat().st_size
@@ -163,7 +135,7 @@ def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: P
                "lod_bytes": (folder / f"lod{level}.glb").stat().st_size, "psnr": ours.psnr, "flip": ours.flip}
         baked = scores.get(f"bake_l{level}")
         if baked is not None:
-            row.update({"bake_triangles": baked.triangles, "bake_bytes": glb_bytes(bakes[f"bake_l{level}"]),
+            row.update({"bake_triangles": baked.triangles, "bake_bytes": len(to_glb_bytes(bakes[f"bake_l{level}"])),
                         "bake_psnr": baked.psnr, "bake_flip": baked.flip})
         rows.append(row)
     return rows
