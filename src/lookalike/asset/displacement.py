@@ -10,8 +10,9 @@ map itself: a vertex of a coarse level is a vertex of every finer one, at the sa
 with the same normal, so the levels are nested (mips would mix neighbouring charts of the atlas,
 4 texels apart, from mip 2 on, and blur the finest level's heights).
 A vertex on a UV seam has one UV per side: it takes the mean of its samples, so that the
-surface never cracks; ``stitched`` then changes the map as little as possible so that every side
-reads that mean, for readers that sample one side per vertex. The topology of every level is built once per base mesh and reused.
+surface never cracks; ``stitched_displacement`` then changes the map as little as possible so
+that every side reads that mean, for readers that sample one side per vertex. The topology of
+every level is built once per base mesh and reused.
 """
 
 from __future__ import annotations

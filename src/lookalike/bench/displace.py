@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ._table import aligned_table
 from .quality import BAR_MINUTES, SHARED_ASSETS, TIME_BUDGET_S, BenchAsset, check_assets_dir, check_judge, \
-    output_root, scan_material, simplify_case
+    output_root, scan_material, simplify_case, stop_if_interrupted
 
 HELP = "fit base meshes with displacement maps at levels 0-3 and compare each level with the classic bake"
 
@@ -106,6 +106,7 @@ def run(out: str | Path | None = None, time_budget: float = TIME_BUDGET_S, asset
             result = None
             if not (reuse and (run_dir / "metrics.json").is_file()):
                 result = displace_case(case, assets_dir, run_dir, time_budget)
+                stop_if_interrupted(result)
             metrics = json.loads((run_dir / "metrics.json").read_text())
             levels = [row["level"] for row in metrics["levels"]]
             simplified = {}
@@ -113,7 +114,7 @@ def run(out: str | Path | None = None, time_budget: float = TIME_BUDGET_S, asset
                 folder = root / f"{case.name}-simplify-{row['triangles']}"
                 if not (reuse and (folder / "metrics.json").is_file()):
                     counted = BenchAsset(case.name, case.path, row["triangles"], case.scan)
-                    simplify_case(counted, assets_dir, folder, time_budget / len(levels))
+                    stop_if_interrupted(simplify_case(counted, assets_dir, folder, time_budget / len(levels)))
                 simplified[row["level"]] = json.loads((folder / "metrics.json").read_text())
             rows += level_rows(case, metrics, simplified)
             if judge is not None:

@@ -174,12 +174,20 @@ def case_rows(assets: tuple[BenchAsset, ...], assets_dir: Path, root: Path, time
             metrics, baselines = json.loads((run_dir / "metrics.json").read_text()), None
         else:
             result = simplify_case(case, assets_dir, run_dir, time_budget)
+            stop_if_interrupted(result)
             metrics, baselines = result.metrics, getattr(result, "baselines", None)
         row = row_of(case, metrics)
         if judge_of is not None:
             row["judge"] = judge_of(case, assets_dir, run_dir, baselines)
         rows.append(row)
     return rows
+
+
+def stop_if_interrupted(result) -> None:
+    """``KeyboardInterrupt`` where a run was stopped (Ctrl-C, or a scheduler's SIGTERM): the
+    benchmark stops with it instead of going on to the next run."""
+    if getattr(result, "interrupted", False):
+        raise KeyboardInterrupt
 
 
 def check_judge(judge: str) -> None:

@@ -46,6 +46,7 @@ DISPLACE_DEFAULTS = Config(latent=LatentConfig(ratio=0.01))
 """Where a ``displace`` run's settings start: a base of 1 % of the input's triangles, fitted at
 levels 0 to 3 (1 to 64 times the base's triangles)."""
 
+
 def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     """``simplify``'s start at the base count, displaced (module docstring); plain decimation as
     the baseline, and the classic decimate + bake at each level's count as comparisons.
