@@ -154,7 +154,7 @@ def format_table(result: dict) -> str:
     """The levels as an aligned text table with the bar, and the judge's per level."""
     header = [name for name, _, _ in COLUMNS] + ["bar"]
     cells = [[fmt.format(r[key]) if key in r else "—" for _, key, fmt in COLUMNS]
-             + ["ok" if r["meets_bar"] else ("—" if r["level"] == 0 else "MISSED")] for r in result["runs"]]
+             + ["—" if r["level"] == 0 else "ok" if r["meets_bar"] else "MISSED"] for r in result["runs"]]
     lines = aligned_table(header, cells)
     lines.append(f"bar: each run <= {BAR_MINUTES:g} min; from level 1 up, ours >= classic bake + {BAR_GAIN_DB:g} dB with "
                  f"lower FLIP: {'met' if result['all_meet_bar'] else 'NOT met'}")
