@@ -12,8 +12,8 @@ import torch
 
 from lookalike import io
 from lookalike.asset import Asset, Material, Mesh, Texture
-from lookalike.asset.displacement import (corner_heights, displaced, stitched_displacement, tessellated,
-                                          tessellation)
+from lookalike.asset.displacement import (corner_heights, displaced, seam_gaps, stitched_displacement,
+                                          tessellated, tessellation)
 from lookalike.asset.material import Displacement
 from lookalike.asset.normals import angle_weighted_normals, angle_weighted_normals_python
 from lookalike.blender.process import judge_available
@@ -104,6 +104,12 @@ def test_displacement_along_normals_matches_a_per_vertex_loop():
     fine, gaps = displaced(mesh, displacement)
     assert torch.allclose(fine.v_pos.double(), loop_displaced(mesh, displacement), atol=1e-5)
     assert gaps.abs().max() > 0.01  # the two islands read different heights on their shared edge
+
+
+def test_the_seam_regulariser_reads_the_gaps_from_the_uvs_alone():
+    mesh = seamed_quad()
+    displacement = Displacement(Texture(random_heights()), 0.3, 0.5, level=2)
+    assert torch.allclose(seam_gaps(mesh, displacement), displaced(mesh, displacement)[1], atol=1e-7)
 
 
 def test_displacement_matches_blender_for_the_first_vertices():

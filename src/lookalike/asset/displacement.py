@@ -72,6 +72,13 @@ class Tessellation:
             fine = step(fine)
         return fine
 
+    def fine_uvs(self, v_tex: torch.Tensor, level: int) -> torch.Tensor:
+        """UV set 0's values ``[VT_level, 2]`` at ``level`` from the base's ``v_tex``: the
+        subdivision of the UVs alone, for what needs no positions."""
+        for step in self.steps[:level]:
+            v_tex = step.uvs[0](v_tex)
+        return v_tex
+
 
 _TESSELLATIONS: dict[int, tuple[weakref.ref, weakref.ref, Tessellation]] = {}
 """Built tessellations by ``id`` of their position index buffer, dropped when it is freed."""
@@ -123,6 +130,19 @@ def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) 
     v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
     gaps = sides - heights[topology.pairs[level][0]]
     return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
+
+
+def seam_gaps(mesh: Mesh, displacement: Displacement) -> torch.Tensor:
+    """``[P]`` each (position, UV) pair's height minus its position's mean at
+    ``displacement.level`` (``displaced``'s second result) from the UVs alone: the cost of a
+    seam that opens, without subdividing positions or computing normals."""
+    level = displacement.level
+    topology = tessellation(mesh, level)
+    fine_uv = topology.fine_uvs(mesh.v_tex, level)
+    position, uv = topology.pairs[level]
+    sides = corner_heights(displacement.heights.data, fine_uv[uv])
+    sums = torch.zeros(topology.counts[level].shape[0], dtype=sides.dtype).index_add(0, position, sides)
+    return sides - (sums / topology.counts[level].clamp(min=1.0))[position]
 
 
 def tessellated(asset: Asset, level: int | None = None) -> Asset:

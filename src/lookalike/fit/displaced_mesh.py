@@ -17,7 +17,7 @@ import dataclasses
 import torch
 
 from ..asset import Asset, Mesh, Texture
-from ..asset.displacement import displaced, stitched_displacement
+from ..asset.displacement import displaced, seam_gaps, stitched_displacement
 from ..asset.material import Displacement
 from ..asset.pose import Poses
 from ..shading.camera import Camera
@@ -116,7 +116,7 @@ class DisplacedMesh(torch.nn.Module):
 
     def regularizers(self) -> dict[str, torch.Tensor]:
         """The surface's Laplacian, and ``seams`` at the current level (module docstring)."""
-        _, gaps = displaced(self.base_mesh(), self.displacement())
+        gaps = seam_gaps(self.base_mesh(), self.displacement())
         return {**self.surface.regularizers(), "seams": (gaps ** 2).mean()}
 
     def regularizer_scales(self) -> dict[str, float]:
