@@ -33,3 +33,9 @@ MAX_SKIN_CANDIDATES = 64
 
 MAX_TESSELLATION_LEVEL = 5
 """Finest subdivision level a displacement map is fitted for (``4^5`` triangles per base triangle)."""
+
+MAX_PATH_SPP = 4096
+"""Samples per pixel of a path-traced reference view (each view costs time in proportion)."""
+
+MAX_PATH_DEPTH = 64
+"""Vertices of a path-traced path at most."""

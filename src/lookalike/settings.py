@@ -37,6 +37,8 @@ import tomli_w
 from .errors import ConfigError
 from .limits import (
     MAX_LAYERS,
+    MAX_PATH_DEPTH,
+    MAX_PATH_SPP,
     MAX_POOL_BYTES,
     MAX_RESOLUTION,
     MAX_SKIN_CANDIDATES,
@@ -52,6 +54,8 @@ INITS = ("bake", "source", "average", "random", "sphere")
 WARM_INITS = ("bake", "source")
 ALPHA_EXPORTS = ("auto", "mask", "blend")
 POSITION_STEPS = ("uniform", "local")
+RENDERERS = ("ours", "mitsuba")
+"""The reference renderers ``reference.renderer`` names."""
 
 
 @dataclass
@@ -233,6 +237,36 @@ class ViewsConfig:
 
 
 @dataclass
+class ReferenceConfig:
+    """What draws the reference views (paper Sec. 5.5: any renderer can).
+
+    Attributes:
+        renderer: ``"ours"``, the input through our own rasterizer under a random point light
+            per view; or ``"mitsuba"``, the input path traced by Mitsuba 3 under fixed
+            ``lighting`` (``lookalike.shading.path_tracing``): soft shadows, bounced light and
+            the environment are learned into an emission map and the base colour, and the
+            model is fitted and exported with the lighting's analytic part, a point light.
+        lighting: the path tracer's fixed lighting: ``"studio"`` (generated around the object,
+            ``lookalike.shading.fixed_lighting``) or an environment map file (``.hdr``,
+            ``.exr``).
+        spp: samples per pixel of a path-traced view.
+        max_depth: longest path (2: direct light only); what a path tracer adds over a
+            rasterizer comes from the bounces.
+    """
+
+    renderer: str = "ours"
+    lighting: str = "studio"
+    spp: int = 64
+    max_depth: int = 8
+
+    @property
+    def path_traced(self) -> bool:
+        """Whether the reference views are path traced (each costs seconds: rendered once,
+        cached in the output folder, never refreshed)."""
+        return self.renderer == "mitsuba"
+
+
+@dataclass
 class OptimConfig:
     """The optimisation (paper Sec. 6.3).
 
@@ -250,9 +284,9 @@ class OptimConfig:
             fitted onto the surface, ``io.init_mesh``; see ``start_defaults``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
             ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
-        lr_emissive: Adam's lr_0 for the emission map (where the input emits), in units of the
-            start's brightest emission (at least 1; see ``lookalike.fit.textured_mesh``);
-            ``None`` takes the texels' rate.
+        lr_emissive: Adam's lr_0 for the emission map (where the input emits, or the reference
+            is path traced), in units of the start's brightest emission (at least 1; see
+            ``lookalike.fit.textured_mesh``); ``None``: ``emissive_learning_rate``.
         lr_displacement: Adam's lr_0 for the heights of a displacement map (values in [0, 1]
             of its range, ``lookalike.fit.displaced_mesh``); ``None`` takes the texels' rate.
         lr_weights: Adam's lr_0 for the logits of the skinning weights of an animated input
@@ -331,12 +365,13 @@ class Config:
     latent: LatentConfig = field(default_factory=LatentConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
     views: ViewsConfig = field(default_factory=ViewsConfig)
+    reference: ReferenceConfig = field(default_factory=ReferenceConfig)
     optim: OptimConfig = field(default_factory=OptimConfig)
     clamp: ClampConfig = field(default_factory=ClampConfig)
 
     def validate(self) -> Config:
         """Raise ``ConfigError`` naming the first invalid setting; return ``self``."""
-        lat, ren, vw, opt = self.latent, self.render, self.views, self.optim
+        lat, ren, vw, opt, ref = self.latent, self.render, self.views, self.optim, self.reference
         checks = [
             (lat.triangles is None or lat.triangles > 0,
              f"target triangle count must be positive, got {lat.triangles} (latent.triangles)"),
@@ -397,6 +432,15 @@ class Config:
             (opt.position_steps in POSITION_STEPS,
              f"optim.position_steps must be one of {', '.join(POSITION_STEPS)}, not {opt.position_steps!r}"),
             (0 <= lat.mask_anneal <= 1, f"latent.mask_anneal must lie in [0, 1], not {lat.mask_anneal}"),
+            (ref.renderer in RENDERERS,
+             f"reference.renderer (--reference) must be one of {', '.join(RENDERERS)}, not {ref.renderer!r}"),
+            (1 <= ref.spp <= MAX_PATH_SPP, f"reference.spp (--spp) must lie in [1, {MAX_PATH_SPP}], not {ref.spp}"),
+            (2 <= ref.max_depth <= MAX_PATH_DEPTH,
+             f"reference.max_depth must lie in [2, {MAX_PATH_DEPTH}], not {ref.max_depth}"),
+            (not (ref.path_traced and vw.relight), "views.relight lights our own G-buffers again: it cannot relight "
+             "a path-traced reference (--reference mitsuba)"),
+            (not ref.path_traced or ren.layers == 1, "a path-traced reference fits one surface layer (render.layers "
+             "= 1): the path tracer sees through alpha itself"),
         ]
         for ok, message in checks:
             if not ok:
@@ -448,6 +492,15 @@ def learning_rates(config: Config) -> tuple[float, float]:
             default.lr_textures if opt.lr_textures is None else opt.lr_textures)
 
 
+def emissive_learning_rate(config: Config) -> float:
+    """Adam's lr_0 of the emission map: ``optim.lr_emissive`` where set; where the reference is
+    path traced, ``COLD_START``'s texel rate, since the emission then starts black, far from the
+    light it must learn; else the texels' (``learning_rates``)."""
+    if config.optim.lr_emissive is not None:
+        return config.optim.lr_emissive
+    return COLD_START.lr_textures if config.reference.path_traced else learning_rates(config)[1]
+
+
 def outline_views(config: Config) -> int:
     """``optim.outline_views`` where set, else the warm or cold default for ``latent.init``.
 
@@ -463,10 +516,10 @@ def outline_views(config: Config) -> int:
 def refresh_interval(config: Config, input_triangles: int) -> int:
     """Steps between refreshes of the view pool for an input of ``input_triangles``:
     ``refresh_every * max(1, input_triangles * render.reference_layers / refresh_triangles)``,
-    rounded up (0: no refresh). A refresh renders the input once, at a cost about proportional
+    rounded up (0: no refresh, as for a path-traced reference, whose views are rendered once). A refresh renders the input once, at a cost about proportional
     to its triangles times the layers its reference peels, so the cost per step stays that of a
     single-layer input of ``refresh_triangles``."""
-    every = config.views.refresh_every
+    every = 0 if config.reference.path_traced else config.views.refresh_every
     drawn = input_triangles * config.render.reference_layers
     return math.ceil(every * max(1.0, drawn / config.views.refresh_triangles)) if every else 0
 

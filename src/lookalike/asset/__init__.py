@@ -2,9 +2,9 @@
 operations (normals, tangents, edges, laplacian, subdivide, skinning) and NumPy texture-space
 geometry (frames, uv_raster)."""
 
-from .asset import Asset
+from .asset import Asset, PunctualLight
 from .material import ALPHA_MODES, Material, Texture
 from .mesh import Mesh
 from .skin import Animation, Channel, Node, Skin
 
-__all__ = ["ALPHA_MODES", "Animation", "Asset", "Channel", "Material", "Mesh", "Node", "Skin", "Texture"]
+__all__ = ["ALPHA_MODES", "Animation", "Asset", "Channel", "Material", "Mesh", "Node", "PunctualLight", "Skin", "Texture"]

@@ -5,12 +5,30 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from dataclasses import field as dataclass_field
 from pathlib import Path
+
+import torch
 
 from .implicit import ImplicitSurface
 from .material import Material
 from .mesh import Mesh
 from .skin import Animation, Skin
+
+
+@dataclass
+class PunctualLight:
+    """A point light that belongs with a model: the light it was fitted under, which viewers
+    and engines are given with it (glTF ``KHR_lights_punctual``).
+
+    Attributes:
+        position: ``[3]`` float32 world position.
+        intensity: ``[3]`` float32 linear RGB radiant intensity (irradiance ``intensity / d^2``
+            at distance ``d``, as ``lookalike.shading.light.PointLight``'s).
+    """
+
+    position: torch.Tensor
+    intensity: torch.Tensor
 
 
 @dataclass
@@ -25,6 +43,8 @@ class Asset:
         source: the file it was read from, if any.
         field: the implicit surface the asset was made from (``mesh`` is then its marching-cubes
             mesh, and a reference shows the field itself), or ``None``.
+        lights: point lights that go with the model (not drawn by our renderer, whose views
+            bring their own lights).
     """
 
     mesh: Mesh
@@ -33,6 +53,7 @@ class Asset:
     animations: list[Animation] = field(default_factory=list)
     source: Path | None = None
     field: ImplicitSurface | None = None
+    lights: list[PunctualLight] = dataclass_field(default_factory=list)
 
     @property
     def name(self) -> str:

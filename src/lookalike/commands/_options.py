@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from ..limits import MAX_RESOLUTION, MAX_TEXTURE_SIZE, MAX_WORKERS
-from ..settings import INITS, Config, parse_duration, setting_value
+from ..settings import INITS, RENDERERS, Config, parse_duration, setting_value
 
 
 def default_text(defaults: Config, key: str, shown=None) -> str:
@@ -65,6 +65,19 @@ def add_fit_arguments(parser: argparse.ArgumentParser, defaults: Config, init: b
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def add_reference_arguments(parser: argparse.ArgumentParser, defaults: Config) -> None:
+    """``--reference``, ``--lighting`` and ``--spp``: what draws the reference views
+    (``lookalike.settings.ReferenceConfig``)."""
+    parser.add_argument("--reference", choices=RENDERERS, help="what draws the reference: our rasterizer under a "
+                        "random light per view, or (mitsuba) a path tracer under fixed lighting whose shadows, bounced "
+                        "and ambient light are baked into the textures and an emission map; needs pip install -e "
+                        f"\".[pathtrace]\" {default_text(defaults, 'renderer')}")
+    parser.add_argument("--lighting", metavar="studio|ENV.hdr", help="the path tracer's fixed lighting: a generated "
+                        f"studio, or an environment map (.hdr, .exr) {default_text(defaults, 'lighting')}")
+    parser.add_argument("--spp", type=int, metavar="N", help="samples per pixel of each path-traced view "
+                        f"{default_text(defaults, 'spp')}")
+
+
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """``--resume``, ``--force``, ``--threads`` and ``--profile``: how one run of a job goes
     (``lookalike.jobs.run.RunOptions``)."""
@@ -87,6 +100,8 @@ def settings_keywords(args: argparse.Namespace) -> dict:
                 "iterations": args.iterations, "seed": args.seed, "export_obj": True if args.obj else None}
     if hasattr(args, "init"):
         settings["init"] = args.init
+    if hasattr(args, "reference"):
+        settings.update(renderer=args.reference, lighting=args.lighting, spp=args.spp)
     return {"config": args.config, **settings}
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import add_fit_arguments, add_job_arguments, add_run_arguments, run_keywords
+from ._options import add_fit_arguments, add_job_arguments, add_reference_arguments, add_run_arguments, run_keywords
 
 HELP = "simplify an asset: a low-poly model with textures that renders like the input"
 
@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     pose.add_argument("--compare-static", action="store_true", help="for a skinned, animated input: also run the "
                         "bind-pose fit (--static, its own time budget) into OUTDIR/bind-pose-fit/ and score it, with "
                         "the input's weights transferred, beside ours in the report (twice the time)")
+    add_reference_arguments(parser, SIMPLIFY.defaults)
     add_run_arguments(parser)
     parser.add_argument("--judge", choices=("blender",), default=None,
                         help="afterwards, also render the input, plain decimation, our classic bake, Blender's own "

@@ -3,7 +3,7 @@ loop's settings and the objective. Kept apart from the settings, which import no
 
 from __future__ import annotations
 
-from ..settings import Config, learning_rates, outline_views, start_defaults
+from ..settings import Config, emissive_learning_rate, learning_rates, outline_views, start_defaults
 from .loop import LoopSettings
 from .objective import Objective
 
@@ -18,7 +18,7 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
     count = outline_views(config) if outline else 0
     if views.pool_size:
         count = min(count, views.pool_size - views.batch_size)
-    lr_emissive = lr_textures if opt.lr_emissive is None else opt.lr_emissive
+    lr_emissive = emissive_learning_rate(config)
     lr_displacement = lr_textures if opt.lr_displacement is None else opt.lr_displacement
     return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive,
                                         "displacement": lr_displacement, "weights": opt.lr_weights},

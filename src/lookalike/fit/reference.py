@@ -4,12 +4,15 @@ The optimisation treats the reference renderer as a black box: a :class:`Referen
 target images for given cameras, lights and, where it moves, poses. :class:`MeshReference` is
 an input asset rendered by our own pipeline, supersampled; :class:`SkinnedReference` is an
 animated one, posed by its skeleton at each view's clip and time; :class:`FieldReference` is
-an implicit surface, sphere-traced. Future references (a path tracer) implement the same
-protocol.
+an implicit surface, sphere-traced; :class:`PathTracedReference` is an asset path traced under
+fixed lighting.
 """
 
 from __future__ import annotations
 
+import hashlib
+import time
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
@@ -19,7 +22,10 @@ from ..asset import Asset
 from ..asset.pose import REST, Poses
 from ..asset.skinning import posed
 from ..shading.camera import Camera
+from ..io.atomic import save_array_atomic
+from ..shading.fixed_lighting import FixedLighting
 from ..shading.light import PointLight
+from ..shading.path_tracing import mitsuba_scene, path_tracer_variant, render_path_traced
 from ..shading.pipeline import FixedAsset, render
 from ..shading.relight import CapturedView, capture_view
 from ..shading.glsl_tracing import GlslTracer
@@ -33,7 +39,15 @@ BOUNDS_TIMES = 16
 
 
 class Reference(Protocol):
-    """A reference renderer."""
+    """A reference renderer.
+
+    Attributes:
+        fixed_light: where the reference lights every view itself (a path tracer's fixed
+            lighting), the point light (batch 1) the views' lights must be, its analytic part;
+            ``None`` where the views draw their lights and the reference renders under them.
+    """
+
+    fixed_light: PointLight | None
 
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
                pose: Poses | None = None) -> torch.Tensor:
@@ -52,6 +66,8 @@ class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled, with ``layers``
     depth-peeled layers (it does not move: ``pose`` is ignored); what its views share is
     computed once (``FixedAsset``)."""
+
+    fixed_light = None
 
     def __init__(self, asset: Asset, layers: int = 1):
         self.asset = FixedAsset.of(asset)
@@ -77,6 +93,8 @@ class SkinnedReference:
     engines and viewers show it); without poses, in the rest pose. The triangles' topology and the texture
     pyramids are shared by every pose; normals, tangents and clip positions are computed per
     pose, at a cost that grows with the input as a render's does."""
+
+    fixed_light = None
 
     def __init__(self, asset: Asset):
         self.fixed = FixedAsset.of(asset)
@@ -111,6 +129,8 @@ class FieldReference:
     (``lookalike.shading.glsl_tracing``); ``sphere``: the bounding sphere of what it shows (its
     marching-cubes mesh's, tighter than its bounds)."""
 
+    fixed_light = None
+
     def __init__(self, surface, sphere: tuple[torch.Tensor, float]):
         self.surface, self.sphere = surface, sphere
         self.tracer = GlslTracer(surface) if surface.kind == "glsl" else None
@@ -124,6 +144,79 @@ class FieldReference:
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:
         return self.sphere
+
+
+class PathTracedReference:
+    """An asset path traced by Mitsuba 3 under fixed ``lighting``
+    (``lookalike.shading.path_tracing``), ``spp`` samples per pixel, paths of at most
+    ``max_depth`` vertices; the lights ``render`` is given are ignored (the lighting is its own,
+    and ``fixed_light``, its analytic part, is what the views' lights must be). Every view is
+    rendered once: kept in ``cache`` (a folder, or ``None``) under a hash of the asset, the
+    lighting, the samples and the camera, as float16, so that a resumed run, or a run of the same
+    input and lighting into the same folder, never renders it again (a view is returned as
+    stored either way, so a resumed run is bit-exact).
+
+    Attributes:
+        rendered, loaded: views path traced and views read from the cache so far.
+        seconds: wall seconds spent path tracing.
+    """
+
+    def __init__(self, asset: Asset, lighting: FixedLighting, spp: int, max_depth: int, cache: Path | None,
+                 seed: int = 0):
+        self.asset, self.lighting, self.spp, self.max_depth, self.cache, self.seed = (
+            asset, lighting, spp, max_depth, cache, seed)
+        light = lighting.analytic
+        self.fixed_light = PointLight(position=light.position, intensity=light.intensity,
+                                      horizon=torch.ones(1, dtype=torch.bool))
+        self.variant = path_tracer_variant()
+        self.key = f"{asset.fingerprint()}:{lighting.key()}:{spp}:{max_depth}:{seed}"
+        self.rendered = self.loaded = 0
+        self.seconds = 0.0
+        self._scene = None
+
+    @property
+    def scene(self):
+        """The Mitsuba scene, built at the first view that is not in the cache."""
+        if self._scene is None:
+            self._scene = mitsuba_scene(self.asset, self.lighting, self.max_depth)
+        return self._scene
+
+    def _path(self, camera: Camera, resolution: int) -> Path | None:
+        if self.cache is None:
+            return None
+        digest = hashlib.sha256(self.key.encode() + str(resolution).encode()
+                                + np.asarray(camera.mv.detach().cpu(), dtype=np.float32).tobytes()
+                                + np.asarray(camera.proj.detach().cpu(), dtype=np.float32).tobytes()).hexdigest()
+        return self.cache / f"{digest[:32]}.npy"
+
+    @torch.no_grad()
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               pose: Poses | None = None) -> torch.Tensor:
+        pictures = []
+        for k in range(camera.batch_size):
+            path = self._path(camera[k], resolution)
+            if path is not None and path.is_file():
+                picture = torch.from_numpy(np.load(path))
+                self.loaded += 1
+            else:
+                clock = time.monotonic()
+                picture = render_path_traced(self.scene, camera[k], resolution, self.spp, self.seed)[0].half()
+                self.seconds += time.monotonic() - clock
+                self.rendered += 1
+                if path is not None:
+                    save_array_atomic(path, picture.numpy())
+            pictures.append(picture.float())
+        return torch.stack(pictures)
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        return self.asset.mesh.bounding_sphere()
+
+    def summary(self) -> dict:
+        """What the reference cost: ``{"renderer", "variant", "lighting", "spp", "max_depth",
+        "views_rendered", "views_from_cache", "seconds"}``."""
+        return {"renderer": "mitsuba", "variant": self.variant, "lighting": self.lighting.name, "spp": self.spp,
+                "max_depth": self.max_depth, "views_rendered": self.rendered, "views_from_cache": self.loaded,
+                "seconds": self.seconds}
 
 
 CHUNK_SAMPLES = RENDER_CHUNK * 4096 ** 2

@@ -90,15 +90,17 @@ class BatchSource(Protocol):
 
 
 def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0,
-                 poses: PoseSampler | None = None, distance_spread: float = 0.0) -> ViewSampler:
+                 poses: PoseSampler | None = None, distance_spread: float = 0.0,
+                 fixed_light: PointLight | None = None) -> ViewSampler:
     """``sample(rng, n) -> Views``: ``n`` random views of the sphere (``centre [3]``,
     ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed point light per
     view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then each view's
     light tests the geometric horizon (``PointLight.horizon``) with that probability; with
     ``poses``, then a pose per view; with ``distance_spread``, cameras nearer and farther
-    than the framing distance (``random_views``)."""
+    than the framing distance (``random_views``). With ``fixed_light`` (batch 1), every view is
+    lit by it instead (a reference's fixed lighting; no light is drawn)."""
 
-    lights = light_sampler(centre, horizon_share)
+    lights = light_sampler(centre, horizon_share) if fixed_light is None else fixed_lights(fixed_light)
 
     def sample(rng: np.random.Generator, n: int) -> Views:
         camera = random_views(centre, radius, n, rng, distance_spread=distance_spread)
@@ -118,6 +120,18 @@ def light_sampler(centre: torch.Tensor, horizon_share: float = 0.0) -> LightSamp
         if horizon_share > 0:
             light.horizon = torch.from_numpy(rng.uniform(size=camera.batch_size) < horizon_share)
         return light
+
+    return sample
+
+
+def fixed_lights(light: PointLight) -> LightSampler:
+    """``sample(rng, camera) -> PointLight``: ``light`` (batch 1) for every camera, drawing
+    nothing from ``rng``."""
+
+    def sample(rng: np.random.Generator, camera: Camera) -> PointLight:
+        n = camera.batch_size
+        return PointLight(position=light.position.expand(n, 3).clone(), intensity=light.intensity.expand(n, 3).clone(),
+                          horizon=None if light.horizon is None else light.horizon.expand(n).clone())
 
     return sample
 

@@ -9,6 +9,8 @@ import os
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
+
 TEMP_PREFIX = ".tmp-"
 
 
@@ -29,3 +31,10 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     with atomic_path(path) as temp:
         temp.write_text(text, encoding="utf-8")
+
+
+def save_array_atomic(path: str | Path, array) -> None:
+    """Write a numpy ``array`` to ``path`` (``.npy``) atomically, creating its folder."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as temp:
+        np.save(temp, array)

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..asset import Animation, Asset, Channel, Material, Mesh, Node, Skin, Texture
+from ..asset import Animation, Asset, Channel, Material, Mesh, Node, PunctualLight, Skin, Texture
 from ..asset.material import Displacement
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
@@ -569,4 +569,20 @@ def read_gltf(path: Path) -> Asset:
     if (mesh.t_mat_idx == n_materials).any() or not materials:
         materials.append(Material(name="default"))
     materials = import_normal_maps(mesh, materials, _stack_nan(parts, "tangents", 4)[corners])
-    return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path)
+    return Asset(mesh=mesh, materials=materials, skin=skin, animations=animations, source=path,
+                 lights=_point_lights(gltf, order, world))
+
+
+def _point_lights(gltf, order: list[int], world: np.ndarray) -> list[PunctualLight]:
+    """The ``KHR_lights_punctual`` point lights on the default scene's nodes, at their nodes'
+    world positions, intensity ``color * intensity`` (other kinds of light are not kept)."""
+    lights = ((gltf.extensions or {}).get("KHR_lights_punctual") or {}).get("lights") or []
+    found = []
+    for node_index in order:
+        light = ((gltf.nodes[node_index].extensions or {}).get("KHR_lights_punctual") or {}).get("light")
+        if light is None or not 0 <= light < len(lights) or lights[light].get("type") != "point":
+            continue
+        colour = np.asarray(lights[light].get("color", [1.0, 1.0, 1.0]), dtype=np.float64)
+        found.append(PunctualLight(position=torch.from_numpy(world[node_index][:3, 3].copy()).float(),
+                                   intensity=torch.from_numpy(colour * float(lights[light].get("intensity", 1.0))).float()))
+    return found

@@ -430,6 +430,26 @@ def add_mesh(builder: GlbBuilder, asset: Asset, name: str, skinned: bool = False
     return len(builder.doc["meshes"]) - 1
 
 
+def _lights(builder: GlbBuilder, asset: Asset, nodes: list[dict], roots: list[int]) -> None:
+    """``asset.lights`` as ``KHR_lights_punctual`` point lights, each on a root node of its own
+    placed at its position: colour the intensity over its largest channel, intensity (candela)
+    that channel, which viewers with physical light units render as our irradiance
+    ``intensity / d^2``."""
+    if not asset.lights:
+        return
+    written = []
+    for k, light in enumerate(asset.lights):
+        intensity = light.intensity.detach().double().cpu().numpy()
+        strength = float(intensity.max())
+        colour = (intensity / strength).tolist() if strength > 0 else [1.0, 1.0, 1.0]
+        written.append({"name": f"light_{k}", "type": "point", "color": colour, "intensity": strength})
+        nodes.append({"name": f"light_{k}", "translation": light.position.detach().double().cpu().tolist(),
+                      "extensions": {"KHR_lights_punctual": {"light": k}}})
+        roots.append(len(nodes) - 1)
+    builder.doc.setdefault("extensions", {})["KHR_lights_punctual"] = {"lights": written}
+    builder.extensions.add("KHR_lights_punctual")
+
+
 @writer(".glb")
 def write_glb(asset: Asset, path: Path) -> None:
     """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
@@ -451,6 +471,7 @@ def write_glb(asset: Asset, path: Path) -> None:
             roots.append(len(nodes) - 1)
     else:
         nodes, roots = [{"name": asset.name, "mesh": 0}], [0]
+    _lights(builder, asset, nodes, roots)
     builder.doc["nodes"] = nodes
     builder.doc["scenes"] = [{"nodes": roots}]
     builder.doc["scene"] = 0

@@ -60,6 +60,7 @@ from . import animated
 from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .input_asset import prepare_input
+from .path_traced import CACHE_FOLDER, lit_by, path_traced_reference, with_emission
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import CONFIG_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
@@ -87,9 +88,12 @@ optimisation loop itself draws from ``default_rng(seed)``)."""
 
 
 def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
-    """The input drawn by its own renderer: an implicit surface sphere-traced (in a sphere
-    around its mesh, one marching-cubes cube wider); a mesh by our pipeline, posed per view
-    where ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
+    """The input drawn by its own renderer: path traced under fixed lighting where
+    ``reference.renderer`` says so (``jobs.path_traced``); an implicit surface sphere-traced (in
+    a sphere around its mesh, one marching-cubes cube wider); a mesh by our pipeline, posed per
+    view where ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
+    if cfg.reference.path_traced:
+        return path_traced_reference(asset, cfg, moving)
     if asset.field is not None:
         centre, radius = asset.mesh.bounding_sphere()
         return FieldReference(asset.field, (centre, radius + FIELD_MARGIN * float((asset.field.hi - asset.field.lo).max())))
@@ -98,7 +102,10 @@ def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
 
 def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent:
     """The textured low-poly mesh that starts as ``start`` (with trained skinning weights where
-    ``moving``), in the frame of ``asset``'s bind pose."""
+    ``moving``; with an emission map where the reference is path traced), in the frame of
+    ``asset``'s bind pose."""
+    if cfg.reference.path_traced:
+        start = with_emission(start)
     centre, radius = asset.mesh.bounding_sphere()
     surface = {"centre": centre, "radius": radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
                "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
@@ -283,8 +290,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     cfg, budget = settings_of_run(s, config, settings)
     with s.stage("load and initial guess"):
         asset, notes, moving = load_input(s, cfg)
-        guess, checkpointer = starting_point(s, cfg, asset, moving)
         reference = s.app.reference(asset, cfg, moving)
+        guess, checkpointer = starting_point(s, cfg, asset, moving)
         start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
         latent = s.app.latent(asset, start, cfg, moving)
     with s.stage("reference views"):
@@ -295,7 +302,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
     with s.stage("alpha of the start"):
         start_written = written.start(start)
-    methods = score_baselines(s, cfg, heldout, draw, guess, start_written)
+    methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset)
     fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(start)),
                     validate=None if validation is None else written.validate,
                     checkpointer=checkpointer, cores=CoreShare())
@@ -304,6 +311,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None,
                           len(s.app.variants(start_written, cfg)))
     fit, export = optimise(s, fitter, seconds, written, start_written, notes)
+    if reference.fixed_light is not None:
+        export = lit_by(export, reference.fixed_light)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
     interrupted = fit.interrupted
@@ -318,6 +327,9 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     motion = moving_picture(s, cfg, reference, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
+    if cfg.reference.path_traced:
+        record.reference_views = {**reference.summary(), "pool_bytes": source.nbytes}
+        record.notes.append(path_traced_note(record.reference_views))
     metrics = write_outputs(s, cfg, export, guess, record)
     if not interrupted:
         (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
@@ -327,6 +339,13 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     baselines.update({key: model for key, _, model in guess.comparisons})
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
+
+
+def path_traced_note(cost: dict) -> str:
+    """The report's line on what a path-traced reference cost (``PathTracedReference.summary``)."""
+    return (f"reference: path traced by Mitsuba 3 ({cost['variant']}), {cost['lighting']} lighting, {cost['spp']} "
+            f"samples per pixel, paths of up to {cost['max_depth']} vertices: {cost['views_rendered']} views rendered "
+            f"in {cost['seconds']:.0f} s, {cost['views_from_cache']} read from {CACHE_FOLDER}/")
 
 
 def peeling_note(used: LayerCount, layers: int) -> str:
@@ -408,14 +427,15 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference,
     training views' source: a pool of reference images refreshed as the steps go, or fresh
     renders at every step."""
     centre, radius = reference.bounding_sphere()
-    sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None)
+    light = reference.fixed_light
+    sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None, fixed_light=light)
     size, spp, views = cfg.render.resolution, cfg.render.target_spp, cfg.views
     heldout = HeldoutViews(reference, sampler, views.heldout, views.heldout_seed, size, spp)
     validation = (HeldoutViews(reference, sampler, views.validation, views.validation_seed, size, spp)
                   if views.validation else None)
     training = view_sampler(centre, radius, cfg.render.horizon_share,
                             poses=animated.training_poses(asset, cfg) if moving else None,
-                            distance_spread=cfg.views.distance_spread)
+                            distance_spread=cfg.views.distance_spread, fixed_light=light)
     if not views.pool_size:
         return heldout, validation, FreshViews(reference, training, size, spp)
     relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
@@ -425,14 +445,18 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference,
 
 
 def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess: InitialGuess,
-                    start: Asset) -> list[MethodResult]:
-    """The held-out scores of plain decimation (or the user's mesh), of the initial guess's
-    comparisons, and of the application's start (or, where it has no label of its own, the
+                    start: Asset, asset: Asset) -> list[MethodResult]:
+    """The held-out scores of plain decimation (or the user's mesh), of the input ``asset``
+    rasterized where the reference is path traced (what a rasterizer shows of it without global
+    illumination), of the initial guess's comparisons, and of the application's start (or, where it has no label of its own, the
     classic bake)."""
     key, label = (("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh
                   else ("decimated", "Plain decimation"))
     with s.stage("scoring plain decimation"):
         methods = [heldout.score(key, label, guess.baseline, draw, None)]
+    if cfg.reference.path_traced:
+        with s.stage("scoring the input rasterized"):
+            methods.append(heldout.score("input_rasterized", "Input, rasterized", asset, draw, None))
     for key, label, model in guess.comparisons:
         with s.stage(f"scoring {label}"):
             methods.append(heldout.score(key, label, model, draw, cfg.latent.texture_size))

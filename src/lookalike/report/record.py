@@ -126,6 +126,8 @@ class RunRecord:
         levels: the application's table (``Application.files``), one dict per row (e.g. a
             displaced model's tessellation levels beside the classic bake at their triangle
             counts), shown in the report with its plot, or ``None``.
+        reference_views: what a path-traced reference cost (its variant, lighting, samples,
+            views rendered and read from the cache, seconds, and the pool's bytes), or ``None``.
     """
 
     asset_name: str
@@ -154,6 +156,7 @@ class RunRecord:
     written: dict[str, float] = field(default_factory=dict)
     written_alpha: dict[str, str | None] = field(default_factory=dict)
     levels: list[dict] | None = None
+    reference_views: dict | None = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -196,5 +199,6 @@ class RunRecord:
                    for m in self.methods},
             },
             **({"levels": self.levels} if self.levels else {}),
+            **({"reference_views": self.reference_views} if self.reference_views else {}),
             **({"profile": self.profile} if self.profile is not None else {}),
         }

@@ -1,0 +1,69 @@
+"""A path-traced reference for a run (``reference.renderer = "mitsuba"``; paper Sec. 5.5,
+"Baking path traced lighting"): the input path traced under fixed lighting, its views kept in
+the output folder, and a start that can learn the light a rasterizer cannot compute.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import torch
+
+from ..asset import Asset, PunctualLight, Texture
+from ..errors import ConfigError
+from ..fit.reference import PathTracedReference
+from ..settings import Config
+from ..shading.fixed_lighting import FixedLighting, environment_lighting, studio_lighting
+from ..shading.light import PointLight
+
+CACHE_FOLDER = "pathtraced-views"
+"""The output folder's sub-folder that keeps the path-traced views (``PathTracedReference``)."""
+
+ENVIRONMENT_SUFFIXES = (".hdr", ".exr")
+"""Environment map files the path tracer reads."""
+
+
+def fixed_lighting(cfg: Config, asset: Asset) -> FixedLighting:
+    """``reference.lighting`` around ``asset``: the generated studio, or its environment map
+    (``ConfigError`` naming the file where it is missing or not an ``.hdr``/``.exr``)."""
+    centre, radius = asset.mesh.bounding_sphere()
+    if cfg.reference.lighting == "studio":
+        return studio_lighting(centre, radius)
+    path = Path(cfg.reference.lighting)
+    if path.suffix.lower() not in ENVIRONMENT_SUFFIXES:
+        raise ConfigError(f"{path}: --lighting takes 'studio' or an environment map (.hdr or .exr)")
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such environment map")
+    return environment_lighting(path.resolve(), centre)
+
+
+def path_traced_reference(asset: Asset, cfg: Config, moving: bool) -> PathTracedReference:
+    """The input path traced under ``reference.lighting`` (``reference.spp``,
+    ``reference.max_depth``), its views kept in ``OUTDIR/pathtraced-views``; ``ConfigError``
+    for what it cannot draw (an animation, an implicit surface)."""
+    if moving:
+        raise ConfigError("a path-traced reference is still: simplify an animated input's bind pose with --static")
+    if asset.field is not None:
+        raise ConfigError("a path-traced reference draws meshes: an implicit surface is its own reference")
+    cache = Path(cfg.io.outdir) / CACHE_FOLDER if cfg.io.outdir else None
+    return PathTracedReference(asset, fixed_lighting(cfg, asset), cfg.reference.spp, cfg.reference.max_depth, cache,
+                               cfg.optim.seed)
+
+
+def with_emission(start: Asset) -> Asset:
+    """``start`` whose materials emit nothing given a black emission map the size of their base
+    colour, so that the fit can learn the light our rasterizer does not compute (the paper's
+    ambient term)."""
+    materials = [material if material.emissive is not None else
+                 dataclasses.replace(material, emissive=Texture(torch.zeros(*material.kd.data.shape[:2], 3),
+                                                                wrap=material.kd.wrap))
+                 for material in start.materials]
+    return dataclasses.replace(start, materials=materials)
+
+
+def lit_by(model: Asset, light: PointLight) -> Asset:
+    """``model`` with the fixed lighting's analytic part, ``light`` (batch 1), as the point
+    light it is written with, so that a viewer lights it as it was fitted."""
+    return dataclasses.replace(model, lights=[PunctualLight(position=light.position[0].detach().clone(),
+                                                            intensity=light.intensity[0].detach().clone())])
