@@ -181,3 +181,20 @@ def test_a_missing_environment_map_is_one_line_naming_it(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "sky.hdr" in err[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_bench_pathtraced_holds_each_case_to_the_bar():
+    from lookalike.bench import pathtraced as bench
+
+    metrics = {"triangles": {"output": 1000}, "seconds": {"total": 840.0, "optimisation": 500.0}, "iterations": 900,
+               "reference_views": {"seconds": 240.0, "variant": "llvm_ad_rgb"},
+               "heldout": {"baked": {"psnr": 18.0, "flip": 0.13}, "input_rasterized": {"psnr": 19.0, "flip": 0.12},
+                           "ours": {"psnr": 25.0, "flip": 0.05}}}
+    case = bench.ASSETS[0]
+    row = bench.case_row(case, metrics, {"psnr": 22.5, "flip": 0.08})
+    assert row["meets_bar"] and row["gain_over_bake_db"] == 7.0 and row["minutes_reference"] == 4.0
+    assert not bench.case_row(case, metrics, {"psnr": 23.5, "flip": 0.08})["meets_bar"]  # not 2 dB over simplify
+    assert not bench.case_row(case, {**metrics, "seconds": {"total": 960.0}}, {"psnr": 20.0, "flip": 0.08})["meets_bar"]
+    table = bench.format_table({"rows": [row], "bar": {"minutes": 15, "gain_over_bake_db": 3, "gain_over_simplify_db": 2},
+                                "all_meet_bar": True})
+    assert "spot" in table and "+7.00" in table and "met" in table

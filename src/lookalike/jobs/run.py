@@ -372,6 +372,7 @@ def settings_of_run(s: _Session, config, settings: dict) -> tuple[Config, float]
         return cfg, cfg.optim.time_budget
     check_same_command(s.saved, checkpoint, s.app.command)
     cfg = resumed_config(s.saved, checkpoint, {**settings, "config": config})
+    cfg.io = dataclasses.replace(cfg.io, outdir=str(s.outdir))  # the folder as named now (a path-traced reference's cache)
     s.seconds_before = s.saved["seconds_used"]
     budget = settings.get("time_budget")
     return cfg, budget if budget is not None else cfg.optim.time_budget - s.seconds_before

@@ -1,0 +1,135 @@
+"""``lookalike bench pathtraced``: ``simplify --reference mitsuba`` with default settings (but a
+15-minute budget) under
+the generated studio lighting (64 samples per pixel) on spot (1,000 triangles) and
+flight-helmet (5,000), scored on the run's held-out path-traced views beside the classic bake
+rasterized (no global illumination), the input rasterized, and ``simplify`` with our own
+rasterized reference (its own run, scored on the same path-traced views under the lighting's
+analytic light).
+
+Bar: ours at least 3 dB above the classic bake and 2 dB above ``simplify``, with a lower FLIP
+than both, each run within 15 minutes including its reference renders.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+from ._table import aligned_table
+from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, output_root, simplify_case, stop_if_interrupted
+
+HELP = "simplify under fixed lighting against path-traced (Mitsuba 3) references; compare with the classic bake and simplify"
+
+ASSETS = (BenchAsset("spot", "spot/spot.obj", 1000, False),
+          BenchAsset("flight-helmet", "flight-helmet/FlightHelmet.gltf", 5000, False))
+BAR_MINUTES = 15.0
+TIME_BUDGET_S = 60 * BAR_MINUTES
+"""Each run's budget, its reference renders included (``simplify``'s default is 10 minutes): the
+bar's 15 minutes, for ours and for ``simplify`` alike."""
+BAR_GAIN_OVER_BAKE_DB = 3.0
+BAR_GAIN_OVER_SIMPLIFY_DB = 2.0
+
+
+def path_traced_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget: float):
+    """``simplify --reference mitsuba`` of one case with default settings; the ``RunResult``."""
+    from ..jobs.simplify import simplify
+
+    return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget,
+                    renderer="mitsuba", force=True, progress=False)
+
+
+def scored_on_path_traced_views(case: BenchAsset, assets_dir: Path, run_dir: Path, model_path: Path) -> dict:
+    """``{"psnr", "flip"}`` of the model at ``model_path`` on the held-out views of the
+    path-traced run in ``run_dir`` (read from its cache, never rendered again), lit by the
+    lighting's analytic light as ours is."""
+    import dataclasses
+    from functools import partial
+
+    from .. import io
+    from ..fit.textured_mesh import render_asset
+    from ..fit.training_views import view_sampler
+    from ..jobs.input_asset import prepare_input
+    from ..jobs.path_traced import path_traced_reference
+    from ..report.heldout import HeldoutViews
+    from ..settings import load_config
+
+    cfg = load_config(run_dir / "config.toml")
+    cfg.io = dataclasses.replace(cfg.io, outdir=str(run_dir))
+    asset, _ = prepare_input(io.load(assets_dir / case.path), None)
+    reference = path_traced_reference(asset, cfg, False)
+    centre, radius = reference.bounding_sphere()
+    sampler = view_sampler(centre, radius, fixed_light=reference.fixed_light)
+    heldout = HeldoutViews(reference, sampler, cfg.views.heldout, cfg.views.heldout_seed, cfg.render.resolution,
+                           cfg.render.target_spp)
+    if reference.rendered:
+        raise RuntimeError(f"{run_dir}: its path-traced held-out views are not all in its cache")
+    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa)
+    scored = heldout.score("simplify", "simplify", io.load(model_path), draw, None)
+    return {"psnr": scored.psnr, "flip": scored.flip}
+
+
+def case_row(case: BenchAsset, metrics: dict, simplified: dict) -> dict:
+    """The table's row of one case from the path-traced run's ``metrics`` and ``simplify``'s
+    scores on its views (``simplified``), with the bar."""
+    heldout, seconds = metrics["heldout"], metrics["seconds"]
+    row = {"asset": case.name, "triangles": metrics["triangles"]["output"],
+           "minutes": seconds["total"] / 60, "minutes_reference": metrics["reference_views"]["seconds"] / 60,
+           "minutes_fit": seconds.get("optimisation", 0.0) / 60, "variant": metrics["reference_views"]["variant"],
+           "iterations": metrics["iterations"]}
+    for key, method in (("bake", "baked"), ("input", "input_rasterized"), ("ours", "ours")):
+        row[f"psnr_{key}"], row[f"flip_{key}"] = heldout[method]["psnr"], heldout[method]["flip"]
+    row["psnr_simplify"], row["flip_simplify"] = simplified["psnr"], simplified["flip"]
+    row["gain_over_bake_db"] = row["psnr_ours"] - row["psnr_bake"]
+    row["gain_over_simplify_db"] = row["psnr_ours"] - row["psnr_simplify"]
+    row["meets_bar"] = (row["minutes"] <= BAR_MINUTES and row["gain_over_bake_db"] >= BAR_GAIN_OVER_BAKE_DB
+                        and row["gain_over_simplify_db"] >= BAR_GAIN_OVER_SIMPLIFY_DB
+                        and row["flip_ours"] < min(row["flip_bake"], row["flip_simplify"]))
+    return row
+
+
+def run(out: str | Path | None = None, time_budget: float = TIME_BUDGET_S, assets: tuple[BenchAsset, ...] = ASSETS,
+        assets_dir: str | Path = SHARED_ASSETS, reuse: bool = False) -> dict:
+    """Run each case and ``simplify`` beside it (``out`` keeps the runs, ``reuse`` takes those
+    already there); ``{"time_budget_s", "bar", "rows", "all_meet_bar", "outputs"}``."""
+    assets_dir = check_assets_dir(assets_dir)
+    with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
+        root = output_root(out, scratch)
+        rows = []
+        for case in assets:
+            run_dir, simplify_dir = root / case.name, root / f"{case.name}-simplify"
+            if not (reuse and (run_dir / "metrics.json").is_file()):
+                stop_if_interrupted(path_traced_case(case, assets_dir, run_dir, time_budget))
+            if not (reuse and (simplify_dir / "metrics.json").is_file()):
+                stop_if_interrupted(simplify_case(case, assets_dir, simplify_dir, time_budget))
+            simplified = scored_on_path_traced_views(case, assets_dir, run_dir, simplify_dir / "model.glb")
+            rows.append(case_row(case, json.loads((run_dir / "metrics.json").read_text()), simplified))
+        return {"time_budget_s": time_budget,
+                "bar": {"minutes": BAR_MINUTES, "gain_over_bake_db": BAR_GAIN_OVER_BAKE_DB,
+                        "gain_over_simplify_db": BAR_GAIN_OVER_SIMPLIFY_DB},
+                "rows": rows, "all_meet_bar": all(r["meets_bar"] for r in rows),
+                "outputs": None if root == Path(scratch) else str(root.resolve())}
+
+
+COLUMNS = (("asset", "asset", "{}"), ("triangles", "triangles", "{:,}"), ("min. reference", "minutes_reference", "{:.1f}"),
+           ("min. fit", "minutes_fit", "{:.1f}"), ("min. total", "minutes", "{:.1f}"), ("steps", "iterations", "{}"),
+           ("PSNR bake", "psnr_bake", "{:.2f}"), ("PSNR input", "psnr_input", "{:.2f}"),
+           ("PSNR simplify", "psnr_simplify", "{:.2f}"), ("PSNR ours", "psnr_ours", "{:.2f}"),
+           ("vs bake dB", "gain_over_bake_db", "{:+.2f}"), ("vs simplify dB", "gain_over_simplify_db", "{:+.2f}"),
+           ("FLIP bake", "flip_bake", "{:.4f}"), ("FLIP simplify", "flip_simplify", "{:.4f}"),
+           ("FLIP ours", "flip_ours", "{:.4f}"), ("Mitsuba", "variant", "{}"))
+
+
+def format_table(result: dict) -> str:
+    """The cases as an aligned text table with the bar."""
+    header = [name for name, _, _ in COLUMNS] + ["bar"]
+    cells = [[fmt.format(r[key]) for _, key, fmt in COLUMNS] + ["ok" if r["meets_bar"] else "MISSED"]
+             for r in result["rows"]]
+    bar = result["bar"]
+    lines = aligned_table(header, cells)
+    lines.append(f"bar: each run <= {bar['minutes']:g} min with its reference renders; ours >= classic bake + "
+                 f"{bar['gain_over_bake_db']:g} dB and >= simplify + {bar['gain_over_simplify_db']:g} dB with lower FLIP: "
+                 f"{'met' if result['all_meet_bar'] else 'NOT met'}")
+    if result.get("outputs"):
+        lines.append(f"outputs: {result['outputs']}")
+    return "\n".join(lines)
