@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import add_run_arguments
+from ._options import add_reference_arguments, add_run_arguments
 
 HELP = "a chain of levels of detail, each fitted to how the input looks at the size it is drawn at"
 
@@ -24,6 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"wall time for the whole chain: 90s, 15m, 1h or seconds (default {CHAIN_BUDGET:g})")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file for every level")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_reference_arguments(parser, LEVEL.defaults)
     add_run_arguments(parser)
 
 
@@ -35,9 +36,11 @@ def run(args: argparse.Namespace) -> int:
     asset = io.load(args.input)
     levels = parse_levels(args.levels) if args.levels else default_levels(asset.mesh.num_triangles,
                                                                          LEVEL.defaults.latent.ratio)
+    reference = {key: value for key, value in (("renderer", args.reference), ("lighting", args.lighting),
+                                               ("spp", args.spp)) if value is not None}
     rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
                resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
-               threads=args.threads)
+               threads=args.threads, **reference)
     for row in rows:
         print(f"lod{row['level']}: {row['triangles']:,} triangles at {row['pixels']} px, {row['texture_size']}^2 "
               f"textures: PSNR {row['psnr']:.2f} dB, FLIP {row['flip']:.4f} ({row['folder']}/report.html)")

@@ -58,3 +58,29 @@ class ProgressBar:
 
     def close(self) -> None:
         self.bar.close()
+
+
+class CountedReference:
+    """A reference whose views are counted on a progress bar as they are rendered (``total``
+    views expected; shown where ``show``): the reference views of a run can take minutes (a
+    path tracer, a deep or huge input), and the bar gives their ETA. Everything else is the
+    wrapped reference's; once ``close``d it renders without counting (a pool's later refreshes).
+    """
+
+    def __init__(self, reference, total: int, show: bool):
+        self.wrapped = reference
+        self.bar = tqdm(total=total, disable=not show, unit="view", dynamic_ncols=True, desc="reference views")
+
+    def render(self, camera, light, resolution: int, spp: int, pose=None):
+        images = self.wrapped.render(camera, light, resolution, spp, pose)
+        if self.bar is not None:
+            self.bar.update(camera.batch_size)
+        return images
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def __getattr__(self, name: str):
+        return getattr(self.wrapped, name)

@@ -151,7 +151,8 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
     levels (each: triangles, pixels, texture size, whether its mips were fitted, the switch
     distance, the run's folder and seconds, its model's file bytes and GPU memory
     (``io.gpu_memory.gpu_bytes``) and held-out scores).
-    ``options``: the run options (``jobs.run.RunOptions``); with ``resume``, finished levels are
+    ``options``: the run options (``jobs.run.RunOptions``) and settings every level shares by
+    name (e.g. ``renderer="mitsuba"``: each level fitted to path-traced views); with ``resume``, finished levels are
     kept and an interrupted one resumed, else ``outdir`` is refused where it holds anything,
     unless ``force``."""
     outdir = Path(outdir)

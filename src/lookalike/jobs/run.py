@@ -41,6 +41,7 @@ from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.from_settings import loop_settings, objective
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
+from ..fit.progress_bar import CountedReference
 from ..fit.reference import FieldReference, MeshReference, Reference, SkinnedReference
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
@@ -295,7 +296,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
         latent = s.app.latent(asset, start, cfg, moving)
     with s.stage("reference views"):
-        heldout, validation, source = reference_views(cfg, asset, reference, moving)
+        heldout, validation, source = reference_views(cfg, asset, reference, moving, s.options.progress)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
@@ -422,27 +423,32 @@ def starting_point(s: _Session, cfg: Config, asset: Asset, moving: bool) -> tupl
     return guess, checkpointer
 
 
-def reference_views(cfg: Config, asset: Asset, reference: Reference,
-                    moving: bool) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
+def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool,
+                    progress: bool = False) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
     """The held-out views (the report's), the validation views (``None`` without) and the
     training views' source: a pool of reference images refreshed as the steps go, or fresh
-    renders at every step."""
+    renders at every step; with ``progress``, a bar counts the views rendered up front."""
     centre, radius = reference.bounding_sphere()
     light = reference.fixed_light
     sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None, fixed_light=light)
     size, spp, views = cfg.render.resolution, cfg.render.target_spp, cfg.views
-    heldout = HeldoutViews(reference, sampler, views.heldout, views.heldout_seed, size, spp)
-    validation = (HeldoutViews(reference, sampler, views.validation, views.validation_seed, size, spp)
-                  if views.validation else None)
-    training = view_sampler(centre, radius, cfg.render.horizon_share,
-                            poses=animated.training_poses(asset, cfg) if moving else None,
-                            distance_spread=cfg.views.distance_spread, fixed_light=light)
-    if not views.pool_size:
-        return heldout, validation, FreshViews(reference, training, size, spp)
-    relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
-    pool = ViewPool(reference, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                    refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
-    return heldout, validation, pool
+    pooled = views.pool_size if views.pool_size and not views.relight else 0
+    counted = CountedReference(reference, views.heldout + views.validation + pooled, progress)
+    try:
+        heldout = HeldoutViews(counted, sampler, views.heldout, views.heldout_seed, size, spp)
+        validation = (HeldoutViews(counted, sampler, views.validation, views.validation_seed, size, spp)
+                      if views.validation else None)
+        training = view_sampler(centre, radius, cfg.render.horizon_share,
+                                poses=animated.training_poses(asset, cfg) if moving else None,
+                                distance_spread=cfg.views.distance_spread, fixed_light=light)
+        if not views.pool_size:
+            return heldout, validation, FreshViews(reference, training, size, spp)
+        relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
+        pool = ViewPool(counted, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
+                        refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
+        return heldout, validation, pool
+    finally:
+        counted.close()
 
 
 def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess: InitialGuess,
