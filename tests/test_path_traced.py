@@ -198,3 +198,18 @@ def test_bench_pathtraced_holds_each_case_to_the_bar():
     table = bench.format_table({"rows": [row], "bar": {"minutes": 15, "gain_over_bake_db": 3, "gain_over_simplify_db": 2},
                                 "all_meet_bar": True})
     assert "spot" in table and "+7.00" in table and "met" in table
+
+
+def test_an_environment_map_lights_the_scene_and_leaves_nothing_analytic(tmp_path):
+    from lookalike.jobs.path_traced import fixed_lighting
+
+    sky = np.zeros((16, 32, 3), dtype=np.float32)
+    sky[:8] = [1.0, 0.9, 0.8]  # a bright upper half: light from above
+    mitsuba().Bitmap(sky).write(str(tmp_path / "sky.exr"))
+    asset = Asset(mesh=uv_sphere(16, 32), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]))])
+    lighting = fixed_lighting(config_from_dict({"reference": {"lighting": str(tmp_path / "sky.exr")}}), asset)
+    assert float(lighting.analytic.intensity.abs().max()) == 0.0
+    camera = random_views(torch.zeros(3), 1.0, 1, np.random.default_rng(0))
+    picture = render_path_traced(mitsuba_scene(asset, lighting, 4), camera, 32, 16)[0]
+    covered = picture[..., 3] > 0.99
+    assert covered.sum() > 100 and float(picture[..., :3][covered].mean()) > 0.2
