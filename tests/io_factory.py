@@ -146,17 +146,19 @@ def two_material_asset(normal_map: bool = True) -> Asset:
 
 
 def npm_package(name: str) -> Path:
-    """``node_modules`` folder holding npm package ``name``, installed once into a cache outside
-    the repository (``$LOOKALIKE_NPM_CACHE`` or ``~/.cache/lookalike-tests/npm``); skips the test
-    with the reason where node or npm is missing or the registry is unreachable."""
+    """``node_modules`` folder holding npm package ``name`` (``name@version`` pins one), installed
+    once into a cache outside the repository (``$LOOKALIKE_NPM_CACHE`` or
+    ``~/.cache/lookalike-tests/npm``); skips the test with the reason where node or npm is missing
+    or the registry is unreachable."""
     if shutil.which("node") is None or shutil.which("npm") is None:
         pytest.skip(f"needs node and npm to run the npm package {name!r}")
     modules = NPM_CACHE / "node_modules"
-    if not (modules / name / "package.json").is_file():
+    folder = name.rsplit("@", 1)[0] if name.rfind("@") > 0 else name
+    if not (modules / folder / "package.json").is_file():
         NPM_CACHE.mkdir(parents=True, exist_ok=True)
         result = subprocess.run(["npm", "install", "--no-audit", "--no-fund", "--prefix", str(NPM_CACHE), name],
                                 capture_output=True, text=True, timeout=300)
-        if result.returncode != 0 or not (modules / name / "package.json").is_file():
+        if result.returncode != 0 or not (modules / folder / "package.json").is_file():
             pytest.skip(f"cannot install npm package {name!r} (registry unreachable?): {result.stderr.strip()[-300:]}")
     return modules
 
