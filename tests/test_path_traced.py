@@ -218,3 +218,26 @@ def test_an_environment_map_lights_the_scene_and_leaves_nothing_analytic(tmp_pat
     picture = render_path_traced(mitsuba_scene(asset, lighting, 4), camera, 32, 16)[0]
     covered = picture[..., 3] > 0.99
     assert covered.sum() > 100 and float(picture[..., :3][covered].mean()) > 0.2
+
+
+def test_an_unlit_fit_is_written_unlit_and_scores_as_it_is_read_back(tmp_path):
+    from functools import partial
+
+    from lookalike import io
+    from lookalike.fit.textured_mesh import render_asset
+
+    result = simplify(shadowed_scene(), tmp_path / "out", triangles=120, iterations=30, unlit=True, progress=False,
+                      config=config_from_dict(TINY))
+    heldout = result.metrics["heldout"]
+    assert heldout["ours"]["psnr"] > heldout["input_rasterized"]["psnr"] + 3.0
+    data = result.model.read_bytes()
+    document = json.loads(data[20:20 + int.from_bytes(data[12:16], "little")])
+    assert "KHR_materials_unlit" in document["materials"][0]["extensions"]
+    assert "KHR_lights_punctual" not in document.get("extensions", {})
+    model = io.load(result.model)
+    assert model.materials[0].unlit and not model.lights
+    camera = random_views(torch.zeros(3), 2.0, 1, np.random.default_rng(0))
+    light = PointLight(position=camera.position, intensity=torch.full((1, 3), 50.0))  # an unlit model ignores it
+    draw = partial(render_asset, resolution=32, msaa=1)
+    dark = PointLight(position=light.position, intensity=torch.zeros(1, 3))
+    assert torch.allclose(draw(model, camera, light), draw(model, camera, dark))

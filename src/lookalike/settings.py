@@ -252,12 +252,16 @@ class ReferenceConfig:
         spp: samples per pixel of a path-traced view.
         max_depth: longest path (2: direct light only); what a path tracer adds over a
             rasterizer comes from the bounces.
+        unlit: with a path-traced reference, fit and write the model unlit: no analytic light,
+            the whole appearance in the emission, written as ``KHR_materials_unlit`` base
+            colour (clipped to [0, 1]) for viewers that should add no light of their own.
     """
 
     renderer: str = "ours"
     lighting: str = "studio"
     spp: int = 64
     max_depth: int = 8
+    unlit: bool = False
 
     @property
     def path_traced(self) -> bool:
@@ -437,6 +441,8 @@ class Config:
             (1 <= ref.spp <= MAX_PATH_SPP, f"reference.spp (--spp) must lie in [1, {MAX_PATH_SPP}], not {ref.spp}"),
             (2 <= ref.max_depth <= MAX_PATH_DEPTH,
              f"reference.max_depth must lie in [2, {MAX_PATH_DEPTH}], not {ref.max_depth}"),
+            (ref.path_traced or not ref.unlit, "reference.unlit (--unlit) fits the light of a path-traced "
+             "reference: give --reference mitsuba"),
             (not (ref.path_traced and vw.relight), "views.relight lights our own G-buffers again: it cannot relight "
              "a path-traced reference (--reference mitsuba)"),
             (not ref.path_traced or ren.layers == 1, "a path-traced reference fits one surface layer (render.layers "

@@ -23,6 +23,7 @@ A constant channel is a 1x1 texture. Colour is linear inside; sRGB only at file 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import torch
@@ -101,6 +102,10 @@ class Material:
         occlusion: optional ambient occlusion texture, 1 channel, strength applied; kept and
             written for engines (it darkens ambient light only, which we do not render).
         displacement: optional ``Displacement`` of the mesh drawn with this material.
+        unlit: drawn without light (glTF ``KHR_materials_unlit``): its colour is its emission,
+            ``kd``'s colour is black (its alpha still applies) and ``ks`` is ``(1, 1, 0)`` (no
+            specular lobe), so that our renderer, which adds emission to the lit colour, draws
+            it as unlit viewers do.
     """
 
     name: str = "material"
@@ -114,6 +119,7 @@ class Material:
     emissive: Texture | None = None
     occlusion: Texture | None = None
     displacement: Displacement | None = None
+    unlit: bool = False
 
     def __post_init__(self):
         if self.alpha_mode not in ALPHA_MODES:
@@ -128,3 +134,12 @@ class Material:
         """The material's textures that are present: base colour, specular, then the normal
         map, emission and occlusion where it has them."""
         return [t for t in (self.kd, self.ks, self.normal, self.emissive, self.occlusion) if t is not None]
+
+
+def unlit_material(material: Material, colour: Texture | None) -> Material:
+    """``material`` drawn unlit in ``colour`` (``[H, W, 3]`` linear, or ``None`` for black):
+    ``Material.unlit``, with ``kd``'s alpha kept and no normal map."""
+    kd = material.kd
+    black = torch.cat([torch.zeros_like(kd.data[..., :3]), kd.data[..., 3:]], dim=-1)
+    return dataclasses.replace(material, unlit=True, normal=None, emissive=colour,
+                               ks=Texture.constant([1.0, 1.0, 0.0]), kd=dataclasses.replace(kd, data=black, mips=None))

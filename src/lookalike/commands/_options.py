@@ -76,6 +76,8 @@ def add_reference_arguments(parser: argparse.ArgumentParser, defaults: Config) -
                         f"studio, or an environment map (.hdr, .exr) {default_text(defaults, 'lighting')}")
     parser.add_argument("--spp", type=int, metavar="N", help="samples per pixel of each path-traced view "
                         f"{default_text(defaults, 'spp')}")
+    parser.add_argument("--unlit", action="store_true", help="with --reference mitsuba: fit and write the model "
+                        "unlit (KHR_materials_unlit), its whole look in its colour, for viewers that add no light")
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -101,7 +103,7 @@ def settings_keywords(args: argparse.Namespace) -> dict:
     if hasattr(args, "init"):
         settings["init"] = args.init
     if hasattr(args, "reference"):
-        settings.update(renderer=args.reference, lighting=args.lighting, spp=args.spp)
+        settings.update(renderer=args.reference, lighting=args.lighting, spp=args.spp, unlit=True if args.unlit else None)
     return {"config": args.config, **settings}
 
 

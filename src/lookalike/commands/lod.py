@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     levels = parse_levels(args.levels) if args.levels else default_levels(asset.mesh.num_triangles,
                                                                          LEVEL.defaults.latent.ratio)
     reference = {key: value for key, value in (("renderer", args.reference), ("lighting", args.lighting),
-                                               ("spp", args.spp)) if value is not None}
+                                               ("spp", args.spp), ("unlit", args.unlit or None)) if value is not None}
     rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
                resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
                threads=args.threads, **reference)

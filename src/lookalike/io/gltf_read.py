@@ -14,7 +14,9 @@ where a primitive has none (glTF 2.0, Sec. 3.7.2.1), welded into slots per (posi
 re-expressed from the file's tangent frame (TANGENT, or MikkTSpace where absent, on those normals)
 into ours (``lookalike.io.normal_frames``). Emission is
 ``emissiveFactor * emissiveStrength * emissiveTexture`` (sRGB decoded; KHR_materials_emissive_strength);
-occlusion is ``1 + strength * (occlusionTexture.R - 1)``, with its own ``texCoord``. Morph targets
+occlusion is ``1 + strength * (occlusionTexture.R - 1)``, with its own ``texCoord``. A
+``KHR_materials_unlit`` material's base colour becomes its emission over a black ``kd``
+(``Material.unlit``). ``KHR_lights_punctual`` point lights become ``Asset.lights``. Morph targets
 are ignored.
 
 Skins: the asset has one ``Skin`` over every node of the document (file order, so node indices,
@@ -31,6 +33,7 @@ animations of TRS properties are kept with the skin (other paths are skipped wit
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,7 +42,7 @@ import numpy as np
 import torch
 
 from ..asset import Animation, Asset, Channel, Material, Mesh, Node, PunctualLight, Skin, Texture
-from ..asset.material import Displacement
+from ..asset.material import Displacement, unlit_material
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
 from ..errors import AssetError
@@ -55,6 +58,7 @@ log = logging.getLogger(__name__)
 
 SUPPORTED_EXTENSIONS = frozenset({
     "KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
+    "KHR_materials_unlit", "KHR_lights_punctual",
 })
 _WRAP_MODES = {10497: "wrap", 33071: "clamp", 33648: "wrap"}
 _TRS_PATHS = ("translation", "rotation", "scale")
@@ -396,12 +400,15 @@ class _MaterialReader:
         alpha_mode = m.alphaMode or "OPAQUE"
         if alpha_mode not in ("OPAQUE", "MASK", "BLEND"):
             raise AssetError(self.data.path, f"material {m.name!r} has unknown alphaMode {alpha_mode!r}")
-        return Material(
+        material = Material(
             name=m.name or "material", kd=kd, ks=ks, normal=normal, alpha_mode=alpha_mode,
             alpha_cutoff=0.5 if m.alphaCutoff is None else float(m.alphaCutoff),
             double_sided=bool(m.doubleSided), emissive=emissive, occlusion=occlusion,
             displacement=self.displacement(m.extras),
         )
+        if "KHR_materials_unlit" in (m.extensions or {}):  # its colour is all it shows
+            return unlit_material(material, dataclasses.replace(kd, data=kd.data[..., :3].clone(), mips=None))
+        return material
 
     def displacement(self, extras) -> Displacement | None:
         """The ``Displacement`` in a material's ``extras.displacement`` as lookalike writes it

@@ -15,7 +15,9 @@ Material channels: base colour (+ alpha) as ``baseColorFactor`` or an sRGB PNG; 
 (R = 1, G = roughness, B = metalness) and as KHR_materials_specular ``specularTexture`` (A =
 ``1 - gamma``); a constant ``gamma != 0`` becomes ``specularFactor = 1 - gamma``. Note that glTF's
 specular factor scales only the dielectric lobe, while the paper's ``gamma`` also scales metals.
-1x1 (constant) textures are written as factors. Emission is ``emissiveFactor``/``emissiveTexture``
+1x1 (constant) textures are written as factors. An unlit material (``Material.unlit``) is a
+``KHR_materials_unlit`` material whose base colour is its emission (clipped to [0, 1]); the
+asset's point lights are ``KHR_lights_punctual`` lights on nodes of their own. Emission is ``emissiveFactor``/``emissiveTexture``
 (sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
 then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
 image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
@@ -43,11 +45,13 @@ influences are written in sets of 4 (JOINTS_k / WEIGHTS_k), the last padded with
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import struct
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from ..asset import Asset, Material, Texture
 from ..asset.material import Displacement
@@ -198,8 +202,30 @@ def _same_layout(a: Texture, b: Texture) -> bool:
     return bool(np.array_equal(a.transform.detach().numpy(), b.transform.detach().numpy()))
 
 
+def _unlit_material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
+    """glTF ``KHR_materials_unlit`` material JSON for an unlit ``material``: its emission, clipped
+    to [0, 1], as the base colour, with its alpha."""
+    emission = (material.emissive.data.detach().float() if material.emissive is not None
+                else torch.zeros(1, 1, 3)).clamp(0.0, 1.0)
+    alpha = material.kd.data.detach().float()[..., 3:4]
+    if alpha.shape[:2] != emission.shape[:2]:
+        size = max(alpha.shape[:2], emission.shape[:2])
+        alpha = torch.from_numpy(resize(alpha.numpy(), *size))
+        emission = torch.from_numpy(resize(emission.numpy(), *size))
+    colour = Material(name=material.name, kd=dataclasses.replace(material.kd, data=torch.cat([emission, alpha], -1),
+                                                                 mips=None),
+                      ks=Texture.constant([0.0, 1.0, 0.0]), alpha_mode=material.alpha_mode,
+                      alpha_cutoff=material.alpha_cutoff, double_sided=material.double_sided)
+    out = _material(builder, colour, has_uv)
+    out.setdefault("extensions", {})["KHR_materials_unlit"] = {}
+    builder.extensions.add("KHR_materials_unlit")
+    return out
+
+
 def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
     """glTF material JSON for ``material`` (textures written to ``builder``)."""
+    if material.unlit:
+        return _unlit_material(builder, material, has_uv)
     def constant_or_mean(texture: Texture) -> np.ndarray | None:
         value = constant_texel(texture)
         if value is None and not has_uv:  # a texture without UVs to map it: its mean colour

@@ -11,6 +11,7 @@ from pathlib import Path
 import torch
 
 from ..asset import Asset, PunctualLight, Texture
+from ..asset.material import unlit_material
 from ..errors import ConfigError
 from ..fit.reference import PathTracedReference
 from ..settings import Config
@@ -47,8 +48,12 @@ def path_traced_reference(asset: Asset, cfg: Config, moving: bool) -> PathTraced
     if asset.field is not None:
         raise ConfigError("a path-traced reference draws meshes: an implicit surface is its own reference")
     cache = Path(cfg.io.outdir) / CACHE_FOLDER if cfg.io.outdir else None
-    return PathTracedReference(asset, fixed_lighting(cfg, asset), cfg.reference.spp, cfg.reference.max_depth, cache,
-                               cfg.optim.seed)
+    lighting = fixed_lighting(cfg, asset)
+    if cfg.reference.unlit:  # no analytic part: the emission holds everything
+        light = lighting.analytic
+        lighting = dataclasses.replace(lighting, analytic=PointLight(position=light.position,
+                                                                     intensity=torch.zeros_like(light.intensity)))
+    return PathTracedReference(asset, lighting, cfg.reference.spp, cfg.reference.max_depth, cache, cfg.optim.seed)
 
 
 def with_emission(start: Asset) -> Asset:
@@ -62,8 +67,11 @@ def with_emission(start: Asset) -> Asset:
     return dataclasses.replace(start, materials=materials)
 
 
-def lit_by(model: Asset, light: PointLight) -> Asset:
-    """``model`` with the fixed lighting's analytic part, ``light`` (batch 1), as the point
-    light it is written with, so that a viewer lights it as it was fitted."""
+def lit_as_fitted(model: Asset, light: PointLight, unlit: bool) -> Asset:
+    """``model`` as it is written after a fit under fixed lighting: with its analytic part,
+    ``light`` (batch 1), as the point light a viewer is to light it with; or, ``unlit``, its
+    materials unlit (their emission is their colour, ``Material.unlit``) and no light."""
+    if unlit:
+        return dataclasses.replace(model, materials=[unlit_material(m, m.emissive) for m in model.materials], lights=[])
     return dataclasses.replace(model, lights=[PunctualLight(position=light.position[0].detach().clone(),
                                                             intensity=light.intensity[0].detach().clone())])

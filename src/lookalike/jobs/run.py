@@ -61,7 +61,7 @@ from . import animated
 from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .input_asset import prepare_input
-from .path_traced import CACHE_FOLDER, lit_by, path_traced_reference, with_emission
+from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
 from .outputs import CONFIG_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
@@ -313,7 +313,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                           len(s.app.variants(start_written, cfg)))
     fit, export = optimise(s, fitter, seconds, written, start_written, notes)
     if reference.fixed_light is not None:
-        export = lit_by(export, reference.fixed_light)
+        export = lit_as_fitted(export, reference.fixed_light, cfg.reference.unlit)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
     interrupted = fit.interrupted
