@@ -241,3 +241,60 @@ def test_an_unlit_fit_is_written_unlit_and_scores_as_it_is_read_back(tmp_path):
     draw = partial(render_asset, resolution=32, msaa=1)
     dark = PointLight(position=light.position, intensity=torch.zeros(1, 3))
     assert torch.allclose(draw(model, camera, light), draw(model, camera, dark))
+
+
+def mitsuba_scene_file(folder) -> tuple:
+    """A Mitsuba scene file in ``folder``: a textured, two-sided principled ball (an OBJ), a lamp
+    that emits and a sky; returns ``(path, the ball as written, its texture)``."""
+    import imageio.v3 as iio
+
+    from lookalike import io
+    from lookalike.colour import srgb_encode
+
+    ball = Asset(mesh=uv_sphere(12, 24), materials=[Material()])
+    io.save(ball, folder / "ball.obj")
+    texture = gradient_texture(16, 3, 2).numpy()
+    iio.imwrite(folder / "paint.png", (srgb_encode(texture) * 255).round().astype(np.uint8))
+    (folder / "scene.xml").write_text("""<scene version="3.0.0">
+  <bsdf type="twosided" id="paint"><bsdf type="principled">
+    <texture type="bitmap" name="base_color"><string name="filename" value="paint.png"/></texture>
+    <float name="roughness" value="0.3"/><float name="metallic" value="0.2"/></bsdf></bsdf>
+  <shape type="obj" id="ball"><string name="filename" value="ball.obj"/><ref id="paint"/></shape>
+  <shape type="sphere" id="lamp"><point name="center" x="0" y="3" z="0"/><float name="radius" value="0.1"/>
+    <emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
+  <emitter type="constant"/>
+</scene>""")
+    return folder / "scene.xml", io.load(folder / "ball.obj"), texture
+
+
+def corners(asset: Asset) -> np.ndarray:
+    """Each triangle corner's position and UV, rows sorted: the surface whatever the vertex order."""
+    mesh = asset.mesh
+    rows = torch.cat([mesh.v_pos[mesh.t_pos_idx].reshape(-1, 3), mesh.v_tex[mesh.t_tex_idx].reshape(-1, 2)], 1)
+    return np.unique(np.round(rows.numpy(), 5), axis=0)
+
+
+def test_a_mitsuba_scene_file_reads_as_its_meshes_and_bsdfs(tmp_path, caplog):
+    from lookalike import io
+
+    path, ball, texture = mitsuba_scene_file(tmp_path)
+    asset = io.load(path)
+    assert "lamp" in caplog.text  # the light fixture is not part of the asset
+    assert np.array_equal(corners(asset), corners(ball))
+    (material,) = asset.materials
+    assert np.abs(material.kd.data[..., :3].numpy() - texture).max() < 0.01  # 8-bit sRGB, decoded
+    assert np.allclose(material.ks.data.reshape(-1, 3)[0].numpy(), [0.0, 0.3, 0.2]) and material.double_sided
+
+
+def test_a_scene_file_is_path_traced_with_its_own_bsdfs(tmp_path):
+    from lookalike import io
+
+    path, _, _ = mitsuba_scene_file(tmp_path)
+    asset = io.load(path)
+    black = Asset(mesh=asset.mesh, materials=[Material(kd=Texture.constant([0.0, 0.0, 0.0, 1.0]))], source=path)
+    camera = random_views(torch.zeros(3), 1.0, 1, np.random.default_rng(0))
+    lighting = studio_lighting(torch.zeros(3), 1.0)
+    from_file = render_path_traced(mitsuba_scene(black, lighting, 3), camera, 32, 16)
+    converted = render_path_traced(mitsuba_scene(asset, lighting, 3), camera, 32, 16)
+    assert float(from_file[..., :3].mean()) > 0.02  # the file's paint, not the black given
+    assert psnr(from_file, converted) > 25.0

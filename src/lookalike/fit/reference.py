@@ -21,14 +21,15 @@ import torch
 from ..asset import Asset
 from ..asset.pose import REST, Poses
 from ..asset.skinning import posed
-from ..shading.camera import Camera
 from ..io.atomic import save_array_atomic
+from ..io.mitsuba_runtime import mitsuba
+from ..shading.camera import Camera
 from ..shading.fixed_lighting import FixedLighting
+from ..shading.glsl_tracing import GlslTracer
 from ..shading.light import PointLight
-from ..shading.path_tracing import mitsuba_scene, path_tracer_variant, render_path_traced
+from ..shading.path_tracing import mitsuba_scene, render_path_traced
 from ..shading.pipeline import FixedAsset, render
 from ..shading.relight import CapturedView, capture_view
-from ..shading.glsl_tracing import GlslTracer
 from ..shading.sphere_tracing import render_field
 
 RENDER_CHUNK = 4
@@ -168,7 +169,7 @@ class PathTracedReference:
         light = lighting.analytic
         self.fixed_light = PointLight(position=light.position, intensity=light.intensity,
                                       horizon=torch.ones(1, dtype=torch.bool))
-        self.variant = path_tracer_variant()
+        self.variant = mitsuba().variant()  # fails at once where Mitsuba is not installed
         self.key = f"{asset.fingerprint()}:{lighting.key()}:{spp}:{max_depth}:{seed}"
         self.rendered = self.loaded = 0
         self.seconds = 0.0

@@ -19,92 +19,24 @@ the film is box-filtered RGBA with directly seen emitters hidden, so a picture i
 ``Reference``'s, linear RGB weighted by coverage, and coverage. Each view's samples are seeded
 from its camera, so a view renders the same wherever it falls in a batch.
 
-Mitsuba runs its ``llvm_ad_rgb`` variant where an LLVM it works with is installed (``libLLVM``
-16 or newer; found on the library path and proven in a separate process first, since an LLVM
-it cannot use aborts the process), else ``scalar_rgb`` (about five times slower);
-``path_tracer_variant`` says which.
+Mitsuba's variant is chosen by ``lookalike.io.mitsuba_runtime``. An asset read from a Mitsuba
+scene file (``lookalike.io.mitsuba_xml``) is drawn as the file has it: its own shapes and BSDFs
+under the run's lighting (the file's emitters left out).
 """
 
 from __future__ import annotations
 
-import functools
-import glob
 import hashlib
-import os
-import re
-import subprocess
-import sys
+from pathlib import Path
 
 import numpy as np
 import torch
 
 from ..asset import Asset, Material
 from ..asset.material import Texture
-from ..errors import ConfigError
+from ..io.mitsuba_runtime import mitsuba
 from .camera import Camera
 from .fixed_lighting import FixedLighting
-
-VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
-"""Mitsuba variants in order of preference."""
-
-MIN_LLVM = 16
-"""Oldest LLVM major version tried for the ``llvm`` variant (older ones abort Dr.Jit)."""
-
-LLVM_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib64", "/usr/lib", "/usr/local/lib")
-"""Where ``libLLVM`` is looked for (besides ``DRJIT_LIBLLVM_PATH``)."""
-
-PROBE = """
-import mitsuba as mi
-mi.set_variant("llvm_ad_rgb")
-scene = mi.load_dict({"type": "scene", "integrator": {"type": "path"},
-                      "s": {"type": "sphere", "bsdf": {"type": "principled", "roughness": 0.3}},
-                      "l": {"type": "point", "position": [0, 0, 3]}})
-sensor = mi.load_dict({"type": "perspective", "film": {"type": "hdrfilm", "width": 4, "height": 4}})
-mi.render(scene, sensor=sensor, spp=1)
-"""
-"""A render in a child process: does Dr.Jit's LLVM back end work with this library?"""
-
-
-def _llvm_libraries() -> list[str]:
-    """``libLLVM`` files of major version ``MIN_LLVM`` or newer, newest first, the user's
-    ``DRJIT_LIBLLVM_PATH`` before all."""
-    found = {}
-    for folder in LLVM_DIRS:
-        for path in glob.glob(os.path.join(folder, "libLLVM*.so*")):
-            match = re.search(r"libLLVM(?:-|\.so\.)(\d+)", os.path.basename(path))
-            if match and int(match.group(1)) >= MIN_LLVM:
-                found.setdefault(int(match.group(1)), path)
-    user = os.environ.get("DRJIT_LIBLLVM_PATH")
-    return ([user] if user else []) + [found[major] for major in sorted(found, reverse=True)]
-
-
-@functools.cache
-def path_tracer_variant() -> str:
-    """The Mitsuba variant this process renders with (see the module); the first call probes
-    LLVM in a child process (seconds) and points Dr.Jit at the library that worked."""
-    for library in _llvm_libraries():
-        env = {**os.environ, "DRJIT_LIBLLVM_PATH": library}
-        try:
-            probe = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, timeout=120)
-        except subprocess.TimeoutExpired:
-            continue
-        if probe.returncode == 0:
-            os.environ["DRJIT_LIBLLVM_PATH"] = library
-            return VARIANTS[0]
-    return VARIANTS[1]
-
-
-def mitsuba():
-    """The ``mitsuba`` module with ``path_tracer_variant`` set; ``ConfigError`` where it is not
-    installed."""
-    try:
-        import mitsuba as mi
-    except ImportError:
-        raise ConfigError("the path-traced reference needs Mitsuba 3: pip install -e \".[pathtrace]\"") from None
-    variant = path_tracer_variant()
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    return mi
 
 
 def _bitmap(mi, data: np.ndarray, wrap: str) -> dict:
@@ -185,15 +117,19 @@ def _shape(mi, name: str, corners: torch.Tensor, normals: torch.Tensor, uv: torc
 
 def mitsuba_scene(asset: Asset, lighting: FixedLighting, max_depth: int):
     """The Mitsuba scene of ``asset`` under ``lighting``, rendered by a path tracer of at most
-    ``max_depth`` vertices per path (2: direct light only) with directly seen emitters hidden."""
+    ``max_depth`` vertices per path (2: direct light only) with directly seen emitters hidden; an
+    asset read from a Mitsuba scene file is its file's shapes that do not emit."""
     mi = mitsuba()
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": int(max_depth), "hide_emitters": True},
+             **lighting.emitters}
+    if asset.source is not None and Path(asset.source).suffix.lower() == ".xml":
+        shapes = [shape for shape in mi.load_file(str(asset.source)).shapes() if not shape.is_emitter()]
+        return mi.load_dict({**scene, **{f"file_shape_{k}": shape for k, shape in enumerate(shapes)}})
     mesh = asset.mesh
     v_nrm, t_nrm_idx = mesh.normals()
     corners = mesh.v_pos.detach().float()[mesh.t_pos_idx]
     normals = v_nrm.detach().float()[t_nrm_idx]
     t_mat_idx = mesh.t_mat_idx if mesh.t_mat_idx is not None else torch.zeros(mesh.num_triangles, dtype=torch.int64)
-    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": int(max_depth), "hide_emitters": True},
-             **lighting.emitters}
     for index, material in enumerate(asset.materials):
         chosen = t_mat_idx == index
         uv_of = _uv_of(material, mesh)
