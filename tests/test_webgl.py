@@ -49,10 +49,40 @@ def test_threejs_draws_our_glb_with_its_own_light_as_we_draw_it(modules, tmp_pat
     theirs = render_threejs(tmp_path / "ball.glb", camera, 64, modules=modules)
     assert psnr(ours, theirs) > 30.0
     assert (ours[..., 3] - theirs[..., 3]).abs().mean() < 0.01
-    unlit = PointLight(position=light.position, intensity=torch.zeros(1, 3))  # the given light replaces the file's
-    dark = render_threejs(tmp_path / "ball.glb", camera, 64, light=unlit, modules=modules)
-    ours_dark = torch.cat([render(asset, camera[k], unlit, (64, 64), spp=2) for k in range(2)])
-    assert psnr(ours_dark, dark) > 30.0 and float(dark[..., :3].mean()) < 0.8 * float(theirs[..., :3].mean())
+
+
+def test_each_view_s_own_light_replaces_the_file_s(modules, tmp_path):
+    asset = lit_ball()
+    io.save(asset, tmp_path / "ball.glb")
+    camera = random_views(torch.zeros(3), 1.0, 2, np.random.default_rng(1))
+    lights = PointLight(position=torch.tensor([[3.0, 0.0, 1.0], [-1.0, 3.0, 0.5]]), intensity=torch.tensor(
+        [[30.0, 10.0, 10.0], [0.0, 0.0, 0.0]]))  # a red light, then none: the emission alone
+    ours = torch.cat([render(asset, camera[k], lights[k], (64, 64), spp=2) for k in range(2)])
+    theirs = render_threejs(tmp_path / "ball.glb", camera, 64, light=lights, modules=modules)
+    assert psnr(ours[:1], theirs[:1]) > 30.0 and psnr(ours[1:], theirs[1:]) > 30.0
+
+
+def test_threejs_reads_our_ktx2_mips_where_the_png_gives_box_filtered_ones(modules, tmp_path, monkeypatch):
+    from test_io_ktx2 import _asset_with_fitted_mips, _basisu
+
+    _basisu(monkeypatch)
+    asset = _asset_with_fitted_mips()
+    io.save(asset, tmp_path / "mips.glb")
+    monkeypatch.setenv("LOOKALIKE_BASISU", str(tmp_path / "no-such-encoder"))
+    io.save(asset, tmp_path / "png.glb")
+    # the 16-texel quad seen 4 pixels wide: a GPU's trilinear lookup reads mip level 2, whose fitted
+    # colour is (0.5, 0.4, 0.6) where the box-filtered level 2 of the ramp is grey
+    eye, centre = torch.tensor([[0.5, 0.5, 10.2]]), torch.tensor([[0.5, 0.5, 0.0]])
+    camera = type(random_views(centre[0], 1.0, 1, np.random.default_rng(0))).looking_at(eye, centre, fovy=0.75)
+    light = PointLight(position=eye, intensity=torch.full((1, 3), 300.0))
+
+    def red_over_green(path) -> float:
+        picture = render_threejs(path, camera, 32, light=light, samples=0, modules=modules)[0]
+        covered = picture[..., 3] > 0.99
+        return float(picture[..., 0][covered].mean() / picture[..., 1][covered].mean())
+
+    assert red_over_green(tmp_path / "mips.glb") > 1.15
+    assert abs(red_over_green(tmp_path / "png.glb") - 1.0) < 0.03
 
 
 def test_the_written_light_is_a_khr_point_light_read_back_where_it_was(tmp_path):

@@ -8,7 +8,7 @@ const path = require('path');
 
 const [modules, pageDir, chromium, jobPath, outPath] = process.argv.slice(2);
 const puppeteer = require(path.join(modules, 'puppeteer-core'));
-const TYPES = { '.js': 'text/javascript', '.html': 'text/html' };
+const TYPES = { '.js': 'text/javascript', '.html': 'text/html', '.wasm': 'application/wasm' };
 
 const server = http.createServer((request, response) => {
   const url = decodeURIComponent(request.url.split('?')[0]);
@@ -32,8 +32,8 @@ server.listen(0, '127.0.0.1', async () => {
     await page.waitForFunction('window.ready === true', { timeout: 60000 });
     const job = JSON.parse(fs.readFileSync(jobPath, 'utf8'));
     const glb = fs.readFileSync(job.model).toString('base64');
-    const pictures = await page.evaluate((g, v, s, n, l) => window.renderViews(g, v, s, n, l),
-                                         glb, job.views, job.size, job.samples, job.light);
+    const pictures = await page.evaluate((g, v, s, n) => window.renderViews(g, v, s, n),
+                                         glb, job.views, job.size, job.samples);
     if (errors.length) throw new Error(errors.join('; '));
     fs.writeFileSync(outPath, Buffer.concat(pictures.map((b) => Buffer.from(b, 'base64'))));
   } catch (error) {

@@ -1,8 +1,8 @@
 """Our views of a glb rendered by three.js in headless Chromium (``render.js``, ``page.html``).
 
 three.js draws the file as its ``GLTFLoader`` reads it (metallic-roughness, normal, emissive
-maps, ``KHR_materials_emissive_strength``, ``KHR_lights_punctual`` point lights in candela with
-inverse-square falloff), into a float render target with ``samples``-fold MSAA, without tone
+maps, ``KHR_materials_emissive_strength``, ``KHR_texture_basisu`` through its KTX2 loader,
+``KHR_lights_punctual`` point lights in candela with inverse-square falloff), into a float render target with ``samples``-fold MSAA, without tone
 mapping, so the pixels are linear radiance as ours are. It lights by the shading normal (no
 horizon test), as real-time engines do.
 """
@@ -72,23 +72,24 @@ def render_threejs(model: str | Path, camera: Camera, resolution: int, light: Po
                    samples: int = 4, modules: str | Path | None = None) -> torch.Tensor:
     """``[B, H, W, 4]`` float32 pictures of the glb ``model`` by three.js from B cameras
     (``H = W = resolution``, row 0 at the top): linear RGB weighted by coverage, and coverage.
-    ``light`` (batch 1, or B equal lights): a point light in place of the file's own lights
-    (a model written without them, scored as ours is); ``None`` keeps the file's.
+    ``light`` (batch 1, or one per camera): the point light of each view in place of the file's
+    own lights (views scored as ours are); ``None`` keeps the file's. ``samples``: MSAA samples
+    per pixel (0: one).
 
     Raises ``ConfigError`` where three.js is not installed, ``WebglError`` where it fails."""
     require_threejs(modules)
-    views = [{"mv": camera.mv[k].detach().double().reshape(-1).tolist(),
-              "proj": camera.proj[k].detach().double().reshape(-1).tolist()} for k in range(camera.batch_size)]
-    given = None
-    if light is not None:
-        if not (torch.equal(light.position, light.position[:1].expand_as(light.position))
-                and torch.equal(light.intensity, light.intensity[:1].expand_as(light.intensity))):
-            raise ValueError("render_threejs lights every view with one light")
-        given = {"position": light.position[0].tolist(), "intensity": light.intensity[0].tolist()}
+    views = []
+    for k in range(camera.batch_size):
+        view = {"mv": camera.mv[k].detach().double().reshape(-1).tolist(),
+                "proj": camera.proj[k].detach().double().reshape(-1).tolist()}
+        if light is not None:
+            slot = 0 if light.position.shape[0] == 1 else k
+            view["light"] = {"position": light.position[slot].tolist(), "intensity": light.intensity[slot].tolist()}
+        views.append(view)
     with tempfile.TemporaryDirectory(prefix="lookalike-webgl-") as scratch:
         job, out = Path(scratch) / "job.json", Path(scratch) / "pictures.bin"
         job.write_text(json.dumps({"model": str(Path(model).resolve()), "views": views, "size": int(resolution),
-                                   "samples": int(samples), "light": given}))
+                                   "samples": int(samples)}))
         try:
             done = subprocess.run(["node", str(PACKAGE / "render.js"), str(_modules(modules)), str(PACKAGE), _browser(),
                                    str(job), str(out)], capture_output=True, text=True, timeout=TIMEOUT_S)
