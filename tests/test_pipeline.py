@@ -289,9 +289,9 @@ def test_vertex_colours_multiply_base_colour():
     assert centre[0] > 0.1 and centre[1] == 0 and centre[2] == 0
 
 
-def _lookup(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None = None) -> torch.Tensor:
+def _lookup(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None = None, **sampler) -> torch.Tensor:
     """``[N, C]`` values of one texture alone at ``uv [N, 2]`` (trilinear with ``uv_da [N, 4]``)."""
-    return TextureSampler().sample([texture], lambda _: (uv, uv_da), uv.shape[0])[0]
+    return TextureSampler(**sampler).sample([texture], lambda _: (uv, uv_da), uv.shape[0])[0]
 
 
 def test_texture_transform_and_stacked_lookups_match_single_lookups():
@@ -473,28 +473,27 @@ def test_the_horizon_test_darkens_normal_mapped_points_whose_surface_faces_away_
 
 
 @pytest.mark.parametrize("footprint", [4.0, 8.0])
-def test_a_lookup_filters_its_footprint_with_the_variance_of_the_pixels_box(footprint, monkeypatch):
+def test_a_lookup_filters_its_footprint_with_the_variance_of_the_pixels_box(footprint):
     """A vertical line of texels is blurred across ``u`` by the lookup's filter. Averaged over
     the line's place in the mip levels' blocks, the filter's second moment about the line with the footprint scaled
     by ``FOOTPRINT_SCALE`` is near the box's ``f^2 / 12``; trilinear at the plain footprint is
-    three times wider (``f^2 / 4``)."""
-    import lookalike.shading.texturing as texturing
+    three times wider (``f^2 / 4``): the engine's footprint, ``ENGINE_FOOTPRINT``."""
+    from lookalike.shading.texturing import ENGINE_FOOTPRINT
     size = 128
     u = torch.linspace(0.25, 0.75, 2001)
     uv = torch.stack([u, torch.full_like(u, 0.5)], dim=1)
     uv_da = torch.tensor([[footprint / size, 0.0, 0.0, footprint / size]]).expand(len(u), 4)
     x = u.double() * size
 
-    def variance() -> float:
+    def variance(**sampler) -> float:
         variances = []
         for column in range(64, 72):
             data = torch.zeros(size, size, 1)
             data[:, column] = 1.0
-            response = _lookup(Texture(data, wrap="clamp"), uv, uv_da)[:, 0].double()
+            response = _lookup(Texture(data, wrap="clamp"), uv, uv_da, **sampler)[:, 0].double()
             variances.append(float((response * (x - column - 0.5) ** 2).sum() / response.sum()))
         return float(np.mean(variances))
 
     box = footprint ** 2 / 12
     assert 0.8 * box < variance() < 1.3 * box
-    monkeypatch.setattr(texturing, "FOOTPRINT_SCALE", 1.0)
-    assert variance() > 2.5 * box
+    assert variance(footprint=ENGINE_FOOTPRINT) > 2.5 * box

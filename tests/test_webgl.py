@@ -85,6 +85,31 @@ def test_threejs_reads_our_ktx2_mips_where_the_png_gives_box_filtered_ones(modul
     assert abs(red_over_green(tmp_path / "png.glb") - 1.0) < 0.03
 
 
+def test_the_engine_footprint_reads_the_mip_levels_three_js_reads(modules, tmp_path, monkeypatch):
+    from test_io_ktx2 import _asset_with_fitted_mips, _basisu
+
+    from lookalike.shading.texturing import ENGINE_FOOTPRINT, FOOTPRINT_SCALE
+
+    _basisu(monkeypatch)
+    asset = _asset_with_fitted_mips()  # each mip level its own colour: the colour says the level
+    io.save(asset, tmp_path / "mips.glb")
+    centre = torch.tensor([[0.5, 0.5, 0.0]])
+
+    def red_over_green(picture: torch.Tensor) -> float:
+        covered = picture[0, ..., 3] > 0.99
+        return float(picture[0, ..., 0][covered].mean() / picture[0, ..., 1][covered].mean())
+
+    for distance in (6.0, 20.0):
+        eye = torch.tensor([[0.5, 0.5, distance]])
+        camera = type(random_views(centre[0], 1.0, 1, np.random.default_rng(0))).looking_at(eye, centre, fovy=0.75)
+        light = PointLight(position=eye, intensity=torch.full((1, 3), 300.0))
+        three = red_over_green(render_threejs(tmp_path / "mips.glb", camera, 32, light=light, samples=0,
+                                              modules=modules))
+        engine = red_over_green(render(asset, camera, light, (32, 32), spp=1, footprint=ENGINE_FOOTPRINT))
+        supersampled = red_over_green(render(asset, camera, light, (32, 32), spp=1, footprint=FOOTPRINT_SCALE))
+        assert abs(engine - three) < 0.03 and abs(supersampled - three) > 0.2  # 0.79 levels finer
+
+
 def test_the_written_light_is_a_khr_point_light_read_back_where_it_was(tmp_path):
     asset = lit_ball()
     io.save(asset, tmp_path / "ball.glb")

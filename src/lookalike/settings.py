@@ -54,6 +54,8 @@ INITS = ("bake", "source", "average", "random", "sphere")
 WARM_INITS = ("bake", "source")
 ALPHA_EXPORTS = ("auto", "mask", "blend")
 POSITION_STEPS = ("uniform", "local")
+MIP_FOOTPRINTS = ("supersampled", "engine")
+"""How texture lookups choose their mip level (``render.mip_footprint``)."""
 RENDERERS = ("ours", "mitsuba")
 """The reference renderers ``reference.renderer`` names."""
 
@@ -165,6 +167,11 @@ class RenderConfig:
             (``lookalike.shading.pipeline``): 1 shows the nearest surface only; alpha-
             textured foliage needs several (the paper peels 8). The reference peels
             ``reference_layers``.
+        mip_footprint: how the models' texture lookups choose their mip level
+            (``lookalike.shading.texturing``): ``"supersampled"``, the footprint narrowed to a
+            pixel box's filter, as supersampling renderers (Cycles, the reference) filter; or
+            ``"engine"``, the GPU's level at the pixel's derivatives, as real-time engines draw
+            (each level of ``lookalike lod``, whose mips are fitted for them).
     """
 
     resolution: int = 512
@@ -172,6 +179,7 @@ class RenderConfig:
     latent_msaa: int = 2
     horizon_share: float = 0.5
     layers: int = 1
+    mip_footprint: str = "supersampled"
 
     @property
     def reference_layers(self) -> int:
@@ -436,6 +444,8 @@ class Config:
             (opt.position_steps in POSITION_STEPS,
              f"optim.position_steps must be one of {', '.join(POSITION_STEPS)}, not {opt.position_steps!r}"),
             (0 <= lat.mask_anneal <= 1, f"latent.mask_anneal must lie in [0, 1], not {lat.mask_anneal}"),
+            (ren.mip_footprint in MIP_FOOTPRINTS,
+             f"render.mip_footprint must be one of {', '.join(MIP_FOOTPRINTS)}, not {ren.mip_footprint!r}"),
             (ref.renderer in RENDERERS,
              f"reference.renderer (--reference) must be one of {', '.join(RENDERERS)}, not {ref.renderer!r}"),
             (1 <= ref.spp <= MAX_PATH_SPP, f"reference.spp (--spp) must lie in [1, {MAX_PATH_SPP}], not {ref.spp}"),

@@ -115,7 +115,7 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
 
 def level_scores(reference, models: dict, resolution: int) -> dict:
     """``{name: {"psnr", "flip", "flicker"}}`` of each model of ``models`` at ``resolution``:
-    drawn at one sample per pixel with trilinear mipmaps on the held-out views (the runs'
+    drawn at one sample per pixel with trilinear mipmaps at the GPU's levels on the held-out views (the runs'
     sampler, seed and count) against ``reference`` at ``REFERENCE_SPP`` per axis, and its
     flicker over the orbit relative to the reference's at ``ORBIT_REFERENCE_SPP`` (``"flicker"``
     of ``"reference"`` is its own mean change)."""
@@ -129,13 +129,14 @@ def level_scores(reference, models: dict, resolution: int) -> dict:
     from ..report.heldout import HeldoutViews, over_background
     from ..report.metrics import temporal_change
     from ..settings import Config
+    from ..shading.texturing import ENGINE_FOOTPRINT
     from ..shading.view_sampling import orbit_views
 
     centre, radius = reference.bounding_sphere()
     views = Config().views
     heldout = HeldoutViews(reference, view_sampler(centre, radius), views.heldout, views.heldout_seed, resolution,
                            REFERENCE_SPP)
-    draw = partial(render_asset, resolution=resolution, msaa=1)
+    draw = partial(render_asset, resolution=resolution, msaa=1, footprint=ENGINE_FOOTPRINT)
     camera, light = orbit_views(centre, radius, ORBIT_FRAMES, ORBIT_DEGREES)
     own = temporal_change(over_background(render_in_chunks(reference, camera, light, resolution, ORBIT_REFERENCE_SPP)))
     scores = {"reference": {"flicker": own}}

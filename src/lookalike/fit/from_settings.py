@@ -4,6 +4,7 @@ loop's settings and the objective. Kept apart from the settings, which import no
 from __future__ import annotations
 
 from ..settings import Config, emissive_learning_rate, learning_rates, outline_views, start_defaults
+from ..shading.texturing import ENGINE_FOOTPRINT, FOOTPRINT_SCALE
 from .loop import LoopSettings
 from .objective import Objective
 
@@ -34,3 +35,9 @@ def objective(config: Config) -> Objective:
     return Objective(opt.loss, config.views.batch_size, outline_weight=opt.outline_weight,
                      regularizer_weight=opt.laplacian_weight, min_fraction=opt.laplacian_min_fraction,
                      decay_fraction=opt.laplacian_decay_fraction)
+
+
+def lookup_footprint(config: Config) -> float:
+    """The models' texture lookup footprint for ``render.mip_footprint``: ``ENGINE_FOOTPRINT``
+    for ``"engine"``, else ``FOOTPRINT_SCALE`` (``lookalike.shading.texturing``)."""
+    return ENGINE_FOOTPRINT if config.render.mip_footprint == "engine" else FOOTPRINT_SCALE

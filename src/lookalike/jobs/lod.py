@@ -108,11 +108,11 @@ def switch_distance(radius: float, pixels: float, fovy_degrees: float = FOVY_DEG
 
 
 LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=build_initial_guess,
-                    defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1),
+                    defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1, mip_footprint="engine"),
                                     views=ViewsConfig(distance_spread=1.0)))
 """One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
 per pixel (enough that a small level's target is free of aliasing), the model drawn with one
-sample per pixel, as an engine draws it; training views put the object at its size times
+sample per pixel and the GPU's mip levels, as an engine draws it; training views put the object at its size times
 0.71 to 1.41 (one octave), so that the mip levels on either side of its own are fitted too."""
 
 
@@ -120,13 +120,14 @@ def screen_size_settings(pixels: int) -> dict:
     """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
     pixel (a power of two), the reference supersampled, the model drawn with one sample per
-    pixel and the training distances spread around the size (``LEVEL.defaults``).
+    pixel at the GPU's mip levels and the training distances spread around the size (``LEVEL.defaults``).
     ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
     return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
             "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
+            "mip_footprint": LEVEL.defaults.render.mip_footprint,
             "distance_spread": LEVEL.defaults.views.distance_spread}
 
 

@@ -38,7 +38,7 @@ from .. import io
 from ..asset import Asset, Material
 from ..errors import ConfigError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
-from ..fit.from_settings import loop_settings, objective
+from ..fit.from_settings import lookup_footprint, loop_settings, objective
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
 from ..fit.progress_bar import CountedReference
@@ -113,6 +113,7 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
                "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
                "texture_scales": cfg.latent.texture_scales, "position_steps": cfg.optim.position_steps,
                "mask_anneal": cfg.latent.mask_anneal, "fitted_mips": cfg.latent.fitted_mips,
+               "footprint": lookup_footprint(cfg),
                "absolute_laplacian": cfg.latent.init == "sphere"}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
 
@@ -298,7 +299,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     with s.stage("reference views"):
         heldout, validation, source = reference_views(cfg, asset, reference, moving, s.options.progress)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
-                   layers=cfg.render.layers)
+                   layers=cfg.render.layers, footprint=lookup_footprint(cfg))
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
     with s.stage("alpha of the start"):

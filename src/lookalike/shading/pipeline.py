@@ -47,7 +47,7 @@ from .camera import Camera
 from .gbuffer import MeshBuffers
 from .light import PointLight
 from .peeled_layers import Frame, LayerCount, composite_layers, peel_and_shade
-from .texturing import TextureSampler
+from .texturing import FOOTPRINT_SCALE, TextureSampler
 
 
 def background_image(background, batch: int, height: int, width: int, factor: int,
@@ -99,7 +99,8 @@ def image_size(resolution) -> tuple[int, int]:
 
 
 def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, layers: int = 1,
-           background=None, msaa: bool = False, layer_count: LayerCount | None = None) -> torch.Tensor:
+           background=None, msaa: bool = False, layer_count: LayerCount | None = None,
+           footprint: float = FOOTPRINT_SCALE) -> torch.Tensor:
     """Render B views of an asset.
 
     Args:
@@ -116,6 +117,8 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
         msaa: shade once per pixel, at a random covered sample, while sampling visibility
             ``spp x spp`` times (stochastic MSAA, see the module docstring).
         layer_count: where given, counts the layers this render used.
+        footprint: scale of the texture lookups' footprint (``lookalike.shading.texturing``:
+            ``FOOTPRINT_SCALE`` as supersampling renderers filter, ``ENGINE_FOOTPRINT`` as GPUs).
     Returns:
         ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture. RGB is
         composited over the background; with none, over black (so RGB is premultiplied by
@@ -129,7 +132,7 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     if isinstance(asset, Asset):
         asset = tessellated(asset)
     buffers = mesh_buffers(asset, camera)
-    frame = Frame(asset, buffers, camera, light, texture_sampler(asset))
+    frame = Frame(asset, buffers, camera, light, texture_sampler(asset, footprint))
     shaded = peel_and_shade(frame, (height * spp, width * spp), spp, layers, msaa and spp > 1)
     if layer_count is not None:
         layer_count.add(len(shaded))
@@ -151,11 +154,12 @@ def tangent_uv_sets(asset) -> set[int]:
     return {m.normal.uv_set for m in asset.materials if m.normal is not None and m.normal.uv_set < len(asset.mesh.uv)}
 
 
-def texture_sampler(asset) -> TextureSampler:
-    """The sampler for one render of ``asset``: a ``FixedAsset``'s shared one where it keeps
-    one, else a new one (whose stacks and pyramids serve that render's layers and views)."""
+def texture_sampler(asset, footprint: float = FOOTPRINT_SCALE) -> TextureSampler:
+    """The sampler for one render of ``asset`` with lookups of ``footprint``: a ``FixedAsset``'s
+    shared one where it keeps one of that footprint, else a new one (whose stacks and pyramids
+    serve that render's layers and views)."""
     shared = asset.sampler if isinstance(asset, FixedAsset) else None
-    return shared if shared is not None else TextureSampler()
+    return shared if shared is not None and shared.footprint == footprint else TextureSampler(footprint)
 
 
 def texel_bytes(materials) -> int:

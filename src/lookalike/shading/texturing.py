@@ -9,7 +9,10 @@ texels and interpolates between them with a tent of half-width ``f``, a filter o
 our supersampled reference) filters with the pixel's box, variance ``f^2 / 12``. A model
 fitted through the wide filter pre-sharpens its textures to make up for it, and the sharpened
 maps show as grain wherever the filter is narrower. Lookups therefore take the footprint times
-``FOOTPRINT_SCALE = 1 / sqrt(3)``, whose filter has the box's variance.
+``FOOTPRINT_SCALE = 1 / sqrt(3)``, whose filter has the box's variance. A model drawn as real-time
+engines draw it (one sample per pixel, the GPU's mip level, ``log2 f``: 0.79 levels coarser)
+is sampled with ``ENGINE_FOOTPRINT = 1`` instead, so that mips fitted for it are the ones an
+engine reads at each distance.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ def transform_uv(texture: Texture, uv: torch.Tensor, uv_da: torch.Tensor | None)
 
 
 FOOTPRINT_SCALE = 3.0 ** -0.5
+ENGINE_FOOTPRINT = 1.0
 """Factor on the screen-space UV derivatives that choose the mip level (module docstring)."""
 
 
@@ -78,8 +82,9 @@ class TextureSampler:
     gradients (the coverage of peeled layers) does not cut them from the later ones.
     """
 
-    def __init__(self):
+    def __init__(self, footprint: float = FOOTPRINT_SCALE):
         self._stacks: dict[tuple[int, ...], _Stack] = {}
+        self.footprint = footprint
 
     def _stack(self, textures: list[Texture], mipmapped: bool) -> tuple[torch.Tensor, list[torch.Tensor] | dr.Pyramid | None]:
         """``([1, H, W, sum C] texels, their mips or None)`` of ``textures``: the mips are the
@@ -100,7 +105,7 @@ class TextureSampler:
 
         Texture coordinates follow glTF (``(0, 0)`` = top-left corner of the image = texel row
         0). With derivatives the lookup is trilinear (mip level from the footprint times
-        ``FOOTPRINT_SCALE``), without bilinear. A 1x1 texture is its constant value and needs no coordinates.
+        ``self.footprint``), without bilinear. A 1x1 texture is its constant value and needs no coordinates.
         Differentiable in texels (and own mips), coordinates and derivatives.
         """
         values: list[torch.Tensor | None] = [None] * len(textures)
@@ -115,7 +120,7 @@ class TextureSampler:
             uv, uv_da = transform_uv(first, *uv_of(first.uv_set))
             mipmapped = uv_da is not None
             if mipmapped:
-                uv_da = uv_da * FOOTPRINT_SCALE
+                uv_da = uv_da * self.footprint
             data, mips = self._stack([textures[i] for i in members], mipmapped)
             out = dr.texture(
                 data,
