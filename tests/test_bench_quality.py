@@ -156,7 +156,9 @@ def test_judge_options_are_checked(tmp_path, monkeypatch):
     assets = tmp_path / "assets"
     assets.mkdir()
     monkeypatch.delenv(quality.OUT_ENVIRONMENT, raising=False)
-    with pytest.raises(ConfigError, match="unknown judge 'mitsuba'"):
+    with pytest.raises(ConfigError, match="judges are blender, not 'mitsuba'"):
         quality.run(assets_dir=assets, judge="mitsuba")
+    with pytest.raises(ConfigError, match="judges are blender, not 'three'"):  # three.js judges bench lod
+        quality.run(assets_dir=assets, judge="three")
     with pytest.raises(ConfigError, match="--reuse judges earlier runs"):
         quality.run(assets_dir=assets, reuse=True)

@@ -25,7 +25,8 @@ from pathlib import Path
 
 from ._table import runs_table
 from .quality import ASSETS as QUALITY_ASSETS
-from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, io_load, output_root, scan_material, select_assets
+from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, check_judge, io_load, output_root, scan_material, \
+    select_assets
 
 HELP = "fit a chain of prefiltered LODs to nefertiti and flight-helmet; compare each level with the classic chain"
 
@@ -48,7 +49,7 @@ BAR_FLICKER_RATIO = 1.3
 
 def run(repeats: int | None = None, out: str | Path | None = None, assets: tuple[BenchAsset, ...] = ASSETS,
         assets_dir: str | Path | None = None, levels: str = LEVELS, time_budget: float | None = None,
-        reuse: bool = False) -> dict:
+        reuse: bool = False, judge: str | None = None) -> dict:
     """Fit the chain ``levels`` of every asset, bake the classic chain, score both.
 
     Args:
@@ -60,15 +61,19 @@ def run(repeats: int | None = None, out: str | Path | None = None, assets: tuple
         time_budget: seconds for the whole chain (default: ``lod``'s, 15 minutes).
         reuse: keep the levels already fitted in ``out/<asset>/chain`` (``lod``'s resume) and
             score them again.
+        judge: ``"three"``: also draw each level of both chains, as written, in three.js
+            (``lookalike.webgl``: one sample per pixel, its own mip levels) on the same views.
 
     Returns:
         ``{"levels", "bar", "runs": [row per asset and level], "all_meet_bar", "outputs"}``; a row
         holds the asset, level, triangles, pixels, the chain's minutes, file bytes, PSNR, FLIP
-        and flicker (relative to the reference's) of the classic level and ours, and whether
-        it meets the bar.
+        and flicker (relative to the reference's) of the classic level and ours (and, judged,
+        their PSNR and FLIP in three.js), and whether it meets the bar.
     """
     from ..jobs.lod import CHAIN_BUDGET, parse_levels
 
+    if judge is not None:
+        check_judge(judge, ("three",))
     assets_dir = check_assets_dir(SHARED_ASSETS if assets_dir is None else assets_dir)
     chain = parse_levels(levels)
     budget = CHAIN_BUDGET if time_budget is None else time_budget
@@ -76,7 +81,7 @@ def run(repeats: int | None = None, out: str | Path | None = None, assets: tuple
         root = output_root(out, scratch)
         rows = []
         for case in assets:
-            rows += asset_rows(case, assets_dir, root / case.name, chain, budget, reuse)
+            rows += asset_rows(case, assets_dir, root / case.name, chain, budget, reuse, judge is not None)
         return {"levels": levels, "time_budget_s": budget,
                 "bar": {"chain_minutes": BAR_CHAIN_MINUTES, "gain_db": BAR_GAIN_DB,
                         "gain_largest_db": BAR_GAIN_LARGEST_DB, "flicker_ratio": BAR_FLICKER_RATIO},
@@ -85,9 +90,10 @@ def run(repeats: int | None = None, out: str | Path | None = None, assets: tuple
 
 
 def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, budget: float,
-               reuse: bool = False) -> list[dict]:
+               reuse: bool = False, judged: bool = False) -> list[dict]:
     """Fit (``reuse``: resume) and score the chain of ``case`` in ``outdir``: a row per level
-    (see ``run``); the chain's minutes are the sum of its levels' run times."""
+    (see ``run``; ``judged``: in three.js too); the chain's minutes are the sum of its levels'
+    run times."""
     from ..fit.reference import MeshReference
     from ..jobs.bake import bake_asset
     from ..jobs.input_asset import prepare_input
@@ -105,7 +111,7 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
                              texture_size=settings["texture_size"], force=True)
         ours_path = outdir / "chain" / row["folder"] / "model.glb"
         scores = level_scores(reference, {"input": asset, "classic": classic.asset, "ours": io_load(ours_path)},
-                              settings["resolution"])
+                              settings["resolution"], {"classic": classic.model, "ours": ours_path} if judged else None)
         rows.append(level_row(case.name, row, minutes, scores,
                               {"classic": classic.model.stat().st_size, "ours": ours_path.stat().st_size},
                               largest=row["level"] == 0))
@@ -113,8 +119,9 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
     return rows
 
 
-def level_scores(reference, models: dict, resolution: int) -> dict:
-    """``{name: {"psnr", "flip", "flicker"}}`` of each model of ``models`` at ``resolution``:
+def level_scores(reference, models: dict, resolution: int, files: dict | None = None) -> dict:
+    """``{name: {"psnr", "flip", "flicker"}}`` of each model of ``models`` at ``resolution``
+    (and ``"psnr_three"``, ``"flip_three"`` of those whose glb ``files`` names, drawn by three.js):
     drawn at one sample per pixel with trilinear mipmaps at the GPU's levels on the held-out views (the runs'
     sampler, seed and count) against ``reference`` at ``REFERENCE_SPP`` per axis, and its
     flicker over the orbit relative to the reference's at ``ORBIT_REFERENCE_SPP`` (``"flicker"``
@@ -131,6 +138,7 @@ def level_scores(reference, models: dict, resolution: int) -> dict:
     from ..settings import Config
     from ..shading.texturing import ENGINE_FOOTPRINT
     from ..shading.view_sampling import orbit_views
+    from ..webgl import render_threejs
 
     centre, radius = reference.bounding_sphere()
     views = Config().views
@@ -145,6 +153,10 @@ def level_scores(reference, models: dict, resolution: int) -> dict:
         frames = over_background(draw(model, camera, light))
         scores[name] = {"psnr": float(np.mean(result.psnr_views)), "flip": float(np.mean(result.flip_views)),
                         "flicker": temporal_change(frames) / own}
+    for name, path in (files or {}).items():
+        result = heldout.score(name, name, models[name], lambda model, camera, light, pose, path=path: render_threejs(
+            path, camera, resolution, light=light, samples=0), None)
+        scores[name].update(psnr_three=float(np.mean(result.psnr_views)), flip_three=float(np.mean(result.flip_views)))
     return scores
 
 
@@ -161,7 +173,7 @@ def level_row(asset: str, level: dict, minutes: float, scores: dict, sizes: dict
             "texture_size": level["texture_size"], "fitted_mips": level.get("fitted_mips", False),
             "chain_minutes": minutes,
             **{f"{metric}_{name}": scores[name][metric] for name in ("input", "classic", "ours") if name in scores
-               for metric in ("psnr", "flip", "flicker")},
+               for metric in ("psnr", "flip", "flicker", "psnr_three", "flip_three") if metric in scores[name]},
             **{f"bytes_{name}": size for name, size in sizes.items()},
             "gain_db": gain, "meets_bar": meets}
 
@@ -173,7 +185,8 @@ COLUMNS = (("asset", "asset", "{}"), ("level", "level", "{}"), ("triangles", "tr
            ("gain dB", "gain_db", "{:+.2f}"), ("FLIP classic", "flip_classic", "{:.4f}"),
            ("FLIP ours", "flip_ours", "{:.4f}"), ("flicker input", "flicker_input", "{:.2f}x"),
            ("flicker classic", "flicker_classic", "{:.2f}x"),
-           ("flicker ours", "flicker_ours", "{:.2f}x"), ("KB classic", "bytes_classic", "{:,.0f}"),
+           ("flicker ours", "flicker_ours", "{:.2f}x"), ("three.js classic", "psnr_three_classic", "{:.2f}"),
+           ("three.js ours", "psnr_three_ours", "{:.2f}"), ("KB classic", "bytes_classic", "{:,.0f}"),
            ("KB ours", "bytes_ours", "{:,.0f}"))
 
 
@@ -184,4 +197,5 @@ def format_table(result: dict) -> str:
     bar = (f"bar: chain <= {BAR_CHAIN_MINUTES:g} min; ours >= classic + {BAR_GAIN_DB:g} dB at the smaller levels, "
            f"+ {BAR_GAIN_LARGEST_DB:g} dB at the largest, lower FLIP; flicker (vs the reference's, "
            f"{REFERENCE_SPP}x{REFERENCE_SPP} spp) <= {BAR_FLICKER_RATIO:g}x and below classic")
-    return runs_table(shown, COLUMNS, bar, lambda rows: [])
+    columns = tuple(c for c in COLUMNS if all(c[1] in r for r in shown["runs"]))  # three.js where judged
+    return runs_table(shown, columns, bar, lambda rows: [])

@@ -33,7 +33,8 @@ TIME_BUDGET_S = 600.0
 BAR_MINUTES = 10.0
 BAR_GAIN_DB = 3.0
 BAR_GAIN_OVER_BAKED_DB = 1.0
-JUDGES = ("blender",)
+JUDGES = ("blender", "three")
+"""The independent judges: Blender Cycles (``lookalike.blender``), three.js (``lookalike.webgl``)."""
 BAR_JUDGE_GAIN_DB = 1.0                     # ours over Blender's bake (Cycles, shadows) and over our bake (ours)
 SCAN_COLOUR = (0.75, 0.72, 0.68)            # base colour, metallic 0, roughness 0.45 for untextured scans
 SCAN_ROUGHNESS = 0.45
@@ -190,13 +191,19 @@ def stop_if_interrupted(result) -> None:
         raise KeyboardInterrupt
 
 
-def check_judge(judge: str) -> None:
-    """``ConfigError`` unless ``judge`` is one of ``JUDGES`` and installed."""
-    if judge not in JUDGES:
-        raise ConfigError(f"unknown judge {judge!r}; the judges are {', '.join(JUDGES)}")
-    from ..blender import require_judge
+def check_judge(judge: str, accepted: tuple[str, ...] = ("blender",)) -> None:
+    """``ConfigError`` unless ``judge`` is one of the ``accepted`` judges of a benchmark and is
+    installed."""
+    if judge not in accepted:
+        raise ConfigError(f"this benchmark's judges are {', '.join(accepted)}, not {judge!r}")
+    if judge == "three":
+        from ..webgl import require_threejs
 
-    require_judge()
+        require_threejs()
+    else:
+        from ..blender import require_judge
+
+        require_judge()
 
 
 def judged_row(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: dict | None) -> dict:

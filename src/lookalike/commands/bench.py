@@ -31,8 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder holding the benchmark assets (quality, warmstart, repair, contention and lod; default: "
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
-                        help="quality and skinned: also render every method in Blender Cycles (shadows on and off) and run "
-                             "Blender's own decimate + bake; needs pip install -e \".[judge]\"")
+                        help="blender (quality, skinned, cards, displace, implicit): also render every method in Blender "
+                             "Cycles (shadows on and off) and run Blender's own decimate + bake; needs pip install -e "
+                             "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
+                             "Chromium, see the README)")
     parser.add_argument("--reuse", action="store_true",
                         help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
                              "judge earlier runs); lod: keep the levels already fitted in --out and score them again")
