@@ -1,7 +1,6 @@
 """``lookalike bench pathtraced``: ``simplify --reference mitsuba`` with default settings (but the
-bar's 15-minute budget) under
-the generated studio lighting (64 samples per pixel) on spot (1,000 triangles) and
-flight-helmet (5,000), scored on the run's held-out path-traced views beside the classic bake
+bar's 15-minute budget) under the generated studio lighting (64 samples per pixel) on spot
+(1,000 triangles) and flight-helmet (5,000), scored on the run's held-out path-traced views beside the classic bake
 rasterized (no global illumination), the input rasterized, and ``simplify`` with our own
 rasterized reference (its own run with default settings, scored on the same path-traced views
 under the lighting's analytic light).
