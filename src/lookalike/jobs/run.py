@@ -331,6 +331,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
     if cfg.reference.path_traced:
         record.reference_views = {**reference.summary(), "pool_bytes": source.nbytes}
+        record.reference_label = "Reference (path traced)"
         record.notes.append(path_traced_note(record.reference_views))
     metrics = write_outputs(s, cfg, export, guess, record)
     if not interrupted:

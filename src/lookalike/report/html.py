@@ -140,7 +140,7 @@ def _write_overview(data: RunRecord, reference, renders, path: Path) -> None:
     """One PNG with the first views: reference, each method, FLIP of ours."""
     rows = [[reference[i]] + [renders[m.key][i] for m in data.methods] + [data.ours.flip_maps[i]]
             for i in range(min(EXPANDED_VIEWS, data.num_views))]
-    labels = ["Reference"] + [m.label for m in data.methods] + [f"FLIP error, {data.ours.label}"]
+    labels = [data.reference_label] + [m.label for m in data.methods] + [f"FLIP error, {data.ours.label}"]
     image_grid(rows, labels).save(path)
 
 
@@ -151,7 +151,7 @@ def _cell(src: str, title: str, value: str = "", best: bool = False) -> str:
 
 def _view_figure(data: RunRecord, i: int, paths: dict[str, str]) -> str:
     best = max(data.methods, key=lambda m: m.psnr_views[i]).key
-    renders = [_cell(paths["reference"], "Reference")] + [
+    renders = [_cell(paths["reference"], data.reference_label)] + [
         _cell(paths[m.key], m.label, f"{m.psnr_views[i]:.2f} dB", best=m.key == best) for m in data.methods]
     errors = [_cell(paths["difference"], f"{data.ours.label}: brighter / dimmer")] + [
         _cell(paths[m.key + "_flip"], f"FLIP, {m.label}", f"{m.flip_views[i]:.3f}") for m in data.methods]

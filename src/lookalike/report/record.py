@@ -128,6 +128,7 @@ class RunRecord:
             counts), shown in the report with its plot, or ``None``.
         reference_views: what a path-traced reference cost (its variant, lighting, samples,
             views rendered and read from the cache, seconds, and the pool's bytes), or ``None``.
+        reference_label: what the report calls the reference's pictures.
     """
 
     asset_name: str
@@ -157,6 +158,7 @@ class RunRecord:
     written_alpha: dict[str, str | None] = field(default_factory=dict)
     levels: list[dict] | None = None
     reference_views: dict | None = None
+    reference_label: str = "Reference"
 
     @property
     def baseline(self) -> MethodResult:
