@@ -201,7 +201,7 @@ def test_bench_pathtraced_holds_each_case_to_the_bar():
     assert not bench.case_row(case, metrics, scored(22.5, 23.5))["meets_bar"]  # three.js 1.5 dB below ours
     assert not bench.case_row(case, {**metrics, "seconds": {"total": 960.0}}, scored(20.0, 25.0))["meets_bar"]
     table = bench.format_table({"rows": [row], "bar": {"minutes": 15, "gain_over_bake_db": 3, "gain_over_simplify_db": 2,
-                                                       "engine_db": 1}, "all_meet_bar": True})
+                                                       "engine_db": 1}, "all_meet_bar": True, "time_budget_s": 900.0})
     assert "spot" in table and "+7.00" in table and "met" in table
 
 

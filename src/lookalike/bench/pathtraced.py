@@ -17,7 +17,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from ._table import aligned_table
+from ._table import runs_table
 from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, output_root, simplify_case, stop_if_interrupted
 from .quality import TIME_BUDGET_S as SIMPLIFY_BUDGET_S
 
@@ -138,14 +138,8 @@ COLUMNS = (("asset", "asset", "{}"), ("triangles", "triangles", "{:,}"), ("min. 
 
 def format_table(result: dict) -> str:
     """The cases as an aligned text table with the bar."""
-    header = [name for name, _, _ in COLUMNS] + ["bar"]
-    cells = [[fmt.format(r[key]) for _, key, fmt in COLUMNS] + ["ok" if r["meets_bar"] else "MISSED"]
-             for r in result["rows"]]
     bar = result["bar"]
-    lines = aligned_table(header, cells)
-    lines.append(f"bar: each run <= {bar['minutes']:g} min with its reference renders; ours >= classic bake + "
-                 f"{bar['gain_over_bake_db']:g} dB and >= simplify + {bar['gain_over_simplify_db']:g} dB with lower FLIP: "
-                 f"{'met' if result['all_meet_bar'] else 'NOT met'}")
-    if result.get("outputs"):
-        lines.append(f"outputs: {result['outputs']}")
-    return "\n".join(lines)
+    line = (f"bar: each run <= {bar['minutes']:g} min with its reference renders; ours >= classic bake + "
+            f"{bar['gain_over_bake_db']:g} dB and >= simplify + {bar['gain_over_simplify_db']:g} dB with lower FLIP; "
+            f"model.glb in three.js within {bar['engine_db']:g} dB of ours")
+    return runs_table(dict(result, runs=result["rows"]), COLUMNS, line, lambda rows: [])

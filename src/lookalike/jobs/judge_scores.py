@@ -64,10 +64,12 @@ class JudgedModel:
 def heldout_views(reference: Reference, count: int, seed: int, poses: PoseSampler | None = None) -> Views:
     """The held-out views of a run on ``reference`` (as ``HeldoutViews`` draws them:
     ``view_sampler`` around ``reference.bounding_sphere()``, with a pose per view from ``poses``
-    in an animated run, from ``default_rng(seed)``): cameras, lights and poses (``None`` in a
-    still run), in the input's own frame, the frame of the glb files we write."""
+    in an animated run, lit by the reference's ``fixed_light`` where it has one, from
+    ``default_rng(seed)``): cameras, lights and poses (``None`` in a still run), in the input's
+    own frame, the frame of the glb files we write."""
     centre, radius = reference.bounding_sphere()
-    return view_sampler(centre, radius, poses=poses)(np.random.default_rng(seed), count)
+    sampler = view_sampler(centre, radius, poses=poses, fixed_light=reference.fixed_light)
+    return sampler(np.random.default_rng(seed), count)
 
 
 def composite_over_background(rgba: torch.Tensor) -> torch.Tensor:

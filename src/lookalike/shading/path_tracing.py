@@ -72,11 +72,10 @@ def material_bsdf(mi, material: Material, mirrored: bool) -> dict:
     if material.double_sided:
         bsdf = {"type": "twosided", "bsdf": bsdf}
     if material.alpha_mode != "OPAQUE":
-        alpha = material.kd.data[..., 3:4].detach().float().cpu().numpy()
+        alpha = material.kd.data[..., 3:4].detach().float()
         if material.alpha_mode == "MASK":
-            alpha = (alpha >= material.alpha_cutoff).astype(np.float32)
-        bsdf = {"type": "mask", "opacity": _bitmap(mi, alpha, wrap) if alpha.shape[:2] != (1, 1) else float(alpha.reshape(-1)[0]),
-                "bsdf": bsdf}
+            alpha = (alpha >= material.alpha_cutoff).float()
+        bsdf = {"type": "mask", "opacity": _channel(mi, Texture(alpha), 0, wrap), "bsdf": bsdf}
     return bsdf
 
 
