@@ -152,3 +152,44 @@ def test_the_alpha_label_says_how_the_written_model_draws_its_alpha():
     masked = written_alpha(soft, "mask", AlphaChoice(0.6))
     assert alpha_label(masked, "auto", AlphaChoice()) == "cutoff 0.6"
     assert alpha_label(opaque, "mask", AlphaChoice(0.4)) is None
+
+
+def _two_quads_with_glass() -> Asset:
+    """Two unit quads side by side, one textured over the opaque left half of an RGBA texture
+    and one over its translucent right half (alpha 0.4), one ``BLEND`` material."""
+    v_pos = torch.tensor([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [1.2, 0, 0], [2.2, 0, 0], [2.2, 1, 0],
+                          [1.2, 1, 0]])
+    faces = torch.tensor([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    v_tex = torch.tensor([[0.05, 0.05], [0.45, 0.05], [0.45, 0.95], [0.05, 0.95], [0.55, 0.05], [0.95, 0.05],
+                          [0.95, 0.95], [0.55, 0.95]])
+    mesh = Mesh(v_pos=v_pos, t_pos_idx=faces, uv=[(v_tex, faces.clone())], t_mat_idx=torch.zeros(4, dtype=torch.long))
+    kd = torch.full((32, 32, 4), 0.6)
+    kd[..., 3] = 1.0
+    kd[:, 16:, 3] = 0.4
+    return Asset(mesh=mesh, materials=[Material(kd=Texture(kd), alpha_mode="BLEND", double_sided=True)])
+
+
+def test_a_blended_material_s_opaque_triangles_are_written_opaque_and_draw_alike():
+    """Engines draw a blended material without depth writes: its opaque triangles move to an
+    opaque copy of it (same texture), the translucent ones stay blended, our renderer draws the
+    model as before; a blended material whose triangles are all opaque becomes opaque."""
+    from lookalike.fit.textured_mesh import render_asset
+    from lookalike.jobs.alpha_export import split_opaque
+    from lookalike.shading.camera import Camera
+    from lookalike.shading.light import PointLight
+
+    asset = _two_quads_with_glass()
+    split = split_opaque(asset)
+    assert [m.alpha_mode for m in split.materials] == ["BLEND", "OPAQUE"]
+    assert split.mesh.t_mat_idx.tolist() == [1, 1, 0, 0] and split.materials[1].kd is asset.materials[0].kd
+    camera = Camera.looking_at(torch.tensor([[1.1, 0.5, 3.0]]), torch.tensor([[1.1, 0.5, 0.0]]),
+                               fovy=0.9, near=0.5, far=6.0)
+    light = PointLight(position=torch.tensor([[1.1, 0.5, 3.0]]), intensity=torch.full((1, 3), 9.0))
+    before, after = (render_asset(a, camera, light, resolution=48, msaa=2) for a in (asset, split))
+    assert float((before - after).abs().max()) < 1e-4
+    solid = dataclasses.replace(asset.materials[0], kd=Texture(torch.cat([asset.materials[0].kd.data[..., :3],
+                                                                        torch.full((32, 32, 1), 0.99)], -1)))
+    whole = split_opaque(dataclasses.replace(asset, materials=[solid]))
+    assert [m.alpha_mode for m in whole.materials] == ["OPAQUE"] and whole.mesh.t_mat_idx.tolist() == [0, 0, 0, 0]
+    masked = dataclasses.replace(asset, materials=[dataclasses.replace(asset.materials[0], alpha_mode="MASK")])
+    assert split_opaque(masked) is masked

@@ -72,6 +72,19 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
     top = gltf.nodes[gltf.scenes[0].nodes[0]]
     assert [gltf.nodes[i].name for i in top.extensions["MSFT_lod"]["ids"]] == [top.name.replace("LOD0", "LOD1")]
     assert_valid(tmp_path / "chain" / "lods.glb")
+    for row in rows:  # lodK.glb beside the chain; the classic level kept and scored for the chain's page
+        assert (tmp_path / "chain" / f"lod{row['level']}.glb").read_bytes() == \
+            (tmp_path / "chain" / row["folder"] / "model.glb").read_bytes()
+        assert (tmp_path / "chain" / row["folder"] / "classic.glb").is_file() and row["classic"]["psnr"] > 10
+    page = (tmp_path / "chain" / "report.html").read_text()
+    for name in ("lod0_reference.png", "lod0_classic.png", "lod1_ours.png", "lod1_orbit.gif", "psnr_triangles.png"):
+        assert f"report_files/{name}" in page and (tmp_path / "chain" / "report_files" / name).is_file()
+    from PIL import Image
+
+    from lookalike.jobs.lod_page import ORBIT_FRAMES
+    size = level_settings(levels[1], 1.0)["resolution"]
+    with Image.open(tmp_path / "chain" / "report_files" / "lod1_orbit.gif") as orbit:  # reference | classic | ours
+        assert orbit.n_frames == ORBIT_FRAMES and orbit.size == (3 * size + 4, size)
     for row, level in zip(rows, levels):
         cfg = load_config(tmp_path / "chain" / row["folder"] / "config.toml")
         assert cfg.render.resolution == level_settings(level, 1.0)["resolution"] and cfg.render.latent_msaa == 1

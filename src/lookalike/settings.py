@@ -71,12 +71,16 @@ class IOConfig:
             unwrapped and baked); empty for our decimation.
         outdir: where ``model.glb``, ``report.html``, ``metrics.json``, ``config.toml`` go.
         export_obj: also write ``model.obj`` (with ``.mtl`` and PNG textures).
+        compress: also write ``model.compressed.glb``, as an engine ships a model (KTX2 mip
+            chains, quantised and meshopt-compressed geometry: ``lookalike.jobs.compressed_model``),
+            and score it beside ours.
     """
 
     input: str = ""
     init_mesh: str = ""
     outdir: str = ""
     export_obj: bool = False
+    compress: bool = False
 
 
 @dataclass

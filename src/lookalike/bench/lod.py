@@ -20,13 +20,17 @@ times the reference's at every level and below the classic chain's.
 from __future__ import annotations
 
 import json
+import logging
 import tempfile
 from pathlib import Path
 
+from ..errors import ConfigError
 from ._table import runs_table
 from .quality import ASSETS as QUALITY_ASSETS
 from .quality import SHARED_ASSETS, BenchAsset, check_assets_dir, check_judge, io_load, output_root, scan_material, \
     select_assets
+
+log = logging.getLogger(__name__)
 
 HELP = "fit a chain of prefiltered LODs to nefertiti and flight-helmet; compare each level with the classic chain"
 
@@ -96,12 +100,20 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
     run times."""
     from ..fit.reference import MeshReference
     from ..jobs.bake import bake_asset
+    from ..jobs.compressed_model import COMPRESSED_NAME, check_compression_tools
     from ..jobs.input_asset import prepare_input
     from ..jobs.lod import lod, screen_size_settings
 
     material = scan_material() if case.scan else None
     asset, _ = prepare_input(io_load(assets_dir / case.path), material)
-    levels = lod(asset, outdir / "chain", chain, time_budget=budget, force=True, resume=reuse, progress=False)
+    try:
+        check_compression_tools()
+        compress = True
+    except ConfigError as e:
+        log.warning("bench lod: the compressed chain is not scored: %s", e)
+        compress = False
+    levels = lod(asset, outdir / "chain", chain, time_budget=budget, force=True, resume=reuse, progress=False,
+                 compress=compress)
     minutes = sum(level["seconds"] for level in levels) / 60
     reference = MeshReference(asset)
     rows = []
@@ -109,11 +121,14 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
         settings = screen_size_settings(level.pixels)
         classic = bake_asset(asset, outdir / "classic" / f"lod{row['level']}", triangles=level.triangles,
                              texture_size=settings["texture_size"], force=True)
-        ours_path = outdir / "chain" / row["folder"] / "model.glb"
-        scores = level_scores(reference, {"input": asset, "classic": classic.asset, "ours": io_load(ours_path)},
-                              settings["resolution"], {"classic": classic.model, "ours": ours_path} if judged else None)
-        rows.append(level_row(case.name, row, minutes, scores,
-                              {"classic": classic.model.stat().st_size, "ours": ours_path.stat().st_size},
+        paths = {"classic": classic.model, "ours": outdir / "chain" / row["folder"] / "model.glb",
+                 "compressed": outdir / "chain" / row["folder"] / COMPRESSED_NAME}
+        if not paths["compressed"].is_file():
+            del paths["compressed"]
+        models = {"input": asset, "classic": classic.asset, **{name: io_load(path) for name, path in paths.items()
+                                                              if name != "classic"}}
+        scores = level_scores(reference, models, settings["resolution"], paths if judged else None)
+        rows.append(level_row(case.name, row, minutes, scores, {name: path.stat().st_size for name, path in paths.items()},
                               largest=row["level"] == 0))
     (outdir / "bench.json").write_text(json.dumps(rows, indent=2))
     return rows
@@ -172,7 +187,8 @@ def level_row(asset: str, level: dict, minutes: float, scores: dict, sizes: dict
     return {"asset": asset, "level": level["level"], "triangles": level["triangles"], "pixels": level["pixels"],
             "texture_size": level["texture_size"], "fitted_mips": level.get("fitted_mips", False),
             "chain_minutes": minutes,
-            **{f"{metric}_{name}": scores[name][metric] for name in ("input", "classic", "ours") if name in scores
+            **{f"{metric}_{name}": scores[name][metric] for name in ("input", "classic", "ours", "compressed")
+               if name in scores
                for metric in ("psnr", "flip", "flicker", "psnr_three", "flip_three") if metric in scores[name]},
             **{f"bytes_{name}": size for name, size in sizes.items()},
             "gain_db": gain, "meets_bar": meets}
@@ -186,13 +202,14 @@ COLUMNS = (("asset", "asset", "{}"), ("level", "level", "{}"), ("triangles", "tr
            ("FLIP ours", "flip_ours", "{:.4f}"), ("flicker input", "flicker_input", "{:.2f}x"),
            ("flicker classic", "flicker_classic", "{:.2f}x"),
            ("flicker ours", "flicker_ours", "{:.2f}x"), ("three.js classic", "psnr_three_classic", "{:.2f}"),
-           ("three.js ours", "psnr_three_ours", "{:.2f}"), ("KB classic", "bytes_classic", "{:,.0f}"),
-           ("KB ours", "bytes_ours", "{:,.0f}"))
+           ("three.js ours", "psnr_three_ours", "{:.2f}"), ("PSNR compressed", "psnr_compressed", "{:.2f}"),
+           ("three.js compressed", "psnr_three_compressed", "{:.2f}"), ("KB classic", "bytes_classic", "{:,.0f}"),
+           ("KB ours", "bytes_ours", "{:,.0f}"), ("KB compressed", "bytes_compressed", "{:,.0f}"))
 
 
 def format_table(result: dict) -> str:
     """The levels as an aligned table (file sizes in KB), with the bar underneath."""
-    shown = dict(result, runs=[dict(r, bytes_classic=r["bytes_classic"] / 1024, bytes_ours=r["bytes_ours"] / 1024)
+    shown = dict(result, runs=[{**r, **{key: r[key] / 1024 for key in r if key.startswith("bytes_")}}
                                for r in result["runs"]])
     bar = (f"bar: chain <= {BAR_CHAIN_MINUTES:g} min; ours >= classic + {BAR_GAIN_DB:g} dB at the smaller levels, "
            f"+ {BAR_GAIN_LARGEST_DB:g} dB at the largest, lower FLIP; flicker (vs the reference's, "

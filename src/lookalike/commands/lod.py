@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._options import add_reference_arguments, add_run_arguments
+from ._options import add_compress_argument, add_reference_arguments, add_run_arguments
 
 HELP = "a chain of levels of detail, each fitted to how the input looks at the size it is drawn at"
 
@@ -24,6 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"wall time for the whole chain: 90s, 15m, 1h or seconds (default {CHAIN_BUDGET:g})")
     parser.add_argument("--config", metavar="RUN.toml", help="settings file for every level")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_compress_argument(parser)
     add_reference_arguments(parser, LEVEL.defaults)
     add_run_arguments(parser)
 
@@ -36,12 +37,23 @@ def run(args: argparse.Namespace) -> int:
     asset = io.load(args.input)
     levels = parse_levels(args.levels) if args.levels else default_levels(asset.mesh.num_triangles,
                                                                          LEVEL.defaults.latent.ratio)
-    reference = {key: value for key, value in (("renderer", args.reference), ("lighting", args.lighting),
-                                               ("spp", args.spp), ("unlit", args.unlit or None)) if value is not None}
+    settings = {key: value for key, value in (("renderer", args.reference), ("lighting", args.lighting),
+                                               ("spp", args.spp), ("unlit", args.unlit or None),
+                                               ("compress", args.compress or None)) if value is not None}
     rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
                resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
-               threads=args.threads, **reference)
+               threads=args.threads, **settings)
     for row in rows:
         print(f"lod{row['level']}: {row['triangles']:,} triangles at {row['pixels']} px, {row['texture_size']}^2 "
-              f"textures: PSNR {row['psnr']:.2f} dB, FLIP {row['flip']:.4f} ({row['folder']}/report.html)")
+              f"textures: PSNR {row['psnr']:.2f} dB, FLIP {row['flip']:.4f}{_compressed(row)} "
+              f"({row['folder']}/report.html)")
     return 130 if rows and rows[-1]["interrupted"] else 0
+
+
+def _compressed(row: dict) -> str:
+    """``"; N KB, compressed M KB: PSNR ..., FLIP ..."`` where the level was also written compressed."""
+    if "compressed" not in row:
+        return ""
+    c = row["compressed"]
+    return (f"; {row['file_bytes'] / 1024:,.0f} KB, compressed {c['file_bytes'] / 1024:,.0f} KB: PSNR "
+            f"{c['psnr']:.2f} dB, FLIP {c['flip']:.4f}")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 from pathlib import Path
 from typing import Iterator
 
@@ -31,6 +32,12 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     with atomic_path(path) as temp:
         temp.write_text(text, encoding="utf-8")
+
+
+def copy_atomic(source: str | Path, path: str | Path) -> None:
+    """Copy the file ``source`` to ``path`` atomically."""
+    with atomic_path(path) as temp:
+        shutil.copyfile(source, temp)
 
 
 def save_array_atomic(path: str | Path, array) -> None:

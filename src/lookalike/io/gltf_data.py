@@ -55,6 +55,8 @@ class GltfData:
         self.buffers = [self._load_buffer(i, b) for i, b in enumerate(gltf.buffers)]
 
     def _load_buffer(self, index: int, buffer: pygltflib.Buffer) -> bytes:
+        if buffer.uri is None and ((buffer.extensions or {}).get("EXT_meshopt_compression") or {}).get("fallback"):
+            return b""  # holds no data: what it stands for is decoded from a compressed view (io.meshopt)
         if buffer.uri is None:
             data = self.gltf.binary_blob() if index == 0 else None
             if data is None:

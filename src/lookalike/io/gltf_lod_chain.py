@@ -15,13 +15,16 @@ materials and textures (a texture shared by several levels is stored once), no t
 
 from __future__ import annotations
 
+import json
+import struct
 from pathlib import Path
 
 from ..asset import Asset
 from .gltf_write import GlbBuilder, add_mesh
 
 
-def write_lod_chain(levels: list[Asset], path: str | Path, name: str, coverages: list[float]) -> Path:
+def write_lod_chain(levels: list[Asset], path: str | Path, name: str, coverages: list[float],
+                    ktx2_only: bool = False) -> Path:
     """Write ``levels`` (finest first) as one ``.glb`` whose scene holds level 0's node, with
     ``MSFT_lod`` pointing to the other levels' nodes (see the module docstring).
 
@@ -32,6 +35,7 @@ def write_lod_chain(levels: list[Asset], path: str | Path, name: str, coverages:
         coverages: one value per level, strictly descending in [0, 1]: the fraction of the
             viewport's height below which level ``k`` gives way to level ``k + 1`` (to nothing
             after the last level).
+        ktx2_only: textures with mip levels as KTX2 alone (``gltf_write.write_glb``).
 
     Returns:
         ``path`` as a ``Path``.
@@ -51,7 +55,7 @@ def write_lod_chain(levels: list[Asset], path: str | Path, name: str, coverages:
     if any(level.skin is not None and level.mesh.v_joints is not None for level in levels):
         raise ValueError("write_lod_chain writes still assets; a level has a skin")
 
-    builder = GlbBuilder()
+    builder = GlbBuilder(ktx2_only)
     nodes = []
     for k, level in enumerate(levels):
         level_name = f"{name}_LOD{k}"
@@ -66,3 +70,27 @@ def write_lod_chain(levels: list[Asset], path: str | Path, name: str, coverages:
     path = Path(path)
     builder.write(path)
     return path
+
+
+def relink_lod_chain(path: str | Path) -> None:
+    """Give the chain at ``path`` its ``MSFT_lod`` links back after a tool that does not know the
+    extension rewrote the file (gltfpack keeps named nodes and extras but drops the extension):
+    the node holding ``extras.MSFT_screencoverage``, named ``NAME_LOD0``, links the nodes named
+    ``NAME_LOD1 ...`` in order. The binary chunk is kept as it is."""
+    path = Path(path)
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    nodes = doc.get("nodes", [])
+    index = {node.get("name"): k for k, node in enumerate(nodes)}
+    top = next(k for k, node in enumerate(nodes) if "MSFT_screencoverage" in (node.get("extras") or {}))
+    name = nodes[top]["name"].removesuffix("_LOD0")
+    ids = [index[f"{name}_LOD{k}"] for k in range(1, len(nodes[top]["extras"]["MSFT_screencoverage"]))]
+    if ids:
+        nodes[top].setdefault("extensions", {})["MSFT_lod"] = {"ids": ids}
+        doc["extensionsUsed"] = sorted(set(doc.get("extensionsUsed", [])) | {"MSFT_lod"})
+    text = json.dumps(doc, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + length:]
+    head = struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + len(rest)) + struct.pack("<I4s", len(text), b"JSON")
+    path.write_bytes(head + text + rest)

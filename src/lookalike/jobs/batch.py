@@ -138,7 +138,7 @@ def batch(inputs: list[str | Path], outroot: str | Path, *, workers: int | None 
         progress: a progress bar over assets.
         options: ``simplify``'s keyword arguments for every asset (``triangles``, ``ratio``,
             ``texture_size``, ``resolution``, ``time_budget``, ``iterations``, ``init``,
-            ``seed``, ``config``, ``export_obj``).
+            ``seed``, ``config``, ``export_obj``, ``compress``).
     """
     outroot = Path(outroot)
     items = batch_items(inputs, outroot)

@@ -79,4 +79,4 @@ def cards(input: str | Path | Asset, outdir: str | Path | None = None, *, config
 
 cards.__doc__ = keywords_doc(CARDS, "Approximate the aggregate geometry in ``input`` with alpha-textured cards "
                              "into ``outdir``.", ("triangles", "ratio", "texture_size", "resolution", "time_budget",
-                                                  "iterations", "seed", "alpha_mode", "export_obj"))
+                                                  "iterations", "seed", "alpha_mode", "export_obj", "compress"))

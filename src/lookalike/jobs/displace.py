@@ -167,4 +167,4 @@ def displace(input: str | Path | Asset, outdir: str | Path | None = None, *, con
 displace.__doc__ = keywords_doc(DISPLACE, "Fit a base mesh with a displacement map that looks like ``input`` at every "
                                 "tessellation level into ``outdir``.",
                                 ("triangles", "ratio", "tessellation_levels", "texture_size", "resolution",
-                                 "time_budget", "iterations", "seed", "export_obj"))
+                                 "time_budget", "iterations", "seed", "export_obj", "compress"))

@@ -9,7 +9,10 @@ settings of its size (``level_settings``: views that show the sphere at that siz
 sized to the level). Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a
 chain run again resumes an interrupted level and keeps the finished ones. The time budget is
 the chain's, split over the levels by their sizes (``level_budgets``). ``lods.json`` lists the
-levels; ``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``).
+levels; ``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``),
+``lodK.glb`` each alone (with ``io.compress``, ``lodK.compressed.glb`` and ``lods.compressed.glb``
+too), and ``report.html``
+compares each with the classic level its run started from (``jobs.lod_page``).
 """
 
 from __future__ import annotations
@@ -22,12 +25,16 @@ from pathlib import Path
 from .. import io
 from ..asset import Asset
 from ..errors import ConfigError
-from ..io.atomic import write_text_atomic
+from ..init.initial_guess import InitialGuess
+from ..io.atomic import copy_atomic, write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
 from ..limits import MAX_TEXTURE_SIZE
 from ..settings import Config, RenderConfig, ViewsConfig, load_config
 from ..shading.view_sampling import FRAMING
+from .compressed_model import COMPRESSED_NAME, write_compressed_chain
+from .input_asset import prepare_input
+from .lod_page import CLASSIC_NAME, write_chain_page
 from .outdir import CHECKPOINT_NAME, check_outdir
 from .outputs import CONFIG_NAME, METRICS_NAME, MODEL_NAME
 from .run import Application, run
@@ -49,6 +56,8 @@ MIN_TRIANGLES = 100
 """The default chain's coarsest level keeps at least this many triangles."""
 CHAIN_NAME = "lods.glb"
 """The chain in one file, as ``MSFT_lod`` lays it out (``io.gltf_lod_chain``)."""
+COMPRESSED_CHAIN_NAME = "lods.compressed.glb"
+"""The chain as engines ship it (``jobs.compressed_model``), with ``io.compress``."""
 
 BUDGET_MIN_PIXELS = 64
 CHAIN_BUDGET = 900.0
@@ -107,9 +116,16 @@ def switch_distance(radius: float, pixels: float, fovy_degrees: float = FOVY_DEG
     return viewport_height * radius / (pixels * math.tan(math.radians(fovy_degrees) / 2))
 
 
+def classic_level(model: Asset, guess: InitialGuess, cfg: Config, folder: Path, methods: list) -> None:
+    """Write the level's classic bake (its start: decimation, atlas and projection bake at the
+    level's count and texture size) as ``classic.glb``, which the chain's page draws beside ours."""
+    if guess.baked is not None:
+        io.save(guess.baked, folder / CLASSIC_NAME)
+
+
 LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=build_initial_guess,
                     defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1, mip_footprint="engine"),
-                                    views=ViewsConfig(distance_spread=1.0)))
+                                    views=ViewsConfig(distance_spread=1.0)), files=classic_level)
 """One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
 per pixel (enough that a small level's target is free of aliasing), the model drawn with one
 sample per pixel and the GPU's mip levels, as an engine draws it; training views put the object at its size times
@@ -172,26 +188,54 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
             run(LEVEL, asset, folder, config=config, **settings,
                 **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
         metrics = json.loads((folder / METRICS_NAME).read_text())
-        ours = metrics["heldout"]["ours"]
-        model = folder / MODEL_NAME
-        fitted_mips = load_config(folder / CONFIG_NAME).latent.fitted_mips
-        rows.append({"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
-                     "texture_size": settings["texture_size"], "fitted_mips": fitted_mips,
-                     "switch_distance": starts[k],
-                     "folder": folder.name, "seconds": metrics["seconds"]["total"],
-                     "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),
-                     "psnr": ours["psnr"], "flip": ours["flip"], "interrupted": metrics["interrupted"]})
         if metrics["interrupted"]:
+            rows.append(level_row(k, level, settings, starts[k], folder, metrics))
             break
+        for name in (MODEL_NAME, COMPRESSED_NAME):  # lodK.glb (and lodK.compressed.glb) beside the chain
+            if (folder / name).is_file():
+                copy_atomic(folder / name, outdir / f"{folder.name}{name.removeprefix('model')}")
+        rows.append(level_row(k, level, settings, starts[k], folder, metrics))
     else:
         write_lod_chain([io.load(outdir / row["folder"] / MODEL_NAME) for row in rows], outdir / CHAIN_NAME,
                         asset.name, switch_coverages(levels))
+        if all("compressed" in row for row in rows):
+            write_compressed_chain([outdir / row["folder"] / MODEL_NAME for row in rows],
+                                   outdir / COMPRESSED_CHAIN_NAME,
+                                   asset.name, switch_coverages(levels))
+        if all("classic" in row for row in rows):
+            cfg = load_config(outdir / rows[0]["folder"] / CONFIG_NAME)
+            write_chain_page(outdir, prepare_input(asset, options.get("material_override"))[0], rows,
+                             [level_settings(level, 0.0)["resolution"] for level in levels], cfg.reference.path_traced)
     chain = {"switch_distance": f"where a level starts to be drawn: viewport_height * radius / (pixels * "
                                 f"tan(fovy / 2)) for a viewport {VIEWPORT_HEIGHT} pixels high and fovy "
                                 f"{FOVY_DEGREES:g} degrees, pixels the coverage where the level above gives way",
              "radius": radius, "coverages": switch_coverages(levels), "levels": rows}
     write_text_atomic(outdir / "lods.json", json.dumps(chain, indent=2))
     return rows
+
+
+def level_row(k: int, level: Level, settings: dict, switch: float, folder: Path, metrics: dict) -> dict:
+    """``lods.json``'s row of level ``k`` run in ``folder`` (its ``metrics``): triangles,
+    pixels, texture size, whether its mips were fitted, the ``switch`` distance, the run's
+    folder and seconds, ``model.glb``'s file bytes, GPU memory (``io.gpu_memory.gpu_bytes``)
+    and held-out scores, the held-out scores of its classic bake, and the file bytes, GPU memory
+    and scores of ``model.compressed.glb`` where the run wrote one."""
+    model = folder / MODEL_NAME
+    ours = metrics["heldout"]["ours"]
+    row = {"level": k, "triangles": metrics["triangles"]["output"], "pixels": level.pixels,
+           "texture_size": settings["texture_size"], "fitted_mips": load_config(folder / CONFIG_NAME).latent.fitted_mips,
+           "switch_distance": switch, "folder": folder.name, "seconds": metrics["seconds"]["total"],
+           "file_bytes": model.stat().st_size, "gpu_bytes": gpu_bytes(model),
+           "psnr": ours["psnr"], "flip": ours["flip"], "interrupted": metrics["interrupted"]}
+    classic = metrics["heldout"].get("baked")
+    if classic is not None:
+        row["classic"] = {"psnr": classic["psnr"], "flip": classic["flip"]}
+    compressed = metrics["heldout"].get("compressed")
+    if compressed is not None:
+        row["compressed"] = {"file_bytes": (folder / COMPRESSED_NAME).stat().st_size,
+                             "gpu_bytes": gpu_bytes(folder / COMPRESSED_NAME),
+                             "psnr": compressed["psnr"], "flip": compressed["flip"]}
+    return row
 
 
 def _finished(folder: Path) -> bool:

@@ -60,6 +60,7 @@ from ..threads import CoreShare, set_threads
 from . import animated
 from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
+from .compressed_model import COMPRESSED_NAME, check_compression_tools, write_compressed
 from .input_asset import prepare_input
 from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
@@ -290,6 +291,8 @@ def run(app: Application, input: str | Path | Asset, outdir: str | Path | None =
 def _run(s: _Session, config, settings: dict) -> RunResult:
     """``run`` once its output folder is checked: the phases in turn."""
     cfg, budget = settings_of_run(s, config, settings)
+    if cfg.io.compress:
+        check_compression_tools()
     with s.stage("load and initial guess"):
         asset, notes, moving = load_input(s, cfg)
         reference = s.app.reference(asset, cfg, moving)
@@ -333,7 +336,9 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         record.reference_views = {**reference.summary(), "pool_bytes": source.nbytes}
         record.reference_label = "Reference (path traced)"
         record.notes.append(path_traced_note(record.reference_views))
-    metrics = write_outputs(s, cfg, export, guess, record)
+    metrics = write_outputs(s, cfg, export, guess, record,
+                            lambda model: heldout.score("compressed", "Ours, compressed", model, draw,
+                                                        cfg.latent.texture_size))
     if not interrupted:
         (s.outdir / CHECKPOINT_NAME).unlink(missing_ok=True)
     baselines = {methods[0].key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
@@ -553,13 +558,17 @@ def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, me
         view_labels=animated.pose_labels(asset, heldout.pose) if moving else None)
 
 
-def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, record: RunRecord) -> dict:
-    """``model.glb`` (+ ``model.obj``), the application's own files, ``config.toml``,
-    ``report.html`` and ``metrics.json``, all or none (``jobs.outputs.staged_outputs``); returns
-    the metrics."""
+def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, record: RunRecord,
+                  score: Callable[[Asset], MethodResult]) -> dict:
+    """``model.glb`` (+ ``model.obj``; with ``io.compress``, ``model.compressed.glb``, read back
+    and scored by ``score`` among the record's methods), the application's own files,
+    ``config.toml``, ``report.html`` and ``metrics.json``, all or none
+    (``jobs.outputs.staged_outputs``); returns the metrics."""
     with staged_outputs(s.outdir) as staging:
         with s.stage("export"):
-            write_model(s.app.written_form(export), staging, cfg.io.export_obj)
+            model = write_model(s.app.written_form(export), staging, cfg.io.export_obj)
+            if cfg.io.compress:
+                record.methods.append(score(io.load(write_compressed(model, staging / COMPRESSED_NAME))))
             record.levels = s.app.files(export, guess, cfg, staging, record.methods)
         write_text_atomic(staging / CONFIG_NAME, to_toml(cfg))
         if s.recorder is not None:
@@ -569,7 +578,7 @@ def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, 
 
 
 KEYWORD_SETTINGS = ("triangles", "ratio", "texture_size", "resolution", "time_budget", "iterations", "seed",
-                    "init", "init_mesh", "alpha_mode", "static", "export_obj")
+                    "init", "init_mesh", "alpha_mode", "static", "export_obj", "compress")
 """The settings an application's docstring lists (any other setting is a keyword too)."""
 
 

@@ -47,7 +47,7 @@ class RunResult:
             f"held-out PSNR: {_lower(base['label'])} {base['psnr']:.2f} dB, ours {ours['psnr']:.2f} dB "
             f"({ours['psnr'] - base['psnr']:+.2f} dB); FLIP {base['flip']:.4f} -> {ours['flip']:.4f}",
         ]
-        for key in m["methods"][1:-1]:
+        for key in (k for k in m["methods"][1:] if k != "ours"):
             other = heldout[key]
             lines.append(f"{_lower(other['label'])}: PSNR {other['psnr']:.2f} dB "
                          f"(ours {ours['psnr'] - other['psnr']:+.2f} dB), FLIP {other['flip']:.4f}")

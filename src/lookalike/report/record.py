@@ -166,7 +166,8 @@ class RunRecord:
 
     @property
     def ours(self) -> MethodResult:
-        return self.methods[-1]
+        """The method keyed ``"ours"`` (forms of it, e.g. compressed, may follow it), else the last."""
+        return next((m for m in self.methods if m.key == "ours"), self.methods[-1])
 
     @property
     def num_views(self) -> int:

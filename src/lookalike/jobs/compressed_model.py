@@ -1,0 +1,77 @@
+"""``model.compressed.glb``: a written model as an engine ships it.
+
+Every texture becomes a KTX2 mip chain (UASTC, Zstandard; ``io.ktx2``) with no PNG beside it:
+its own mip levels where it has them (fitted, prefiltered), else the box filter of the texture
+(``render.mipmap.texture_construct_mip``, the mips our renderer and an engine build from a
+PNG), so that the GPU samples exactly what was scored. Then gltfpack quantises the geometry
+(``KHR_mesh_quantization``) and meshopt-compresses its buffers (``EXT_meshopt_compression``,
+``io.meshopt``). The file is read back and scored beside the model it came from, so that what
+compression costs is seen.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from pathlib import Path
+
+from .. import io
+from ..asset import Asset, Material, Texture
+from ..errors import ConfigError
+from ..io.gltf_lod_chain import relink_lod_chain, write_lod_chain
+from ..io.gltf_write import write_glb
+from ..io.ktx2 import ENCODER_HINT, find_encoder
+from ..io.meshopt import INSTALL_HINT, compress_glb, find_gltfpack
+from ..render.mipmap import texture_construct_mip
+
+COMPRESSED_NAME = "model.compressed.glb"
+
+
+def check_compression_tools() -> None:
+    """``ConfigError`` naming what is missing where gltfpack or the KTX2 encoder is not found,
+    so that a run asked to compress says so before it fits, not after."""
+    if find_gltfpack() is None:
+        raise ConfigError(f"--compress needs {INSTALL_HINT}")
+    if find_encoder() is None:
+        raise ConfigError(f"--compress needs {ENCODER_HINT}")
+
+
+def with_mips(texture: Texture) -> Texture:
+    """``texture`` with mip levels: its own, else the box filter of its texels (a 1 x 1
+    texture, written as a factor, has none)."""
+    if texture.mips or texture.data.shape[0] * texture.data.shape[1] == 1:
+        return texture
+    return dataclasses.replace(texture, mips=[level[0] for level in texture_construct_mip(texture.data[None])])
+
+
+def with_mip_chains(asset: Asset) -> Asset:
+    """``asset`` with every texture of every material given mip levels (``with_mips``)."""
+    def material(m: Material) -> Material:
+        maps = {name: with_mips(getattr(m, name)) for name in ("kd", "ks", "normal", "emissive", "occlusion")
+                if getattr(m, name) is not None}
+        return dataclasses.replace(m, **maps)
+
+    return dataclasses.replace(asset, materials=[material(m) for m in asset.materials])
+
+
+def write_compressed(model: Path, target: Path) -> Path:
+    """Write the ``.glb`` at ``model`` to ``target`` as an engine ships it (see the module
+    docstring); returns ``target``. ``ConfigError`` where a tool is missing or fails."""
+    with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
+        textured = Path(scratch) / "ktx2.glb"
+        write_glb(with_mip_chains(io.load(model)), textured, ktx2_only=True)
+        compress_glb(textured, target)
+    return target
+
+
+def write_compressed_chain(models: list[Path], target: Path, name: str, coverages: list[float]) -> Path:
+    """Write the chain of the ``.glb`` files ``models`` (finest first) as ``lods.glb`` is written
+    (``io.gltf_lod_chain``), shipped as ``write_compressed`` ships one model, to ``target``;
+    returns ``target``."""
+    with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
+        textured = Path(scratch) / "ktx2.glb"
+        write_lod_chain([with_mip_chains(io.load(model)) for model in models], textured, name, coverages,
+                        ktx2_only=True)
+        compress_glb(textured, target)
+    relink_lod_chain(target)
+    return target
