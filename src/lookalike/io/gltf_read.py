@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,6 +52,7 @@ from ..asset.material import Displacement, unlit_material
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
 from ..errors import AssetError, ConfigError
+from ..threads import available_cores
 from .arrays import unique_rows
 from .gltf_data import GltfData, parse_gltf
 from .image_files import resize, srgb_to_linear
@@ -300,6 +302,11 @@ class _MaterialReader:
         self.images: dict[int, np.ndarray] = {}
         self.chains: dict[int, list[np.ndarray] | None] = {}
         self.decoder = find_encoder()
+        if self.decoder is not None:  # every KTX2 image at once, a transcoder process per core
+            sources = {(t.extensions or {}).get("KHR_texture_basisu", {}).get("source") for t in data.gltf.textures}
+            sources.discard(None)
+            with ThreadPoolExecutor(max_workers=available_cores()) as pool:
+                list(pool.map(self._ktx2_levels, sorted(sources)))
 
     def _pixels(self, info: dict) -> np.ndarray:
         """``[H, W, 4]`` raw RGBA of the image behind a textureInfo."""

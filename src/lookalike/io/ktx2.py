@@ -28,12 +28,14 @@ import shutil
 import struct
 import subprocess
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ConfigError
+from ..threads import available_cores
 
 IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
 HEADER = struct.Struct("<12sIIIIIIIII")
@@ -130,27 +132,35 @@ def find_encoder() -> Path | None:
     return Path(found) if found else None
 
 
+UASTC_LEVEL = 1
+"""``basisu -uastc_level``: 1 encodes a 2048² map in 8.5 s at 51.0 dB against its texels, 2 in
+20 s at 52.1 dB (one core each)."""
+
+
 def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> bytes:
     """A UASTC KTX2 file (Zstandard supercompressed) whose mip chain is exactly ``levels``:
     ``[h_k, w_k, 4]`` uint8 RGBA images, finest first, each half the one before (down to 1 x 1
-    or fewer levels); ``linear``: non-colour data (``-linear``), else sRGB colour.
+    or fewer levels); ``linear``: non-colour data (``-linear``), else sRGB colour. The levels
+    are encoded at once, one encoder process per core (each runs on one).
     ``ConfigError`` where the encoder fails."""
     from PIL import Image
 
-    with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch:
-        files = []
-        for k, level in enumerate(levels):
-            source, target = Path(scratch) / f"level{k}.png", Path(scratch) / f"level{k}.ktx2"
-            Image.fromarray(np.ascontiguousarray(level)).save(source)
-            command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", "2", *(["-linear"] if linear else []),
-                       "-file", str(source), "-output_file", str(target)]
-            result = subprocess.run(command, capture_output=True, text=True)
-            if result.returncode != 0 or not target.is_file():
-                tail = (result.stderr or result.stdout).strip().splitlines()[-1:] or ["no output"]
-                raise ConfigError(f"{encoder}: could not encode a {level.shape[1]}x{level.shape[0]} texture level "
-                                  f"to KTX2 ({tail[0]})")
-            files.append(target.read_bytes())
-        return assemble_levels(files)
+    def encode(k: int, scratch: Path) -> bytes:
+        level = levels[k]
+        source, target = scratch / f"level{k}.png", scratch / f"level{k}.ktx2"
+        Image.fromarray(np.ascontiguousarray(level)).save(source)
+        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []),
+                   "-file", str(source), "-output_file", str(target)]
+        result = subprocess.run(command, capture_output=True, text=True)
+        if result.returncode != 0 or not target.is_file():
+            tail = (result.stderr or result.stdout).strip().splitlines()[-1:] or ["no output"]
+            raise ConfigError(f"{encoder}: could not encode a {level.shape[1]}x{level.shape[0]} texture level "
+                              f"to KTX2 ({tail[0]})")
+        return target.read_bytes()
+
+    with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch, \
+            ThreadPoolExecutor(max_workers=available_cores()) as pool:
+        return assemble_levels(list(pool.map(lambda k: encode(k, Path(scratch)), range(len(levels)))))
 
 
 def decode_mip_chain(data: bytes, encoder: Path) -> list[np.ndarray]:

@@ -23,8 +23,21 @@ from ..io.gltf_write import write_glb
 from ..io.ktx2 import ENCODER_HINT, find_encoder
 from ..io.meshopt import INSTALL_HINT, compress_glb, find_gltfpack
 from ..render.mipmap import texture_construct_mip
+from ..settings import Config
 
 COMPRESSED_NAME = "model.compressed.glb"
+
+SECONDS_PER_MEGATEXEL = 10.0
+"""What writing and reading back a compressed model costs per million texels of its maps'
+finest levels (2 cores: three 2048² maps took 50 s to encode with their mips, 77 s to decode)."""
+
+
+def compress_seconds(cfg: Config) -> float:
+    """The seconds a run keeps aside for its compressed model (``io.compress``): base colour,
+    specular and normal map (and the emission of a path-traced run) at ``SECONDS_PER_MEGATEXEL``;
+    0 where it writes none."""
+    maps = 3 + cfg.reference.path_traced
+    return SECONDS_PER_MEGATEXEL * maps * cfg.latent.texture_size ** 2 / 1e6 if cfg.io.compress else 0.0
 
 
 def check_compression_tools() -> None:

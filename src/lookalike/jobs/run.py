@@ -60,7 +60,7 @@ from ..threads import CoreShare, set_threads
 from . import animated
 from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
-from .compressed_model import COMPRESSED_NAME, check_compression_tools, write_compressed
+from .compressed_model import COMPRESSED_NAME, check_compression_tools, compress_seconds, write_compressed
 from .input_asset import prepare_input
 from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
@@ -487,8 +487,9 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
                 variants: int = 0) -> float | None:
     """The loop's share of this session's ``budget``: what is left after the set-up, less the
     outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far, plus the
-    validation scorings that choose what is written, and one for each of ``variants`` of the
-    result); ``None`` where ``optim.iterations`` fixes the steps."""
+    validation scorings that choose what is written, one for each of ``variants`` of the
+    result, and the compressed model's, ``compress_seconds``); ``None`` where
+    ``optim.iterations`` fixes the steps."""
     if cfg.optim.iterations is not None:
         return None
     scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static) + variants
@@ -496,7 +497,7 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
         scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
     scorings += 2 * (1 + variants) * cfg.views.validation / cfg.views.heldout  # ours and the start as written
     scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
-    output_time = scorings * scoring + OUTPUT_TIME_MARGIN
+    output_time = scorings * scoring + OUTPUT_TIME_MARGIN + compress_seconds(cfg)
     return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
 
 
