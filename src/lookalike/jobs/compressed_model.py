@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from .. import io
@@ -67,24 +68,27 @@ def with_mip_chains(asset: Asset) -> Asset:
     return dataclasses.replace(asset, materials=[material(m) for m in asset.materials])
 
 
+def shipped(write_ktx2: Callable[[Path], None], target: Path) -> Path:
+    """``target`` written by ``write_ktx2`` (given a scratch ``.glb`` path to write with KTX2-only
+    textures) and then meshopt-compressed by gltfpack; returns ``target``."""
+    with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
+        textured = Path(scratch) / "ktx2.glb"
+        write_ktx2(textured)
+        compress_glb(textured, target)
+    return target
+
+
 def write_compressed(model: Path, target: Path) -> Path:
     """Write the ``.glb`` at ``model`` to ``target`` as an engine ships it (see the module
     docstring); returns ``target``. ``ConfigError`` where a tool is missing or fails."""
-    with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
-        textured = Path(scratch) / "ktx2.glb"
-        write_glb(with_mip_chains(io.load(model)), textured, ktx2_only=True)
-        compress_glb(textured, target)
-    return target
+    return shipped(lambda path: write_glb(with_mip_chains(io.load(model)), path, ktx2_only=True), target)
 
 
 def write_compressed_chain(models: list[Path], target: Path, name: str, coverages: list[float]) -> Path:
     """Write the chain of the ``.glb`` files ``models`` (finest first) as ``lods.glb`` is written
     (``io.gltf_lod_chain``), shipped as ``write_compressed`` ships one model, to ``target``;
     returns ``target``."""
-    with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
-        textured = Path(scratch) / "ktx2.glb"
-        write_lod_chain([with_mip_chains(io.load(model)) for model in models], textured, name, coverages,
-                        ktx2_only=True)
-        compress_glb(textured, target)
+    levels = [with_mip_chains(io.load(model)) for model in models]
+    shipped(lambda path: write_lod_chain(levels, path, name, coverages, ktx2_only=True), target)
     relink_lod_chain(target)
     return target
