@@ -9,7 +9,7 @@ import torch
 
 from field_factory import box_field, sphere_field, sphere_volume, write_fields
 from lookalike import io
-from lookalike.asset.implicit import field_mesh, field_normals
+from lookalike.asset.implicit import axes_points, field_mesh, field_normals, grid_axes, narrow_band_values
 from lookalike.cli import main
 from lookalike.errors import AssetError, UserCodeError
 from lookalike.fit.reference import FieldReference
@@ -98,6 +98,18 @@ def test_marching_cubes_and_decimation_of_a_sphere_is_watertight_with_its_volume
     v = mesh.v_pos[faces].double()
     volume = float((torch.linalg.cross(v[:, 0], v[:, 1]) * v[:, 2]).sum() / 6)
     assert volume == pytest.approx(sphere_volume(0.5), rel=0.02)
+
+
+@pytest.mark.parametrize("field", [sphere_field(0.5), box_field()], ids=["sphere", "box"])
+def test_a_field_evaluated_near_its_surface_only_gives_the_mesh_of_the_whole_grid(field):
+    axes, h = grid_axes(field.lo, field.hi, 64, 4)
+    banded = narrow_band_values(field, axes, h, 4)
+    every = field.distance(axes_points(axes)).reshape(banded.shape).numpy()
+    near = np.abs(every) < 2 * h
+    assert np.array_equal(banded[near], every[near]) and np.array_equal(banded > 0, every > 0)
+    assert (banded != every).mean() > 0.3  # most of the box was interpolated, not evaluated
+    vertices = [np.unique(m.v_pos.numpy().round(6), axis=0) for m in (field_mesh(field, 64, 4), field_mesh(field, 64))]
+    assert vertices[0].shape == vertices[1].shape and np.allclose(*vertices, atol=1e-6)
 
 
 def test_the_field_bake_reads_the_field_on_its_surface_not_the_mesh(tmp_path):

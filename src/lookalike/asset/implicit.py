@@ -112,30 +112,63 @@ def field_normals(surface: ImplicitSurface, points: torch.Tensor) -> torch.Tenso
     return gradient / gradient.norm(dim=-1, keepdim=True).clamp(min=1e-20)
 
 
-def grid_points(lo: torch.Tensor, hi: torch.Tensor, cells: int) -> tuple[torch.Tensor, tuple[int, int, int], float]:
-    """The corners of a grid of cubes of side ``h`` over the box ``lo``–``hi`` (``[3]``), about
-    ``cells`` along its longest side, padded by one cube on every side: ``(points [X*Y*Z, 3]``
-    in x-major order, ``(X, Y, Z)``, ``h)``."""
+def grid_axes(lo: torch.Tensor, hi: torch.Tensor, cells: int, block: int = 1) -> tuple[list[torch.Tensor], float]:
+    """The corner coordinates along each axis (``[X]``, ``[Y]``, ``[Z]`` float64) of a grid of
+    cubes of side ``h`` over the box ``lo``–``hi`` (``[3]``), about ``cells`` along its longest
+    side, padded by at least one cube on every side and to a multiple of ``block`` cubes, and ``h``."""
     h = float((hi - lo).max()) / cells
-    counts = [int(math.ceil(float(e) / h)) + 3 for e in (hi - lo)]
-    axes = [float(lo[k]) - h + h * torch.arange(counts[k], dtype=torch.float64) for k in range(3)]
-    grid = torch.stack(torch.meshgrid(*axes, indexing="ij"), dim=-1).reshape(-1, 3).float()
-    return grid, (counts[0], counts[1], counts[2]), h
+    counts = [math.ceil((math.ceil(float(e) / h) + 2) / block) * block + 1 for e in (hi - lo)]
+    return [float(lo[k]) - h + h * torch.arange(counts[k], dtype=torch.float64) for k in range(3)], h
 
 
-def field_mesh(surface: ImplicitSurface, cells: int) -> Mesh:
+def axes_points(axes: list[torch.Tensor]) -> torch.Tensor:
+    """The grid points ``[X*Y*Z, 3]`` float32 of ``axes`` (``grid_axes``), in x-major order."""
+    return torch.stack(torch.meshgrid(*axes, indexing="ij"), dim=-1).reshape(-1, 3).float()
+
+
+def narrow_band_values(surface: ImplicitSurface, axes: list[torch.Tensor], h: float, block: int) -> np.ndarray:
+    """``surface``'s values ``[X, Y, Z]`` float32 on the grid ``axes`` (``grid_axes`` in whole
+    blocks), evaluated only in the blocks of ``block`` cubes that the surface may cross: the
+    blocks' corners are evaluated first, and a block whose corners share a sign and have
+    ``|f| > 2 sqrt(3) block h`` (twice its diagonal: a 1-Lipschitz field's value bounds the
+    distance to the surface) holds no surface and is filled by interpolating them. Makes a fine
+    mesh (millions of triangles) affordable: its cost follows the surface's area, not the box's
+    volume."""
+    shape = [len(axis) for axis in axes]
+    blocks = [(n - 1) // block for n in shape]
+    coarse = surface.distance(axes_points([axis[::block] for axis in axes])).reshape([b + 1 for b in blocks])
+    values = torch.nn.functional.interpolate(coarse[None, None], size=shape, mode="trilinear",
+                                             align_corners=True)[0, 0].numpy()
+    corners = torch.stack([coarse[i:i + blocks[0], j:j + blocks[1], k:k + blocks[2]]
+                           for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    near = ((corners.min(0).values < 0) & (corners.max(0).values > 0)) | \
+        (corners.abs().min(0).values <= 2.0 * math.sqrt(3.0) * block * h)
+    offsets = torch.stack(torch.meshgrid(*[torch.arange(block + 1)] * 3, indexing="ij"), dim=-1).reshape(-1, 3)
+    active = torch.nonzero(near) * block
+    per_chunk = max(1, CHUNK_POINTS // offsets.shape[0])
+    for first in range(0, active.shape[0], per_chunk):
+        index = (active[first:first + per_chunk, None, :] + offsets[None]).reshape(-1, 3)
+        points = torch.stack([axes[k][index[:, k]] for k in range(3)], dim=1).float()
+        values[index[:, 0].numpy(), index[:, 1].numpy(), index[:, 2].numpy()] = surface.distance(points).numpy()
+    return values
+
+
+def field_mesh(surface: ImplicitSurface, cells: int, block: int = 0) -> Mesh:
     """The zero level set of ``surface`` as a welded triangle mesh (marching cubes, scikit-image's
     ``measure.marching_cubes``, on a grid of about ``cells`` cubes along the bounds' longest
     side), front faces outwards, with ``material``'s base colour at the vertices (``v_color``) and
     the field's gradient as their authored normals (``field_normals``: they shade as the field
-    does, not as the facets' average).
+    does, not as the facets' average). With ``block``, the grid is evaluated near the surface
+    only (``narrow_band_values``), else everywhere.
     Raises ``ValueError`` saying what is wrong where the field has no zero crossing on the grid,
     or is negative on the grid's outer layer (one cube beyond the bounds: they cut the
     surface)."""
     from skimage import measure
 
-    grid, shape, h = grid_points(surface.lo, surface.hi, cells)
-    values = surface.distance(grid).reshape(shape).numpy()
+    axes, h = grid_axes(surface.lo, surface.hi, cells, max(block, 1))
+    shape = tuple(len(axis) for axis in axes)
+    values = (narrow_band_values(surface, axes, h, block) if block
+              else surface.distance(axes_points(axes)).reshape(shape).numpy())
     if not (values.min() < 0.0 < values.max()):
         raise ValueError("positive everywhere in its bounds (it must be negative inside)" if values.min() >= 0.0 else
                          "negative everywhere in its bounds (no surface: the bounds lie inside it)")
@@ -143,11 +176,11 @@ def field_mesh(surface: ImplicitSurface, cells: int) -> Mesh:
     shell[1:-1, 1:-1, 1:-1] = False
     inside = np.flatnonzero(shell.reshape(-1) & (values.reshape(-1) < 0.0))
     if inside.size:
-        x, y, z = grid[int(inside[0])].tolist()
+        x, y, z = (float(axes[k][i]) for k, i in enumerate(np.unravel_index(int(inside[0]), shape)))
         raise ValueError(f"negative just outside its bounds, at ({x:.4g}, {y:.4g}, {z:.4g}): the bounds cut the "
                          "surface; enlarge them")
     verts, faces, _, _ = measure.marching_cubes(values, level=0.0, spacing=(h, h, h), allow_degenerate=False)
-    v_pos = torch.from_numpy(verts.astype(np.float32)) + grid[0]
+    v_pos = torch.from_numpy(verts.astype(np.float32)) + torch.tensor([float(axis[0]) for axis in axes])
     t_pos_idx = torch.from_numpy(faces.astype(np.int64))  # counter-clockwise seen from outside
     kd, _ = surface.channels(v_pos)
     colour = torch.cat([kd, torch.ones(kd.shape[0], 1)], dim=1)

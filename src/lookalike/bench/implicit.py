@@ -23,8 +23,10 @@ HELP = "simplify the two bundled signed distance fields and compare with marchin
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 ASSETS = (BenchAsset("rook", "rook.py", 2000, False), BenchAsset("gear", "gear.glsl", 2000, False))
-JUDGE_CELLS = 480
-"""Marching-cubes cubes across the field for the mesh Cycles judges against."""
+JUDGE_CELLS = 960
+"""Marching-cubes cubes across the field for the mesh Cycles judges against..."""
+JUDGE_BLOCK = 8
+"""... evaluated near the surface only, in blocks of this many cubes (``asset.implicit.narrow_band_values``)."""
 
 
 def field_row(case: BenchAsset, metrics: dict) -> dict:
@@ -55,7 +57,7 @@ def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: d
         count = target_triangle_count(cfg.latent.triangles, cfg.latent.ratio, asset.mesh.num_triangles)
         guess = build_initial_guess(asset, cfg, count)
         baselines = {"decimated": guess.baseline, "baked": guess.baked}
-    judged = judge_run(run_dir, field_asset(asset.field, path, cells=JUDGE_CELLS), baselines)
+    judged = judge_run(run_dir, field_asset(asset.field, path, cells=JUDGE_CELLS, block=JUDGE_BLOCK), baselines)
     cycles = judged["scores"]["cycles"]
     judged["gain_over_baked_db"] = cycles["ours"]["psnr"] - cycles["baked"]["psnr"]
     judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]

@@ -40,13 +40,14 @@ def palette_materials(surface: ImplicitSurface, mesh) -> tuple[list[Material], t
     return materials, index
 
 
-def field_asset(surface: ImplicitSurface, path: Path, cells: int = FIELD_CELLS) -> Asset:
-    """``surface`` (read from ``path``) as an ``Asset``: ``field_mesh`` at ``cells`` with its
+def field_asset(surface: ImplicitSurface, path: Path, cells: int = FIELD_CELLS, block: int = 0) -> Asset:
+    """``surface`` (read from ``path``) as an ``Asset``: ``field_mesh`` at ``cells`` (evaluated
+    near the surface only, in blocks of ``block`` cubes, where given) with its
     base colour at the vertices, its roughness and metalness as a palette of materials
     (``palette_materials``), and ``field = surface``. ``AssetError`` where the field has no
     surface in its bounds."""
     try:
-        mesh = field_mesh(surface, cells)
+        mesh = field_mesh(surface, cells, block)
     except ValueError as e:
         raise AssetError(path, f"the field is {e}") from None
     materials, mesh.t_mat_idx = palette_materials(surface, mesh)
