@@ -193,3 +193,14 @@ def test_a_blended_material_s_opaque_triangles_are_written_opaque_and_draw_alike
     assert [m.alpha_mode for m in whole.materials] == ["OPAQUE"] and whole.mesh.t_mat_idx.tolist() == [0, 0, 0, 0]
     masked = dataclasses.replace(asset, materials=[dataclasses.replace(asset.materials[0], alpha_mode="MASK")])
     assert split_opaque(masked) is masked
+
+
+def test_a_split_model_read_back_is_merged_into_the_material_it_was_fitted_as(tmp_path):
+    from lookalike import io
+    from lookalike.jobs.alpha_export import merged_opaque, split_opaque
+
+    asset = _two_quads_with_glass()
+    io.save(split_opaque(asset), tmp_path / "split.glb")
+    merged = merged_opaque(io.load(tmp_path / "split.glb"))
+    assert [m.alpha_mode for m in merged.materials] == ["BLEND"] and merged.mesh.t_mat_idx.tolist() == [0, 0, 0, 0]
+    assert merged_opaque(asset) is asset

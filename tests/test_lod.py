@@ -3,12 +3,14 @@ and resumed through the shared run."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
 from pygltflib import GLTF2
 
 from lookalike.errors import ConfigError
+from lookalike.init import decimate
 from lookalike.jobs import lod as lod_job
 from lookalike.jobs.lod import LEVEL, Level, default_levels, level_settings, lod, parse_levels, switch_distance
 from lookalike.settings import config_from_dict, load_config
@@ -90,6 +92,7 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
         assert cfg.render.resolution == level_settings(level, 1.0)["resolution"] and cfg.render.latent_msaa == 1
         assert cfg.render.target_spp == 8 and cfg.latent.triangles == level.triangles
         assert cfg.views.distance_spread == 1.0
+        assert cfg.io.level_above == (str(tmp_path / "chain" / "lod0" / "model.glb") if row["level"] else "")
     with pytest.raises(ConfigError, match="not empty"):
         lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, progress=False)
 
@@ -98,6 +101,23 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
 
     monkeypatch.setattr(lod_job, "run", no_run)
     assert lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, resume=True, progress=False) == rows
+
+
+def test_a_run_starts_from_the_alternative_that_scores_higher_on_its_validation_views():
+    from lookalike.init.initial_guess import InitialGuess
+    from lookalike.jobs.run import take_best_start
+
+    class Views:  # each start's PSNR is its number of triangles
+        def psnr(self, asset, draw):
+            return asset.mesh.num_triangles
+
+    small, large = (dataclasses.replace(bumpy_sphere(), mesh=decimate(bumpy_sphere().mesh, n)) for n in (100, 200))
+    guess = InitialGuess(start=small, baseline=small, bake=None, notes=[], alternatives=[("the larger", large)])
+    take_best_start(guess, Views(), None)
+    assert guess.start is large and guess.alternatives == [] and "started from the larger" in guess.notes[-1]
+    kept = InitialGuess(start=large, baseline=large, bake=None, notes=[], alternatives=[("the smaller", small)])
+    take_best_start(kept, Views(), None)
+    assert kept.start is large and kept.alternatives == [] and kept.notes == []
 
 
 def test_simplify_prefilters_one_model_for_a_screen_size(tmp_path, capsys):

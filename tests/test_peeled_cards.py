@@ -166,3 +166,11 @@ def test_peeling_stops_at_the_deepest_covered_layer_and_equals_the_full_composit
     deepest = covered.index(False)
     assert 2 <= deepest < 8 and not any(covered[deepest:])
     assert (used.renders, used.layers, used.deepest, used.mean) == (1, deepest, deepest, deepest)
+
+
+def test_a_sample_of_no_coverage_leaves_what_lies_behind_whatever_its_colour():
+    """A back face's shading need not be finite; its coverage is 0, so it must not show."""
+    accum = torch.tensor([[0.2, 0.3, 0.4, 1.0], [0.0, 0.0, 0.0, 0.0]])
+    colour = torch.tensor([[math.nan, math.inf, 1.0, 0.0], [0.5, 0.5, 0.5, 0.5]])
+    over = peeled_layers.composite_over(accum, colour)
+    assert torch.equal(over[0], accum[0]) and torch.allclose(over[1], torch.tensor([0.25, 0.25, 0.25, 0.5]))

@@ -74,10 +74,14 @@ class IOConfig:
         compress: also write ``model.compressed.glb``, as an engine ships a model (KTX2 mip
             chains, quantised and meshopt-compressed geometry: ``lookalike.jobs.compressed_model``),
             and score it beside ours.
+        level_above: a level of a chain's (``jobs.lod``): the fitted model of the level above,
+            decimated, is a second start, taken where it scores higher on the validation views;
+            empty for none.
     """
 
     input: str = ""
     init_mesh: str = ""
+    level_above: str = ""
     outdir: str = ""
     export_obj: bool = False
     compress: bool = False

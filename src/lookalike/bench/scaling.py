@@ -30,7 +30,8 @@ HELP = "simplify generated inputs of 100k, 1M and 4M triangles: start-up by phas
 
 SIZES = (100_000, 1_000_000, 4_000_000)
 STEPS = 100
-STARTUP_STAGES = ("load and initial guess", "reference views", "scoring plain decimation", "scoring the classic bake")
+STARTUP_STAGES = ("load and initial guess", "reference views", "the start", "scoring plain decimation",
+                  "scoring the classic bake")
 STEP_RATIO_BAR = 1.3
 MEMORY_BAR_GB = 8.0
 STARTUP_BAR_S = 90.0

@@ -70,6 +70,8 @@ class InitialGuess:
         notes: remarks for the report (e.g. why the user's UVs were replaced).
         comparisons: further models scored beside the baselines, as ``(key, label, asset)``
             (e.g. the classic bake at each triangle count a displaced model is drawn at).
+        alternatives: other starts, as ``(label, asset)``, which the run takes instead of
+            ``start`` where one scores higher on its validation views (``take_start``).
     """
 
     start: Asset
@@ -77,6 +79,16 @@ class InitialGuess:
     bake: BakeResult | None
     notes: list[str]
     comparisons: list[tuple[str, str, Asset]] = field(default_factory=list)
+    alternatives: list[tuple[str, Asset]] = field(default_factory=list)
+
+    def take_start(self, label: str, start: Asset) -> None:
+        """Start from ``start`` (``label``: what it is) instead, with no alternatives left; a
+        classic bake the start was stays scored, as the comparison ``"baked"``."""
+        replaced = "the classic bake" if self.bake is not None else "the usual start"
+        if self.bake is not None:
+            self.comparisons.append(("baked", "Classic bake", self.baked))
+        self.start, self.bake, self.alternatives = start, None, []
+        self.notes.append(f"started from {label}: it scored higher on the validation views than {replaced}")
 
     def __getstate__(self) -> dict:
         """Pickled (in checkpoints) with the comparisons as ``.glb`` bytes, as a user receives

@@ -168,6 +168,24 @@ def split_opaque(model: Asset) -> Asset:
     return dataclasses.replace(model, mesh=mesh, materials=materials)
 
 
+def merged_opaque(model: Asset) -> Asset:
+    """``split_opaque`` undone: the triangles of each ``OPAQUE`` copy ``NAME_opaque`` back on its
+    blended material ``NAME``, the copies dropped (a written model read back as the one material
+    its fit held)."""
+    names = {material.name: k for k, material in enumerate(model.materials)}
+    target = torch.arange(len(model.materials))
+    for k, material in enumerate(model.materials):
+        base = names.get(material.name.removesuffix("_opaque"), k)
+        if material.alpha_mode == "OPAQUE" and material.name.endswith("_opaque") and base != k:
+            target[k] = base
+    kept = target == torch.arange(len(model.materials))
+    if bool(kept.all()):
+        return model
+    renumbered = torch.cumsum(kept.long(), 0) - 1
+    mesh = dataclasses.replace(model.mesh, t_mat_idx=renumbered[target[model.mesh.t_mat_idx]])
+    return dataclasses.replace(model, mesh=mesh, materials=[m for m, keep in zip(model.materials, kept) if keep])
+
+
 def alpha_label(model: Asset, mode: str, choice: AlphaChoice) -> str | None:
     """How ``written_alpha(model, mode, choice)`` writes the alpha, for reports: ``"blended"``,
     ``"dithered"`` or ``"cutoff C"``; ``None`` where no material uses alpha."""

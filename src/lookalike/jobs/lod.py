@@ -17,6 +17,7 @@ compares each with the classic level its run started from (``jobs.lod_page``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -25,13 +26,15 @@ from pathlib import Path
 from .. import io
 from ..asset import Asset
 from ..errors import ConfigError
-from ..init.initial_guess import InitialGuess
+from ..init import decimate
+from ..init.initial_guess import InitialGuess, initial_guess_from_mesh
 from ..io.atomic import copy_atomic, write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
 from ..limits import MAX_TEXTURE_SIZE
 from ..settings import COLD_START, Config, RenderConfig, ViewsConfig, load_config
 from ..shading.view_sampling import FRAMING
+from .alpha_export import merged_opaque
 from .compressed_model import COMPRESSED_NAME, write_compressed_chain
 from .input_asset import prepare_input
 from .lod_page import CLASSIC_NAME, write_chain_page
@@ -120,13 +123,30 @@ def switch_distance(radius: float, pixels: float, fovy_degrees: float = FOVY_DEG
 
 
 def classic_level(model: Asset, guess: InitialGuess, cfg: Config, folder: Path, methods: list) -> None:
-    """Write the level's classic bake (its start: decimation, atlas and projection bake at the
-    level's count and texture size) as ``classic.glb``, which the chain's page draws beside ours."""
-    if guess.baked is not None:
-        io.save(guess.baked, folder / CLASSIC_NAME)
+    """Write the level's classic bake (decimation, atlas and projection bake at the level's count
+    and texture size: its start, or a comparison where it started from the level above) as
+    ``classic.glb``, which the chain's page draws beside ours."""
+    baked = guess.baked if guess.baked is not None else dict((key, asset) for key, _, asset in guess.comparisons).get("baked")
+    if baked is not None:
+        io.save(baked, folder / CLASSIC_NAME)
 
 
-LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=build_initial_guess,
+def level_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
+    """``simplify``'s start (``build_initial_guess``: decimation and the classic bake) and, where
+    ``cfg.io.level_above`` names the fitted model of the level above, that model decimated to
+    ``count`` with its maps resampled to the level's size (``initial_guess_from_mesh``) as an
+    alternative: the run starts from whichever scores higher on its validation views, since a
+    fitted level may already hold what the next one needs (its silhouette, its prefiltered maps)."""
+    guess = build_initial_guess(asset, cfg, count)
+    if cfg.io.level_above and count is not None:
+        above = merged_opaque(io.load(cfg.io.level_above))
+        decimated = dataclasses.replace(above, mesh=decimate(above.mesh, count))
+        start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size).start
+        guess.alternatives.append((f"the level above ({above.mesh.num_triangles} triangles) decimated", start))
+    return guess
+
+
+LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=level_guess,
                     defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1, mip_footprint="engine"),
                                     views=ViewsConfig(distance_spread=1.0)), files=classic_level)
 """One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
@@ -190,7 +210,8 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
     rows = []
     for k, (level, seconds) in enumerate(zip(levels, budgets)):
         folder = outdir / f"lod{k}"
-        settings = level_settings(level, seconds)
+        settings = {**level_settings(level, seconds),
+                    **({"level_above": str(outdir / f"lod{k - 1}" / MODEL_NAME)} if k else {})}
         if not (resume and _finished(folder)):
             run(LEVEL, asset, folder, config=config, **settings,
                 **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})

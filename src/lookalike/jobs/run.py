@@ -297,12 +297,14 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         asset, notes, moving = load_input(s, cfg)
         reference = s.app.reference(asset, cfg, moving)
         guess, checkpointer = starting_point(s, cfg, asset, moving)
-        start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
-        latent = s.app.latent(asset, start, cfg, moving)
     with s.stage("reference views"):
         heldout, validation, source = reference_views(cfg, asset, reference, moving, s.options.progress)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers, footprint=lookup_footprint(cfg))
+    with s.stage("the start"):
+        take_best_start(guess, validation, draw)
+        start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
+        latent = s.app.latent(asset, start, cfg, moving)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
     with s.stage("alpha of the start"):
@@ -428,6 +430,22 @@ def starting_point(s: _Session, cfg: Config, asset: Asset, moving: bool) -> tupl
     if s.saved is None:
         checkpointer.save({})
     return guess, checkpointer
+
+
+def take_best_start(guess: InitialGuess, views: HeldoutViews, draw) -> None:
+    """Start from whichever of ``guess.start`` and ``guess.alternatives`` scores the highest
+    mean PSNR on ``views`` (the validation views: the held-out ones stay unseen); the
+    alternatives are then dropped (``InitialGuess.take_start``); without validation views the
+    start stays."""
+    if not guess.alternatives or views is None:
+        guess.alternatives = []
+        return
+    scores = [(views.psnr(asset, draw), label, asset) for label, asset in guess.alternatives]
+    best = max(scores, key=lambda score: score[0])
+    if best[0] > views.psnr(guess.start, draw):
+        guess.take_start(best[1], best[2])
+    else:
+        guess.alternatives = []
 
 
 def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool,

@@ -224,6 +224,8 @@ def composite_layers(shaded: list[ShadedLayer], background: torch.Tensor, buffer
 
 def composite_over(accum: torch.Tensor, colour: torch.Tensor) -> torch.Tensor:
     """Straight-alpha ``colour [..., 4]`` over the opaque-or-empty ``accum [..., 4]`` ("over"):
-    ``lerp(accum, (rgb, 1), alpha)``."""
-    opaque = torch.cat([colour[..., :3], torch.ones_like(colour[..., 3:])], dim=-1)
+    ``lerp(accum, (rgb, 1), alpha)``; a sample of alpha 0 leaves ``accum`` as it is whatever its
+    ``rgb``, which need not be finite there (a back face's shading)."""
+    rgb = torch.where(colour[..., 3:] > 0, colour[..., :3], 0.0)
+    opaque = torch.cat([rgb, torch.ones_like(colour[..., 3:])], dim=-1)
     return torch.lerp(accum, opaque, colour[..., 3:])
