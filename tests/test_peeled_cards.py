@@ -174,3 +174,6 @@ def test_a_sample_of_no_coverage_leaves_what_lies_behind_whatever_its_colour():
     colour = torch.tensor([[math.nan, math.inf, 1.0, 0.0], [0.5, 0.5, 0.5, 0.5]])
     over = peeled_layers.composite_over(accum, colour)
     assert torch.equal(over[0], accum[0]) and torch.allclose(over[1], torch.tensor([0.25, 0.25, 0.25, 0.5]))
+    alpha = torch.zeros(1, 1, requires_grad=True)  # a transparent texel's alpha learns what its colour would show
+    peeled_layers.composite_over(accum[:1], torch.cat([torch.tensor([[0.9, 0.9, 0.9]]), alpha], -1)).sum().backward()
+    assert float(alpha.grad) == pytest.approx((0.9 - 0.2) + (0.9 - 0.3) + (0.9 - 0.4))

@@ -3,7 +3,8 @@ Sec. 5.2): a level seen at 64 pixels is fitted to what the input looks like at 6
 
 A level is a triangle count and a screen size: the pixels that the bounding sphere's diameter
 covers where the level is drawn. Each level is the shared run (``jobs.run``) of ``LEVEL``:
-``simplify``'s initial guess, with its defaults (the reference supersampled 8 x 8 per pixel, the
+``simplify``'s initial guess (below the first level, the level above decimated where that scores
+higher: ``level_guess``), with its defaults (the reference supersampled 8 x 8 per pixel, the
 model drawn with one sample per pixel and mipmapped lookups, as an engine draws it) and the
 settings of its size (``level_settings``: views that show the sphere at that size, textures
 sized to the level). Each level runs in ``OUTDIR/lodK/`` with its own checkpoint and report; a

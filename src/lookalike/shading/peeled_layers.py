@@ -224,8 +224,10 @@ def composite_layers(shaded: list[ShadedLayer], background: torch.Tensor, buffer
 
 def composite_over(accum: torch.Tensor, colour: torch.Tensor) -> torch.Tensor:
     """Straight-alpha ``colour [..., 4]`` over the opaque-or-empty ``accum [..., 4]`` ("over"):
-    ``lerp(accum, (rgb, 1), alpha)``; a sample of alpha 0 leaves ``accum`` as it is whatever its
-    ``rgb``, which need not be finite there (a back face's shading)."""
-    rgb = torch.where(colour[..., 3:] > 0, colour[..., :3], 0.0)
+    ``lerp(accum, (rgb, 1), alpha)``; a sample of alpha 0 leaves ``accum`` as it is even where
+    its ``rgb`` is not finite (a back face's shading). A finite ``rgb`` is kept at alpha 0: the
+    gradient of a transparent texel's alpha, ``rgb - accum``, says what it would show."""
+    rgb = colour[..., :3]
+    rgb = torch.where((colour[..., 3:] > 0) | torch.isfinite(rgb), rgb, 0.0)
     opaque = torch.cat([rgb, torch.ones_like(colour[..., 3:])], dim=-1)
     return torch.lerp(accum, opaque, colour[..., 3:])
