@@ -33,7 +33,7 @@ from ..io.atomic import copy_atomic, write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
 from ..limits import MAX_TEXTURE_SIZE
-from ..settings import COLD_START, Config, RenderConfig, ViewsConfig, load_config
+from ..settings import WARM_START, Config, RenderConfig, ViewsConfig, load_config
 from ..shading.view_sampling import FRAMING
 from .alpha_export import merged_opaque
 from .compressed_model import COMPRESSED_NAME, write_compressed_chain
@@ -64,7 +64,7 @@ COMPRESSED_CHAIN_NAME = "lods.compressed.glb"
 """The chain as engines ship it (``jobs.compressed_model``), with ``io.compress``."""
 
 STEP_PIXELS = 512
-"""The screen size that the cold start's position learning rate (``settings.COLD_START``) suits."""
+"""The screen size that a baked start's position learning rate (``settings.WARM_START``) suits."""
 
 BUDGET_MIN_PIXELS = 64
 CHAIN_BUDGET = 900.0
@@ -161,9 +161,9 @@ def screen_size_settings(pixels: int) -> dict:
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
     pixel (a power of two), the reference supersampled, the model drawn with one sample per
     pixel at the GPU's mip levels and the training distances spread around the size (``LEVEL.defaults``),
-    and the cold start's position learning rate times ``sqrt(STEP_PIXELS / pixels)`` (at least 1):
-    a pixel of a small level is many times the radius's fraction that the default step is, and
-    with the default a 32-pixel level's silhouette hardly moves in its share of the budget.
+    and below ``STEP_PIXELS`` the baked start's position learning rate times ``STEP_PIXELS /
+    pixels``, so that a vertex steps the same share of a pixel at every size: with the default
+    a 32-pixel level's silhouette hardly moves in its share of the budget.
     ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
@@ -172,7 +172,7 @@ def screen_size_settings(pixels: int) -> dict:
             "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
             "mip_footprint": LEVEL.defaults.render.mip_footprint,
             "distance_spread": LEVEL.defaults.views.distance_spread,
-            "lr_positions": COLD_START.lr_positions * math.sqrt(max(1.0, STEP_PIXELS / pixels))}
+            **({"lr_positions": WARM_START.lr_positions * STEP_PIXELS / pixels} if pixels < STEP_PIXELS else {})}
 
 
 def level_budgets(levels: list[Level], seconds: float) -> list[float]:
