@@ -137,12 +137,17 @@ def level_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     ``cfg.io.level_above`` names the fitted model of the level above, that model decimated to
     ``count`` with its maps resampled to the level's size (``initial_guess_from_mesh``) as an
     alternative: the run starts from whichever scores higher on its validation views, since a
-    fitted level may already hold what the next one needs (its silhouette, its prefiltered maps)."""
+    fitted level may already hold what the next one needs (its silhouette, its prefiltered maps).
+    Where that start cannot be built (no atlas of the level's size fits it), the note says so."""
     guess = build_initial_guess(asset, cfg, count)
     if cfg.io.level_above and count is not None:
         above = merged_opaque(io.load(cfg.io.level_above))
         decimated = dataclasses.replace(above, mesh=decimate(above.mesh, count))
-        start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size).start
+        try:
+            start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size).start
+        except ConfigError as e:  # e.g. its charts, decimated, fit no atlas of the level's size
+            guess.notes.append(f"the level above was not offered as a start: {e}")
+            return guess
         guess.alternatives.append((f"the level above ({above.mesh.num_triangles} triangles) decimated", start))
     return guess
 
