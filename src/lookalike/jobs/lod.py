@@ -127,7 +127,8 @@ def classic_level(model: Asset, guess: InitialGuess, cfg: Config, folder: Path, 
     """Write the level's classic bake (decimation, atlas and projection bake at the level's count
     and texture size: its start, or a comparison where it started from the level above) as
     ``classic.glb``, which the chain's page draws beside ours."""
-    baked = guess.baked if guess.baked is not None else dict((key, asset) for key, _, asset in guess.comparisons).get("baked")
+    compared = [asset for key, _, asset in guess.comparisons if key == "baked"]
+    baked = guess.baked if guess.baked is not None else next(iter(compared), None)
     if baked is not None:
         io.save(baked, folder / CLASSIC_NAME)
 
