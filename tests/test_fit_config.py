@@ -9,6 +9,8 @@ from lookalike.errors import ConfigError
 from lookalike.fit.from_settings import loop_settings, objective
 from lookalike.settings import (
     COLD_START,
+    FIELD_START,
+    SPHERE_START,
     WARM_START,
     Config,
     learning_rates,
@@ -152,6 +154,17 @@ def test_the_objective_follows_the_configuration():
     assert made.loss_fn is smape and made.batch_size == 3 and made.outline_weight == 0.5
     assert (made.regularizer_weight, made.min_fraction, made.decay_fraction) == (2.0, 0.1, 0.4)
     assert objective(Config()).regularizer_weight is None  # the heuristic
+
+
+@pytest.mark.parametrize("input, expected", [("rook.py", FIELD_START), ("gear.GLSL", FIELD_START),
+                                             ("bunny.glb", WARM_START), ("", WARM_START)])
+def test_an_implicit_surfaces_bake_steps_its_texels_more_finely(input, expected):
+    """A field's start samples its own material at the surface: its texels need small corrections."""
+    cfg = config_from_dict({"io": {"input": input}, "latent": {"init": "bake"}})
+    assert learning_rates(cfg) == (expected.lr_positions, expected.lr_textures)
+    assert FIELD_START.lr_textures < WARM_START.lr_textures
+    assert learning_rates(config_from_dict({"io": {"input": input}, "latent": {"init": "sphere"}}))[1] == \
+        SPHERE_START.lr_textures
 
 
 def test_a_users_mesh_starts_warm():

@@ -180,6 +180,14 @@ def test_the_fingerprint_follows_the_fields_source(tmp_path):
     assert torch.equal(first.mesh.v_pos, second.mesh.v_pos) and first.fingerprint() != second.fingerprint()
 
 
+def test_the_settings_know_a_field_by_the_suffixes_its_readers_take(tmp_path):
+    from lookalike.io.registry import readable_extensions
+    from lookalike.settings import FIELD_SUFFIXES
+    python, glsl = write_fields(tmp_path)
+    assert {python.suffix, glsl.suffix} == set(FIELD_SUFFIXES) and set(FIELD_SUFFIXES) <= set(readable_extensions())
+    assert io.load(python).field is not None
+
+
 @pytest.mark.slow
 def test_a_short_run_on_a_field_beats_marching_cubes_then_decimation(tmp_path):
     from lookalike.jobs.simplify import simplify

@@ -52,6 +52,8 @@ LOSSES = ("l1-tonemapped", "l2-tonemapped", "l2", "smape", "relative-l2")
 """The image losses ``optim.loss`` names (``lookalike.fit.losses.IMAGE_LOSSES``)."""
 INITS = ("bake", "source", "average", "random", "sphere")
 WARM_INITS = ("bake", "source")
+FIELD_SUFFIXES = (".py", ".glsl")
+"""The inputs that are implicit surfaces (``lookalike.io.field_python``, ``lookalike.io.field_glsl``)."""
 ALPHA_EXPORTS = ("auto", "mask", "blend")
 POSITION_STEPS = ("uniform", "local")
 MIP_FOOTPRINTS = ("supersampled", "engine")
@@ -303,7 +305,8 @@ class OptimConfig:
             ``WARM_START``'s where they start close (``bake``, ``source``, or a user's mesh
             fitted onto the surface, ``io.init_mesh``; see ``start_defaults``).
         lr_textures: Adam's lr_0 for texels (values in [0, 1]); ``None`` picks
-            ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions``.
+            ``COLD_START``'s or ``WARM_START``'s, as for ``lr_positions`` (``FIELD_START``'s for
+            an implicit surface's start, ``start_defaults``).
         lr_emissive: Adam's lr_0 for the emission map (where the input emits, or the reference
             is path traced), in units of the start's brightest emission (at least 1; see
             ``lookalike.fit.textured_mesh``); ``None``: ``emissive_learning_rate``.
@@ -487,6 +490,11 @@ COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0,
 """Where the textures start from scratch (``average``, ``random``)."""
 WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
+FIELD_START = StartDefaults(lr_positions=0.0003, lr_textures=0.0005, lr_decades=1.0, outline_views=2)
+"""Where the input is an implicit surface (``FIELD_SUFFIXES``) and the textures start as its own
+material and normals sampled at the marching-cubes surface: exact but where the surface moves,
+so the texels need small corrections only, and ``WARM_START``'s texel rate leaves a blotchy
+grain in roughness and metalness that perceptual error sees on a field's flat materials."""
 SPHERE_START = StartDefaults(lr_positions=0.01, lr_textures=0.03, lr_decades=2.0, outline_views=2)
 """Where the mesh too starts from scratch (``sphere``): its vertices travel a good part of the
 radius, and the outline views pull the silhouette into shape."""
@@ -494,16 +502,17 @@ radius, and the outline views pull the silhouette into shape."""
 
 def start_defaults(config: Config) -> StartDefaults:
     """``WARM_START`` for a user's mesh (``io.init_mesh``: it is fitted onto the input's surface
-    and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``,
-    ``SPHERE_START`` for ``sphere``, else ``COLD_START``."""
+    and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``
+    (``FIELD_START`` where the input is an implicit surface), ``SPHERE_START`` for ``sphere``,
+    else ``COLD_START``."""
     if config.io.init_mesh or config.latent.init in WARM_INITS:
-        return WARM_START
+        return FIELD_START if Path(config.io.input).suffix.lower() in FIELD_SUFFIXES else WARM_START
     return SPHERE_START if config.latent.init == "sphere" else COLD_START
 
 
 def learning_rates(config: Config) -> tuple[float, float]:
     """Adam's ``(lr_0 of positions, lr_0 of texels)``: ``optim.lr_positions`` and
-    ``optim.lr_textures`` where set, else the warm or cold defaults for ``latent.init``.
+    ``optim.lr_textures`` where set, else ``start_defaults``'s for ``latent.init`` and the input.
 
     Why two sets: Adam moves every parameter by about its learning rate at each step whatever
     the gradient's size, so the rate sets a noise floor; from a good bake the cold rates first
