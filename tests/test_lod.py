@@ -13,7 +13,7 @@ from lookalike.errors import ConfigError
 from lookalike.init import decimate
 from lookalike.jobs import lod as lod_job
 from lookalike.jobs.lod import LEVEL, Level, default_levels, level_settings, lod, parse_levels, switch_distance
-from lookalike.settings import config_from_dict, load_config
+from lookalike.settings import WARM_START, Config, config_from_dict, load_config
 from lookalike.shading.view_sampling import FRAMING
 from test_fit_simplify import TINY, bumpy_sphere
 from test_io_gltf import assert_valid
@@ -53,6 +53,16 @@ def test_a_level_is_fitted_at_its_size_as_an_engine_draws_it():
     assert settings["resolution"] == max(16, -(-32 * FRAMING // 1))
     assert settings["texture_size"] == 128 and settings["time_budget"] == 60.0
     assert level_settings(Level(8000, 512), 1.0)["texture_size"] == 2048
+
+
+def test_a_small_level_steps_and_validates_in_proportion_to_its_pixels():
+    """A vertex steps the same share of a pixel at every size, and a small level, whose views
+    are cheap, validates on as many more of them."""
+    large, small = level_settings(Level(8000, 512), 1.0), level_settings(Level(500, 32), 1.0)
+    assert "lr_positions" not in large and "validation" not in large
+    assert small["lr_positions"] == pytest.approx(16 * WARM_START.lr_positions)
+    assert small["validation"] == 16 * Config().views.validation
+    assert config_from_dict({"views": {"validation": small["validation"]}}).views.validation == small["validation"]
 
 
 def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tmp_path, monkeypatch):

@@ -169,8 +169,9 @@ def screen_size_settings(pixels: int) -> dict:
     pixel at the GPU's mip levels and the training distances spread around the size (``LEVEL.defaults``),
     and below ``STEP_PIXELS`` the baked start's position learning rate times ``STEP_PIXELS /
     pixels``, so that a vertex steps the same share of a pixel at every size: with the default
-    a 32-pixel level's silhouette hardly moves in its share of the budget.
-    ``ConfigError`` below ``MIN_PIXELS``."""
+    a 32-pixel level's silhouette hardly moves in its share of the budget; and as many more
+    validation views, which cost little at that size, so that the state kept is one whose gain
+    of a fraction of a dB holds beyond a few views. ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
@@ -178,7 +179,8 @@ def screen_size_settings(pixels: int) -> dict:
             "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
             "mip_footprint": LEVEL.defaults.render.mip_footprint,
             "distance_spread": LEVEL.defaults.views.distance_spread,
-            **({"lr_positions": WARM_START.lr_positions * STEP_PIXELS / pixels} if pixels < STEP_PIXELS else {})}
+            **({"lr_positions": WARM_START.lr_positions * STEP_PIXELS / pixels,
+                "validation": math.ceil(Config().views.validation * STEP_PIXELS / pixels)} if pixels < STEP_PIXELS else {})}
 
 
 def level_budgets(levels: list[Level], seconds: float) -> list[float]:
