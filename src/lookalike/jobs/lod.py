@@ -175,12 +175,15 @@ def screen_size_settings(pixels: int) -> dict:
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
-    return {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
-            "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
-            "mip_footprint": LEVEL.defaults.render.mip_footprint,
-            "distance_spread": LEVEL.defaults.views.distance_spread,
-            **({"lr_positions": WARM_START.lr_positions * STEP_PIXELS / pixels,
-                "validation": math.ceil(Config().views.validation * STEP_PIXELS / pixels)} if pixels < STEP_PIXELS else {})}
+    settings = {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
+                "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
+                "mip_footprint": LEVEL.defaults.render.mip_footprint,
+                "distance_spread": LEVEL.defaults.views.distance_spread}
+    if pixels < STEP_PIXELS:
+        scale = STEP_PIXELS / pixels
+        settings.update(lr_positions=WARM_START.lr_positions * scale,
+                        validation=math.ceil(LEVEL.defaults.views.validation * scale))
+    return settings
 
 
 def level_budgets(levels: list[Level], seconds: float) -> list[float]:
