@@ -57,11 +57,11 @@ def test_a_level_is_fitted_at_its_size_as_an_engine_draws_it():
 
 def test_a_small_level_steps_and_validates_in_proportion_to_its_pixels():
     """A vertex steps the same share of a pixel at every size, and a small level, whose views
-    are cheap, validates on as many more of them."""
+    are cheap, validates and is scored on as many more of them."""
     large, small = level_settings(Level(8000, 512), 1.0), level_settings(Level(500, 32), 1.0)
-    assert "lr_positions" not in large and "validation" not in large
+    assert not {"lr_positions", "validation", "heldout"} & set(large)
     assert small["lr_positions"] == pytest.approx(16 * WARM_START.lr_positions)
-    assert small["validation"] == 16 * Config().views.validation
+    assert small["validation"] == 16 * Config().views.validation and small["heldout"] == 16 * Config().views.heldout
     assert config_from_dict({"views": {"validation": small["validation"]}}).views.validation == small["validation"]
 
 

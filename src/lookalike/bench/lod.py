@@ -104,7 +104,7 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
     from ..jobs.bake import bake_asset
     from ..jobs.compressed_model import COMPRESSED_NAME, check_compression_tools, write_compressed
     from ..jobs.input_asset import prepare_input
-    from ..jobs.lod import lod, screen_size_settings
+    from ..jobs.lod import LEVEL, lod, screen_size_settings
 
     material = scan_material() if case.scan else None
     asset, _ = prepare_input(io_load(assets_dir / case.path), material)
@@ -127,18 +127,19 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
             paths["compressed"] = write_compressed(paths["ours"], outdir / "chain" / row["folder"] / COMPRESSED_NAME)
         models = {"input": asset, "classic": classic.asset, **{name: io_load(path) for name, path in paths.items()
                                                               if name != "classic"}}
-        scores = level_scores(reference, models, settings["resolution"], paths if judged else None)
+        scores = level_scores(reference, models, settings["resolution"], settings.get("heldout", LEVEL.defaults.views.heldout),
+                              paths if judged else None)
         rows.append(level_row(case.name, row, minutes, scores, {name: path.stat().st_size for name, path in paths.items()},
                               largest=row["level"] == 0))
     (outdir / "bench.json").write_text(json.dumps(rows, indent=2))
     return rows
 
 
-def level_scores(reference, models: dict, resolution: int, files: dict | None = None) -> dict:
+def level_scores(reference, models: dict, resolution: int, count: int, files: dict | None = None) -> dict:
     """``{name: {"psnr", "flip", "flicker"}}`` of each model of ``models`` at ``resolution``
     (and ``"psnr_three"``, ``"flip_three"`` of those whose glb ``files`` names, drawn by three.js):
-    drawn at one sample per pixel with trilinear mipmaps at the GPU's levels on the held-out views (the runs'
-    sampler, seed and count) against ``reference`` at ``REFERENCE_SPP`` per axis, and its
+    drawn at one sample per pixel with trilinear mipmaps at the GPU's levels on ``count`` held-out views (the
+    runs' sampler and seed; a level's run holds out as many) against ``reference`` at ``REFERENCE_SPP`` per axis, and its
     flicker over the orbit relative to the reference's at ``ORBIT_REFERENCE_SPP`` (``"flicker"``
     of ``"reference"`` is its own mean change)."""
     from functools import partial
@@ -157,7 +158,7 @@ def level_scores(reference, models: dict, resolution: int, files: dict | None = 
 
     centre, radius = reference.bounding_sphere()
     views = Config().views
-    heldout = HeldoutViews(reference, view_sampler(centre, radius), views.heldout, views.heldout_seed, resolution,
+    heldout = HeldoutViews(reference, view_sampler(centre, radius), count, views.heldout_seed, resolution,
                            REFERENCE_SPP)
     draw = partial(render_asset, resolution=resolution, msaa=1, footprint=ENGINE_FOOTPRINT)
     camera, light = orbit_views(centre, radius, ORBIT_FRAMES, ORBIT_DEGREES)

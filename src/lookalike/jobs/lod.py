@@ -170,8 +170,9 @@ def screen_size_settings(pixels: int) -> dict:
     and below ``STEP_PIXELS`` the baked start's position learning rate times ``STEP_PIXELS /
     pixels``, so that a vertex steps the same share of a pixel at every size: with the default
     a 32-pixel level's silhouette hardly moves in its share of the budget; and as many more
-    validation views, which cost little at that size, so that the state kept is one whose gain
-    of a fraction of a dB holds beyond a few views. ``ConfigError`` below ``MIN_PIXELS``."""
+    validation and held-out views, which cost little at that size, so that the state kept is one
+    whose gain of a fraction of a dB holds beyond a few views, and the scores reported are not
+    those of a few views either. ``ConfigError`` below ``MIN_PIXELS``."""
     if pixels < MIN_PIXELS:
         raise ConfigError(f"a screen size must be at least {MIN_PIXELS} pixels, not {pixels}")
     texture = max(MIN_TEXTURE_SIZE, 2 ** math.ceil(math.log2(pixels * TEXELS_PER_PIXEL)))
@@ -182,7 +183,8 @@ def screen_size_settings(pixels: int) -> dict:
     if pixels < STEP_PIXELS:
         scale = STEP_PIXELS / pixels
         settings.update(lr_positions=WARM_START.lr_positions * scale,
-                        validation=math.ceil(LEVEL.defaults.views.validation * scale))
+                        validation=math.ceil(LEVEL.defaults.views.validation * scale),
+                        heldout=math.ceil(LEVEL.defaults.views.heldout * scale))
     return settings
 
 
