@@ -490,7 +490,7 @@ COLD_START = StartDefaults(lr_positions=0.002, lr_textures=0.03, lr_decades=2.0,
 """Where the textures start from scratch (``average``, ``random``)."""
 WARM_START = StartDefaults(lr_positions=0.0003, lr_textures=0.005, lr_decades=1.0, outline_views=2)
 """Where the textures start from a bake or the input's own maps (``WARM_INITS``)."""
-FIELD_START = StartDefaults(lr_positions=0.0003, lr_textures=0.0005, lr_decades=1.0, outline_views=2)
+FIELD_START = WARM_START._replace(lr_textures=0.0005)
 """Where the input is an implicit surface (``FIELD_SUFFIXES``) and the textures start as its own
 material and normals sampled at the marching-cubes surface: exact but where the surface moves,
 so the texels need small corrections only, and ``WARM_START``'s texel rate leaves a blotchy

@@ -127,8 +127,8 @@ def asset_rows(case: BenchAsset, assets_dir: Path, outdir: Path, chain: list, bu
             paths["compressed"] = write_compressed(paths["ours"], outdir / "chain" / row["folder"] / COMPRESSED_NAME)
         models = {"input": asset, "classic": classic.asset, **{name: io_load(path) for name, path in paths.items()
                                                               if name != "classic"}}
-        scores = level_scores(reference, models, settings["resolution"], settings.get("heldout", LEVEL.defaults.views.heldout),
-                              paths if judged else None)
+        count = settings.get("heldout", LEVEL.defaults.views.heldout)
+        scores = level_scores(reference, models, settings["resolution"], count, paths if judged else None)
         rows.append(level_row(case.name, row, minutes, scores, {name: path.stat().st_size for name, path in paths.items()},
                               largest=row["level"] == 0))
     (outdir / "bench.json").write_text(json.dumps(rows, indent=2))
