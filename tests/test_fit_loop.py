@@ -177,6 +177,42 @@ def test_a_nan_step_rolls_back_lowers_the_learning_rate_and_carries_on():
     assert torch.isfinite(result.best.kd()).all()
 
 
+def backing_off_fitter(second_score: float, backoff: float = 0.5):
+    """A fitter validating every 10 steps (30 dB at step 10, ``second_score`` at step 20, 31
+    later), stepped to step 20; and the states it scored, by step."""
+    seen = {}
+
+    def validate(asset):
+        i = fit.progress.iteration
+        seen[i] = {"kd": fit.latent.kd().detach().clone(), "v_pos": fit.latent.v_pos.detach().clone()}
+        return {10: 30.0, 20: second_score}.get(i, 31.0)
+
+    fit = fitter(config(iterations=40, validate_every=10, position_backoff=backoff), validate=validate)
+    for _ in range(20):
+        fit.step()
+    return fit, seen
+
+
+def test_a_validation_far_below_the_best_returns_to_it_and_halves_the_position_rate():
+    fit, seen = backing_off_fitter(29.4)
+    assert fit.progress.position_scale == 0.5 and fit.progress.backoffs == 1
+    assert torch.equal(fit.latent.kd(), seen[10]["kd"]) and torch.equal(fit.latent.v_pos, seen[10]["v_pos"])
+    assert not torch.equal(seen[20]["v_pos"], seen[10]["v_pos"])
+    assert not fit.optimizer.state[fit.latent.v_pos]  # the positions' moments forgotten
+    fit.step()
+    lr = {group["name"]: group["lr"] for group in fit.optimizer.param_groups}
+    assert lr["positions"] / lr["textures"] == pytest.approx(0.5 * 0.01 / 0.05)
+    result = fit.run(progress=False)
+    assert result.backoffs == 1 and result.iterations == 40
+
+
+@pytest.mark.parametrize("second_score, backoff", [(29.6, 0.5), (20.0, 0.0)])
+def test_a_validation_within_the_margin_or_without_backoffs_keeps_the_rate_and_the_state(second_score, backoff):
+    fit, seen = backing_off_fitter(second_score, backoff)
+    assert fit.progress.position_scale == 1.0 and fit.progress.backoffs == 0
+    assert torch.equal(fit.latent.v_pos, seen[20]["v_pos"])
+
+
 def test_too_many_failures_in_a_row_stop_the_loop():
     fit = fitter(config(iterations=50, max_rollbacks=3), draw=lambda *a: toy_render(*a) * math.nan)
     result = fit.run(progress=False)

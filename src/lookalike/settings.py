@@ -334,6 +334,10 @@ class OptimConfig:
         checkpoint_seconds: write ``OUTDIR/checkpoint.pt`` at most this often.
         rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
         max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
+        position_backoff: where a validation scores this many dB below the best so far, the
+            model returns to the best state and the position learning rate halves (0: never):
+            a smooth surface that the rate shakes more than it fits gets a rate it can use,
+            while thin parts that need steps of a pixel keep them (``lookalike.fit.loop``).
         position_steps: ``"uniform"``: every vertex steps by ``lr_positions``; ``"local"``: a
             vertex steps by ``lr_positions`` times its local size against ``LOCAL_STEP_SIZE``
             (at most 1; ``lookalike.fit.position_steps``), so that a small card moves as far
@@ -359,6 +363,7 @@ class OptimConfig:
     checkpoint_seconds: float = 60.0
     rollback_lr_factor: float = 0.5
     max_rollbacks: int = 8
+    position_backoff: float = 0.0
     position_steps: str = "uniform"
 
 
@@ -452,6 +457,7 @@ class Config:
             (0 <= opt.laplacian_min_fraction <= 1, "optim.laplacian_min_fraction must lie in [0, 1]"),
             (opt.laplacian_decay_fraction > 0, "optim.laplacian_decay_fraction must be positive"),
             (0 < opt.rollback_lr_factor < 1, "optim.rollback_lr_factor must lie in (0, 1)"),
+            (opt.position_backoff >= 0, "optim.position_backoff must not be negative"),
             (opt.position_steps in POSITION_STEPS,
              f"optim.position_steps must be one of {', '.join(POSITION_STEPS)}, not {opt.position_steps!r}"),
             (0 <= lat.mask_anneal <= 1, f"latent.mask_anneal must lie in [0, 1], not {lat.mask_anneal}"),

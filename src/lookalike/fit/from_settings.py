@@ -26,7 +26,7 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
                         views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
                         lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
                         validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,
-                        max_rollbacks=opt.max_rollbacks)
+                        max_rollbacks=opt.max_rollbacks, position_backoff=opt.position_backoff)
 
 
 def objective(config: Config) -> Objective:

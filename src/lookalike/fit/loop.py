@@ -40,6 +40,9 @@ from .training_views import BatchSource
 SNAPSHOT_EVERY = 20
 """Steps between snapshots of the last good state (the rollback target)."""
 
+BACKOFF_FACTOR = 0.5
+"""What a backoff (``Fitter._back_off``) multiplies the position learning rate by."""
+
 
 @dataclass
 class LoopSettings:
@@ -56,6 +59,8 @@ class LoopSettings:
         validate_every: steps between scorings by the validator.
         rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
         max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
+        position_backoff: dB below the best validation score at which the loop returns to the
+            best state and halves the position learning rate (0: never; see ``_back_off``).
 
     No field has a default: a run's settings give them all (``fit.from_settings.loop_settings``),
     so that each default is written once, in ``lookalike.settings``.
@@ -70,6 +75,7 @@ class LoopSettings:
     validate_every: int
     rollback_lr_factor: float
     max_rollbacks: int
+    position_backoff: float
 
 
 @dataclass
@@ -82,6 +88,7 @@ class FitResult:
         losses: ``[iterations]`` training loss per step (NaN for rolled-back steps).
         seconds: wall time spent stepping (over all sessions).
         rollbacks: number of rollbacks after non-finite steps.
+        backoffs: number of returns to the best state that halved the position learning rate.
         validation: ``[(iteration, score), ...]`` the validator's scores (empty without one);
             ``iteration`` is the number of steps taken before the scoring.
         interrupted: stopped by Ctrl-C.
@@ -92,6 +99,7 @@ class FitResult:
     losses: list[float]
     seconds: float
     rollbacks: int
+    backoffs: int = 0
     validation: list[tuple[int, float]] = field(default_factory=list)
     interrupted: bool = False
 
@@ -100,11 +108,14 @@ class FitResult:
 class _Progress:
     """The loop's counters, which a checkpoint carries (the names as in ``FitResult``;
     ``total``: the planned step count, ``None`` until a time budget sets it; ``lr_scale``: the
-    learning rates' reduction after rollbacks)."""
+    learning rates' reduction after rollbacks; ``position_scale``: the position rate's after
+    backoffs)."""
 
     iteration: int = 0
     total: int | None = None
     lr_scale: float = 1.0
+    position_scale: float = 1.0
+    backoffs: int = 0
     losses: list[float] = field(default_factory=list)
     seconds: float = 0.0
     rollbacks: int = 0
@@ -141,7 +152,7 @@ class Fitter:
         torch.manual_seed(settings.seed)
         self.rng = np.random.default_rng(settings.seed)
         self.optimizer = torch.optim.Adam([
-            {"params": params, "lr": settings.learning_rates[name], "lr_0": settings.learning_rates[name]}
+            {"params": params, "lr": settings.learning_rates[name], "lr_0": settings.learning_rates[name], "name": name}
             for name, params in latent.parameter_groups().items()
         ], fused=True)
         self.progress = _Progress(total=settings.iterations)
@@ -158,12 +169,13 @@ class Fitter:
 
     def _set_learning_rates(self) -> None:
         """lr_t = lr_0 * 10^(-k t) per group (k = 0 until the total is known), times the
-        reduction after rollbacks."""
+        reduction after rollbacks (and, for the positions, after backoffs)."""
         p, k = self.progress, self.settings.lr_decay
         if k is None:
             k = 0.0 if p.total is None else learning_rate_decay(p.total, self.settings.lr_decades)
         for group in self.optimizer.param_groups:
-            group["lr"] = learning_rate(group["lr_0"], p.iteration, k) * p.lr_scale
+            scale = p.lr_scale * (p.position_scale if group["name"] == "positions" else 1.0)
+            group["lr"] = learning_rate(group["lr_0"], p.iteration, k) * scale
 
     def step(self) -> float:
         """One optimisation step; returns the total loss (NaN if the step was rolled back)."""
@@ -193,6 +205,7 @@ class Fitter:
             if p.iteration % SNAPSHOT_EVERY == 0:
                 self._snapshot()
             self.best.after_step(self.latent, p.iteration)
+            self._back_off()
         self._mark_random_state()
         return value
 
@@ -200,6 +213,23 @@ class Fitter:
         """Whether every gradient is finite (a NaN or infinity anywhere makes its sum non-finite)."""
         sums = [q.grad.sum() for q in self.latent.parameters() if q.grad is not None]
         return bool(torch.stack(sums).isfinite().all()) if sums else True
+
+    def _back_off(self) -> None:
+        """Where the validation has just scored ``position_backoff`` dB or more below the best
+        state's, return to that state, forget the positions' Adam moments and halve their
+        rate: vertices that a rate shakes off a smooth surface faster than the images pull them
+        back get a rate they can use, while a fit that climbs keeps its own."""
+        p, drop, scored = self.progress, self.settings.position_backoff, self.best.validation
+        if drop <= 0 or not scored or scored[-1][0] != p.iteration or not scored[-1][1] <= self.best.score - drop:
+            return
+        self.latent.load_state_dict(copy.deepcopy(self.best.state))
+        for group in self.optimizer.param_groups:
+            if group["name"] == "positions":
+                for param in group["params"]:
+                    self.optimizer.state.pop(param, None)
+        p.position_scale *= BACKOFF_FACTOR
+        p.backoffs += 1
+        self._snapshot()
 
     def _snapshot(self) -> None:
         """Remember the current state as the last good one (and offer it as the best)."""
@@ -244,7 +274,7 @@ class Fitter:
         if p.rollbacks_in_a_row == 0:
             self.best.validate(self.latent, p.iteration)
         return FitResult(best=self.best_model(), iterations=p.iteration, losses=list(p.losses),
-                         seconds=p.seconds, rollbacks=p.rollbacks, validation=list(self.best.validation),
+                         seconds=p.seconds, rollbacks=p.rollbacks, backoffs=p.backoffs, validation=list(self.best.validation),
                          interrupted=interrupted)
 
     def _loop(self, bar: ProgressBar, pacing: Pacing | None, stops: BetweenSteps) -> None:

@@ -33,7 +33,7 @@ from ..io.atomic import copy_atomic, write_text_atomic
 from ..io.gltf_lod_chain import write_lod_chain
 from ..io.gpu_memory import gpu_bytes
 from ..limits import MAX_TEXTURE_SIZE
-from ..settings import WARM_START, Config, RenderConfig, ViewsConfig, load_config
+from ..settings import WARM_START, Config, OptimConfig, RenderConfig, ViewsConfig, load_config
 from ..shading.view_sampling import FRAMING
 from .alpha_export import merged_opaque
 from .compressed_model import COMPRESSED_NAME, write_compressed_chain
@@ -155,18 +155,21 @@ def level_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
 
 LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=level_guess,
                     defaults=Config(render=RenderConfig(target_spp=8, latent_msaa=1, mip_footprint="engine"),
-                                    views=ViewsConfig(distance_spread=1.0)), files=classic_level)
+                                    views=ViewsConfig(distance_spread=1.0), optim=OptimConfig(position_backoff=0.5)),
+                    files=classic_level)
 """One level of the chain: ``simplify``'s start, fitted against a reference supersampled 8 x 8
 per pixel (enough that a small level's target is free of aliasing), the model drawn with one
 sample per pixel and the GPU's mip levels, as an engine draws it; training views put the object at its size times
-0.71 to 1.41 (one octave), so that the mip levels on either side of its own are fitted too."""
+0.71 to 1.41 (one octave), so that the mip levels on either side of its own are fitted too; a validation 0.5 dB
+below the best halves the position rate (a smooth scan's vertices want a quarter of the steps a thin part's do)."""
 
 
 def screen_size_settings(pixels: int) -> dict:
     """The settings that fit a model for ``pixels`` across, as ``LEVEL`` does: the picture
     framing the sphere at that size (``FRAMING``), textures of ``TEXELS_PER_PIXEL`` texels per
     pixel (a power of two), the reference supersampled, the model drawn with one sample per
-    pixel at the GPU's mip levels and the training distances spread around the size (``LEVEL.defaults``),
+    pixel at the GPU's mip levels, the training distances spread around the size and the position rate backing off
+    (``LEVEL.defaults``),
     and below ``STEP_PIXELS`` the baked start's position learning rate times ``STEP_PIXELS /
     pixels``, so that a vertex steps the same share of a pixel at every size: with the default
     a 32-pixel level's silhouette hardly moves in its share of the budget; and as many more
@@ -179,7 +182,8 @@ def screen_size_settings(pixels: int) -> dict:
     settings = {"resolution": max(16, math.ceil(pixels * FRAMING)), "texture_size": min(texture, MAX_TEXTURE_SIZE),
                 "target_spp": LEVEL.defaults.render.target_spp, "latent_msaa": LEVEL.defaults.render.latent_msaa,
                 "mip_footprint": LEVEL.defaults.render.mip_footprint,
-                "distance_spread": LEVEL.defaults.views.distance_spread}
+                "distance_spread": LEVEL.defaults.views.distance_spread,
+                "position_backoff": LEVEL.defaults.optim.position_backoff}
     if pixels < STEP_PIXELS:
         scale = STEP_PIXELS / pixels
         settings.update(lr_positions=WARM_START.lr_positions * scale,

@@ -525,6 +525,9 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
     the start where that scores better on the validation views (said in ``notes``)."""
     with s.stage("optimisation"):
         fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
+    if fit.backoffs:
+        notes.append(f"the position learning rate was halved {fit.backoffs} time(s), each time the validation "
+                     f"fell {fitter.settings.position_backoff:g} dB below the best state, which the fit returned to")
     with s.stage("alpha cutoff"):
         export, is_start = written.kept(written.finished(fit.best.export()), start)
     if is_start:
@@ -571,6 +574,7 @@ def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, me
         loss_history=np.asarray(fit.losses, dtype=np.float64),
         validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
         validation_views=cfg.views.validation, iterations=fit.iterations, rollbacks=fit.rollbacks,
+        position_backoffs=fit.backoffs,
         interrupted=interrupted, wall_time=s.seconds_used(),
         seconds_per_iteration=fit.seconds / max(fit.iterations, 1), timings=s.timings,
         config=config_to_dict(cfg), notes=notes,

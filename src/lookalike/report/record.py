@@ -106,6 +106,8 @@ class RunRecord:
         validation_views: how many validation views those scores are over.
         iterations: optimisation steps taken.
         rollbacks: steps rolled back after a non-finite loss or gradient.
+        position_backoffs: returns to the best state that halved the position learning rate
+            (``optim.position_backoff``).
         interrupted: the run was stopped before its end (the record holds the best so far).
         wall_time: seconds the whole run took.
         seconds_per_iteration: mean seconds per optimisation step.
@@ -159,6 +161,7 @@ class RunRecord:
     levels: list[dict] | None = None
     reference_views: dict | None = None
     reference_label: str = "Reference"
+    position_backoffs: int = 0
 
     @property
     def baseline(self) -> MethodResult:
@@ -186,6 +189,7 @@ class RunRecord:
             "resolution": self.resolution,
             "iterations": self.iterations,
             "rollbacks": self.rollbacks,
+            "position_backoffs": self.position_backoffs,
             "interrupted": self.interrupted,
             "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
             "final_loss": float(finite[-1]) if len(finite) else None,
