@@ -141,15 +141,20 @@ def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> b
     """A UASTC KTX2 file (Zstandard supercompressed) whose mip chain is exactly ``levels``:
     ``[h_k, w_k, 4]`` uint8 RGBA images, finest first, each half the one before (down to 1 x 1
     or fewer levels); ``linear``: non-colour data (``-linear``), else sRGB colour. The levels
-    are encoded at once, one encoder process per core (each runs on one).
+    are encoded at once, one encoder process per core (each runs on one), all with alpha where
+    any has some (``-force_alpha``): the encoder drops the alpha channel of a level that is
+    opaque, which a coarse level of a nearly opaque map can round to, and a chain's levels
+    must share one format.
     ``ConfigError`` where the encoder fails."""
     from PIL import Image
+
+    alpha = ["-force_alpha"] if any(int(level[..., 3].min()) < 255 for level in levels) else []
 
     def encode(k: int, scratch: Path) -> bytes:
         level = levels[k]
         source, target = scratch / f"level{k}.png", scratch / f"level{k}.ktx2"
         Image.fromarray(np.ascontiguousarray(level)).save(source)
-        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []),
+        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []), *alpha,
                    "-file", str(source), "-output_file", str(target)]
         result = subprocess.run(command, capture_output=True, text=True)
         if result.returncode != 0 or not target.is_file():
