@@ -169,12 +169,13 @@ class Fitter:
 
     def _set_learning_rates(self) -> None:
         """lr_t = lr_0 * 10^(-k t) per group (k = 0 until the total is known), times the
-        reduction after rollbacks (and, for the positions, after backoffs)."""
+        reduction after rollbacks (and, for the positions, after backoffs; a checkpoint of an
+        earlier version names no group, and its positions keep their rate)."""
         p, k = self.progress, self.settings.lr_decay
         if k is None:
             k = 0.0 if p.total is None else learning_rate_decay(p.total, self.settings.lr_decades)
         for group in self.optimizer.param_groups:
-            scale = p.lr_scale * (p.position_scale if group["name"] == "positions" else 1.0)
+            scale = p.lr_scale * (p.position_scale if group.get("name") == "positions" else 1.0)
             group["lr"] = learning_rate(group["lr_0"], p.iteration, k) * scale
 
     def step(self) -> float:
@@ -224,7 +225,7 @@ class Fitter:
             return
         self.latent.load_state_dict(copy.deepcopy(self.best.state))
         for group in self.optimizer.param_groups:
-            if group["name"] == "positions":
+            if group.get("name") == "positions":
                 for param in group["params"]:
                     self.optimizer.state.pop(param, None)
         p.position_scale *= BACKOFF_FACTOR
