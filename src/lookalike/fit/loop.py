@@ -223,7 +223,7 @@ class Fitter:
         p, drop, scored = self.progress, self.settings.position_backoff, self.best.validation
         if drop <= 0 or not scored or scored[-1][0] != p.iteration or not scored[-1][1] <= self.best.score - drop:
             return
-        self.latent.load_state_dict(copy.deepcopy(self.best.state))
+        self.latent.load_state_dict(self.best.state)
         for group in self.optimizer.param_groups:
             if group.get("name") == "positions":
                 for param in group["params"]:

@@ -161,7 +161,7 @@ LEVEL = Application(command="lod", outdir_suffix="-lods", initial_guess=level_gu
 per pixel (enough that a small level's target is free of aliasing), the model drawn with one
 sample per pixel and the GPU's mip levels, as an engine draws it; training views put the object at its size times
 0.71 to 1.41 (one octave), so that the mip levels on either side of its own are fitted too; a validation 0.5 dB
-below the best halves the position rate (a smooth scan's vertices want a quarter of the steps a thin part's do)."""
+below the best halves the position rate, since a smooth surface wants smaller vertex steps than thin parts do."""
 
 
 def screen_size_settings(pixels: int) -> dict:
