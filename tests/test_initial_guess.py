@@ -12,10 +12,12 @@ from test_conform import surface_distances
 
 import lookalike.init.initial_guess as initial_guess_module
 from lookalike.asset import Asset, Material, Texture
+from lookalike.asset.normals import vertex_normals
 from lookalike.errors import ConfigError
 from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
+from lookalike.init.conform import SETTLE_ROUNDS
 from lookalike.init.initial_guess import (
     UV_CHECK_SIZE,
     UV_OVERLAP_LIMIT,
@@ -184,6 +186,24 @@ def test_a_users_mesh_with_overlapping_uvs_gets_a_fresh_atlas_and_the_bake():
     assert uv_overlap(guess.start.mesh) <= UV_OVERLAP_LIMIT
     assert torch.equal(guess.start.materials[0].kd.data, guess.baked.materials[0].kd.data)
     assert any("fresh atlas" in note for note in guess.notes)
+
+
+def test_a_model_fitted_to_the_input_is_settled_back_onto_its_surface_in_a_few_rounds(monkeypatch):
+    """A fitted level, decimated, lies on the input's surface but for its decimation: a few
+    rounds without unfolding put it back (``on_surface``; a user's LOD gets the full fit, above)."""
+    asset = painted_knot()
+    lod_mesh = unwrap(decimate(asset.mesh, 300), texture_size=256)
+    lifted = dataclasses.replace(lod_mesh,
+                                 v_pos=lod_mesh.v_pos + 0.1 * vertex_normals(lod_mesh.v_pos, lod_mesh.t_pos_idx))
+    lod = Asset(mesh=lifted, materials=[Material(kd=Texture(torch.rand(64, 64, 4)), ks=Texture.constant([0.0, 0.5, 0.0]))])
+    rounds, fit = [], initial_guess_module.conform_to_surface
+    monkeypatch.setattr(initial_guess_module, "conform_to_surface",
+                        lambda *args, **kw: rounds.append((kw["rounds"], kw["unfold_passes"])) or fit(*args, **kw))
+    settled = initial_guess_from_mesh(asset, lod, "the level above", 256, on_surface=True)
+    assert rounds == [(SETTLE_ROUNDS, 0)]
+    own = max(surface_distances(lod_mesh, asset.mesh))
+    assert min(surface_distances(lifted, asset.mesh)) > 2 * own
+    assert max(surface_distances(settled.start.mesh, asset.mesh)) < 1.5 * own
 
 
 def test_a_users_mesh_is_fitted_onto_the_inputs_surface():

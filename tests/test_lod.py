@@ -113,6 +113,24 @@ def test_a_chain_runs_each_level_at_its_size_and_resumes_past_finished_levels(tm
     assert lod(bumpy_sphere(), tmp_path / "chain", levels, config=config, resume=True, progress=False) == rows
 
 
+def test_a_level_is_offered_the_level_above_decimated_and_settled_onto_the_surface(tmp_path, monkeypatch):
+    """Beside the classic bake, a level gets the fitted level above, decimated to its count and
+    put back on the input's surface with the few rounds a fitted model needs (``on_surface``)."""
+    from lookalike import io
+    from lookalike.jobs.run import run_settings
+
+    sphere = bumpy_sphere()
+    io.save(dataclasses.replace(sphere, mesh=decimate(sphere.mesh, 400)), tmp_path / "above.glb")
+    offered, settle = [], lod_job.initial_guess_from_mesh
+    monkeypatch.setattr(lod_job, "initial_guess_from_mesh",
+                        lambda *args, **kw: offered.append(kw) or settle(*args, **kw))
+    cfg = run_settings(LEVEL, None, {"level_above": str(tmp_path / "above.glb"), "texture_size": 64})
+    guess = lod_job.level_guess(sphere, cfg, 100)
+    assert offered == [{"on_surface": True}]
+    assert [name for name, _ in guess.alternatives] == ["the level above (400 triangles) decimated"]
+    assert guess.alternatives[0][1].mesh.num_triangles == guess.start.mesh.num_triangles
+
+
 def test_a_run_starts_from_the_alternative_that_scores_higher_on_its_validation_views():
     from lookalike.init.initial_guess import InitialGuess
     from lookalike.jobs.run import take_best_start

@@ -32,7 +32,7 @@ from ..errors import ConfigError
 from ..io.glb_bytes import from_glb_bytes, to_glb_bytes
 from ..phases import phase
 from .projection_bake import BakeResult, bake
-from .conform import conform_to_surface, reattach_detached_parts
+from .conform import CONFORM_ROUNDS, SETTLE_ROUNDS, UNFOLD_PASSES, conform_to_surface, reattach_detached_parts
 from .decimate import check_triangle_target
 from .unwrap import unwrap
 
@@ -309,7 +309,8 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
     return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), bake=baked, notes=[])
 
 
-def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) -> InitialGuess:
+def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
+                            on_surface: bool = False) -> InitialGuess:
     """The initial guess on a user's low-poly mesh ``lod`` (``--init-mesh``), first put back on
     the input's surface (``lookalike.init.conform``: parts cut off and moved are welded back,
     then the mesh is fitted to the surface, so that a shrunk, inflated or broken LOD starts
@@ -318,10 +319,15 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int) 
     ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its
     UVs where they are an atlas, else onto a fresh one. Its shading normals are split at the
     creases of the fitted shape, as our decimation's are (``start_mesh``): the normals it came
-    with belong to its old shape. The baseline is ``lod`` as given."""
+    with belong to its old shape. The baseline is ``lod`` as given. ``on_surface``: ``lod`` is a
+    model fitted to this input, decimated, so ``SETTLE_ROUNDS`` rounds without unfolding put it
+    back (a chain's level starting from the level above, where the full fit would take most of a
+    small level's budget)."""
+    rounds, unfold = (SETTLE_ROUNDS, 0) if on_surface else (CONFORM_ROUNDS, UNFOLD_PASSES)
     with phase("fit onto the surface"):
         mesh, welded = reattach_detached_parts(lod.mesh)
-        mesh = dataclasses.replace(conform_to_surface(mesh, asset.mesh), t_nrm_idx=None)
+        mesh = dataclasses.replace(conform_to_surface(mesh, asset.mesh, rounds=rounds, unfold_passes=unfold),
+                                   t_nrm_idx=None)
     notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, fitted onto the input's surface"
              + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else "")]
     overlap = uv_overlap(mesh) if mesh.uv else None

@@ -145,7 +145,8 @@ def level_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
         above = merged_opaque(io.load(cfg.io.level_above))
         decimated = dataclasses.replace(above, mesh=decimate(above.mesh, count))
         try:
-            start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size).start
+            start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size,
+                                            on_surface=True).start
         except ConfigError as e:  # e.g. its charts, decimated, fit no atlas of the level's size
             guess.notes.append(f"the level above was not offered as a start: {e}")
             return guess
