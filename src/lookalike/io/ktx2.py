@@ -154,8 +154,8 @@ def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> b
         level = levels[k]
         source, target = scratch / f"level{k}.png", scratch / f"level{k}.ktx2"
         Image.fromarray(np.ascontiguousarray(level)).save(source)
-        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []), *alpha,
-                   "-file", str(source), "-output_file", str(target)]
+        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []),
+                   *alpha, "-file", str(source), "-output_file", str(target)]
         result = subprocess.run(command, capture_output=True, text=True)
         if result.returncode != 0 or not target.is_file():
             tail = (result.stderr or result.stdout).strip().splitlines()[-1:] or ["no output"]
