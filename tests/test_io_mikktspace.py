@@ -18,6 +18,10 @@ from lookalike.asset.normals import crease_normal_index
 from lookalike.io.mikktspace import mikktspace_tangents
 from lookalike.io.normal_frames import reexpress_normal_map, reexpress_normal_map_python
 
+pytestmark = pytest.mark.timeout(120)
+"""Each test's limit, far above its second or so (the npm package's first install included): node
+never holds up the suite."""
+
 SCRIPT = Path(__file__).with_name("mikktspace_oracle.js")
 
 

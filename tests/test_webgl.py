@@ -18,6 +18,10 @@ from lookalike.shading.pipeline import render
 from lookalike.shading.view_sampling import random_views
 from lookalike.webgl import render_threejs, require_threejs
 
+pytestmark = pytest.mark.timeout(300)
+"""Each test's limit, far above its few seconds (the npm packages' first install included): node
+and Chromium never hold up the suite."""
+
 
 @pytest.fixture(scope="module")
 def modules():

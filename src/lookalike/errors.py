@@ -39,3 +39,40 @@ class UserCodeError(LookalikeError):
         self.path, self.line, self.problem = Path(path), line, problem
         where = "".join([f", line {line}" if line else "", f", in {function}" if function else ""])
         super().__init__(f"{self.path}{where}: {problem}")
+
+
+class ReferenceCoverageError(LookalikeError):
+    """The reference does not show the input (its views cover far less than the input's own
+    outline), so a fit to it would mean nothing."""
+
+
+class ExternalToolTimeout(LookalikeError):
+    """An external program (an encoder, Blender, a browser) gave no answer within its deadline,
+    twice (``lookalike.external_tools``).
+
+    ``ExternalToolTimeout("basisu", "level1.png", 45)`` reads
+    ``"basisu: no answer on level1.png after 45 s (killed, tried twice)"``.
+    """
+
+    def __init__(self, tool: str, subject: str, seconds: float):
+        self.tool, self.subject, self.seconds = tool, subject, seconds
+        super().__init__(f"{tool}: no answer on {subject} after {round(seconds, 1):g} s (killed, tried twice)")
+
+    def __reduce__(self):
+        return type(self), (self.tool, self.subject, self.seconds)
+
+
+class OutputsIncomplete(LookalikeError):
+    """A job wrote its outputs except one, which failed; what was written stays in the output
+    folder (with the checkpoint), where a failed job otherwise leaves the folder as it found it.
+
+    ``OutputsIncomplete("out", "model.compressed.glb", "gltfpack: ...")`` reads
+    ``"out: model.compressed.glb was not written (gltfpack: ...); the other outputs were"``.
+    """
+
+    def __init__(self, outdir: str | Path, missing: str, cause: str | BaseException):
+        self.outdir, self.missing, self.cause = Path(outdir), missing, str(cause)
+        super().__init__(f"{self.outdir}: {missing} was not written ({self.cause}); the other outputs were")
+
+    def __reduce__(self):
+        return type(self), (self.outdir, self.missing, self.cause)

@@ -11,8 +11,9 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..io.gltf_data import triangle_count
 from ..threads import thread_count
-from .process import run_worker
+from .process import run_worker, worker_deadline
 
 CAGE_FRACTION = 0.02
 """Rays start this fraction of the reference's bounding-box diagonal above the low-poly surface
@@ -26,6 +27,10 @@ PADDING = 4
 
 SAMPLES = 4
 """Cycles samples per texel while baking (antialiasing within the texel)."""
+
+SECONDS_PER_TEXEL_SAMPLE = 1.5e-5
+"""Seconds the worker may take per texel and sample of its maps (all its bakes together): about
+ten times what Blender takes (``docs/judge.md``)."""
 
 BASE_COLOUR_PASS = "DIFFUSE"
 """How the base colour is baked: ``"DIFFUSE"`` (the DIFFUSE bake's COLOR pass, what users do,
@@ -58,7 +63,9 @@ def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, tria
     about ``triangles`` triangles with ``texture_size``-texel square maps; write ``output_glb``.
 
     Raises:
-        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed.
+        ConfigError: ``bpy`` is not installed; JudgeError: Blender failed; ExternalToolTimeout:
+            Blender ran past its deadline (the reference's triangles and
+            ``SECONDS_PER_TEXEL_SAMPLE``), twice.
     """
     output_glb = Path(output_glb).resolve()
     output_glb.parent.mkdir(parents=True, exist_ok=True)
@@ -69,7 +76,9 @@ def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, tria
                "padding": int(padding), "samples": int(samples), "threads": threads or thread_count(),
                "cage_fraction": float(cage_fraction), "margin": int(margin),
                "base_colour_pass": base_colour_pass}
-        total = run_worker("decimate_bake_worker", job)
+        work = SECONDS_PER_TEXEL_SAMPLE * texture_size ** 2 * samples
+        total = run_worker("decimate_bake_worker", job, worker_deadline(triangle_count(reference_glb), work),
+                           Path(reference_glb).name)
         figures = json.loads(stats.read_text())
     return BlenderBake(output_glb, figures["input_triangles"], figures["triangles"],
                        {**figures["seconds"], "total": total})

@@ -12,7 +12,11 @@ supercompressed; ``assemble_levels`` then joins the levels into one file. UASTC 
 4 x 4 block on its own (no codebook shared across a level, unlike ETC1S), so a level encoded
 alone is the level it would be in a chain, and the mips stay exactly the given ones rather than
 the encoder's own filtered ones. Normal maps and other non-colour data are encoded with linear
-metrics (``-linear``), as Khronos recommends UASTC for normal maps.
+metrics (``-linear``), as Khronos recommends UASTC for normal maps. Each encoder runs with
+``-no_multithreading``: basisu's job pool can lose a wakeup when it shuts down (a worker thread
+sleeps forever and the encoder with it), and a pool of one thread has no worker to lose; the
+levels already run one process per core, so only the finest level of a large map loses threads.
+Every call of ``basisu`` has a deadline scaled to its pixels (``lookalike.external_tools``).
 
 Container (KTX 2.0 specification): an 80-byte header (identifier, ``vkFormat``, ``typeSize``,
 size, ``levelCount``, ``supercompressionScheme``, offsets of the data format descriptor (DFD),
@@ -26,7 +30,6 @@ from __future__ import annotations
 import os
 import shutil
 import struct
-import subprocess
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -35,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..external_tools import RunningTools, run_tool
 from ..threads import available_cores
 
 IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
@@ -136,6 +140,28 @@ UASTC_LEVEL = 1
 """``basisu -uastc_level``: 1 encodes a 2048² map in 8.5 s at 51.0 dB against its texels, 2 in
 20 s at 52.1 dB (one core each)."""
 
+BASISU_BASE_S = 30.0
+"""Seconds any run of ``basisu`` may take besides its pixels (starting it, on a busy machine)."""
+
+ENCODE_SECONDS_PER_PIXEL = 2e-5
+"""Seconds encoding a level may take per pixel: about ten times what one core takes."""
+
+DECODE_SECONDS_PER_PIXEL = 4e-5
+"""Seconds ``basisu -unpack`` may take per pixel of the chain (it transcodes every level to
+every format it knows and writes each as a PNG): about ten times what one core takes."""
+
+
+def encode_deadline(pixels: int) -> float:
+    """``BASISU_BASE_S + ENCODE_SECONDS_PER_PIXEL * pixels``: how long encoding a level of
+    ``pixels`` may take."""
+    return BASISU_BASE_S + ENCODE_SECONDS_PER_PIXEL * pixels
+
+
+def decode_deadline(pixels: int) -> float:
+    """``BASISU_BASE_S + DECODE_SECONDS_PER_PIXEL * pixels``: how long decoding a chain of
+    ``pixels`` (its levels together) may take."""
+    return BASISU_BASE_S + DECODE_SECONDS_PER_PIXEL * pixels
+
 
 def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> bytes:
     """A UASTC KTX2 file (Zstandard supercompressed) whose mip chain is exactly ``levels``:
@@ -144,8 +170,8 @@ def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> b
     are encoded at once, one encoder process per core (each runs on one), all with alpha where
     any has some (``-force_alpha``): the encoder drops the alpha channel of a level that is
     opaque, which a coarse level of a nearly opaque map can round to, and a chain's levels
-    must share one format.
-    ``ConfigError`` where the encoder fails."""
+    must share one format. Each level has ``encode_deadline`` of its pixels.
+    ``ConfigError`` where the encoder fails, ``ExternalToolTimeout`` where it hangs."""
     from PIL import Image
 
     alpha = ["-force_alpha"] if any(int(level[..., 3].min()) < 255 for level in levels) else []
@@ -154,31 +180,41 @@ def encode_mip_chain(levels: list[np.ndarray], linear: bool, encoder: Path) -> b
         level = levels[k]
         source, target = scratch / f"level{k}.png", scratch / f"level{k}.ktx2"
         Image.fromarray(np.ascontiguousarray(level)).save(source)
-        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), *(["-linear"] if linear else []),
-                   *alpha, "-file", str(source), "-output_file", str(target)]
-        result = subprocess.run(command, capture_output=True, text=True)
+        command = [str(encoder), "-ktx2", "-uastc", "-uastc_level", str(UASTC_LEVEL), "-no_multithreading",
+                   *(["-linear"] if linear else []), *alpha, "-file", str(source), "-output_file", str(target)]
+        result = run_tool(command, tool=encoder.name, subject=source.name,
+                          deadline=encode_deadline(level.shape[0] * level.shape[1]), running=running)
         if result.returncode != 0 or not target.is_file():
             tail = (result.stderr or result.stdout).strip().splitlines()[-1:] or ["no output"]
             raise ConfigError(f"{encoder}: could not encode a {level.shape[1]}x{level.shape[0]} texture level "
                               f"to KTX2 ({tail[0]})")
         return target.read_bytes()
 
+    running = RunningTools()
     with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch, \
             ThreadPoolExecutor(max_workers=available_cores()) as pool:
-        return assemble_levels(list(pool.map(lambda k: encode(k, Path(scratch)), range(len(levels)))))
+        try:
+            return assemble_levels(list(pool.map(lambda k: encode(k, Path(scratch)), range(len(levels)))))
+        except BaseException:  # one level failed, or Ctrl-C: the others' encoders are not waited for
+            pool.shutdown(wait=False, cancel_futures=True)
+            running.stop()
+            raise
 
 
 def decode_mip_chain(data: bytes, encoder: Path) -> list[np.ndarray]:
     """The levels of a UASTC KTX2 file, finest first, as ``[h_k, w_k, 4]`` uint8 RGBA, decoded
     by ``encoder``'s transcoder (``basisu -unpack``: UASTC transcodes to ASTC 4 x 4 exactly,
-    whose decoded pixels are read). ``ValueError`` where it cannot be decoded."""
+    whose decoded pixels are read), within ``decode_deadline`` of the chain's pixels.
+    ``ValueError`` where it cannot be decoded, ``ExternalToolTimeout`` where the transcoder hangs."""
     from PIL import Image
 
-    count = len(read_ktx2(data).levels)
+    chain = read_ktx2(data)
+    count = len(chain.levels)
+    pixels = sum(max(1, chain.width >> k) * max(1, chain.height >> k) for k in range(count))
     with tempfile.TemporaryDirectory(prefix="lookalike-ktx2-") as scratch:
         (Path(scratch) / "chain.ktx2").write_bytes(data)
-        result = subprocess.run([str(encoder), "-unpack", "-no_ktx", "-file", "chain.ktx2"], cwd=scratch,
-                                capture_output=True, text=True)
+        result = run_tool([str(encoder), "-unpack", "-no_ktx", "-no_multithreading", "-file", "chain.ktx2"],
+                          tool=encoder.name, subject="chain.ktx2", deadline=decode_deadline(pixels), cwd=scratch)
         levels = [Path(scratch) / f"chain_unpacked_rgba_ASTC_RGBA_{k}_0000.png" for k in range(count)]
         if result.returncode != 0 or not all(level.is_file() for level in levels):
             raise ValueError(f"{encoder} could not decode the KTX2 texture")

@@ -12,10 +12,10 @@ import functools
 import glob
 import os
 import re
-import subprocess
 import sys
 
-from ..errors import ConfigError
+from ..errors import ConfigError, ExternalToolTimeout
+from ..external_tools import run_tool
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 """Mitsuba variants in order of preference."""
@@ -36,6 +36,10 @@ sensor = mi.load_dict({"type": "perspective", "film": {"type": "hdrfilm", "width
 mi.render(scene, sensor=sensor, spp=1)
 """
 """A render in a child process: does Dr.Jit's LLVM back end work with this library?"""
+
+PROBE_DEADLINE_S = 120.0
+"""Longest the probe may take (it compiles one tiny render: seconds); one that hangs is killed
+and the library passed over."""
 
 
 def _llvm_libraries() -> list[str]:
@@ -58,8 +62,9 @@ def path_tracer_variant() -> str:
     for library in _llvm_libraries():
         env = {**os.environ, "DRJIT_LIBLLVM_PATH": library}
         try:
-            probe = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, timeout=120)
-        except subprocess.TimeoutExpired:
+            probe = run_tool([sys.executable, "-c", PROBE], tool="Mitsuba's LLVM probe", subject=library,
+                             deadline=PROBE_DEADLINE_S, env=env)
+        except ExternalToolTimeout:
             continue
         if probe.returncode == 0:
             os.environ["DRJIT_LIBLLVM_PATH"] = library

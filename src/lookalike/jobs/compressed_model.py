@@ -19,6 +19,7 @@ from pathlib import Path
 from .. import io
 from ..asset import Asset, Material, Texture
 from ..errors import ConfigError
+from ..io.atomic import copy_atomic
 from ..io.gltf_lod_chain import relink_lod_chain, write_lod_chain
 from ..io.gltf_write import write_glb
 from ..io.ktx2 import ENCODER_HINT, find_encoder
@@ -68,19 +69,27 @@ def with_mip_chains(asset: Asset) -> Asset:
     return dataclasses.replace(asset, materials=[material(m) for m in asset.materials])
 
 
-def shipped(write_ktx2: Callable[[Path], None], target: Path) -> Path:
+def shipped(write_ktx2: Callable[[Path], None], target: Path,
+            finish: Callable[[Path], None] | None = None) -> Path:
     """``target`` written by ``write_ktx2`` (given a scratch ``.glb`` path to write with KTX2-only
-    textures) and then meshopt-compressed by gltfpack; returns ``target``."""
+    textures), then meshopt-compressed by gltfpack and given to ``finish`` (to edit in place),
+    all in a scratch folder: ``target`` appears complete or not at all, whichever tool fails or
+    hangs. Returns ``target``."""
     with tempfile.TemporaryDirectory(prefix="lookalike-compress-") as scratch:
-        textured = Path(scratch) / "ktx2.glb"
+        textured, packed = Path(scratch) / target.name, Path(scratch) / "packed" / target.name
         write_ktx2(textured)
-        compress_glb(textured, target)
+        packed.parent.mkdir()
+        compress_glb(textured, packed)
+        if finish is not None:
+            finish(packed)
+        copy_atomic(packed, target)
     return target
 
 
 def write_compressed(model: Path, target: Path) -> Path:
     """Write the ``.glb`` at ``model`` to ``target`` as an engine ships it (see the module
-    docstring); returns ``target``. ``ConfigError`` where a tool is missing or fails."""
+    docstring); returns ``target``. ``ConfigError`` where a tool is missing or fails,
+    ``ExternalToolTimeout`` where one hangs; ``target`` is then not written."""
     return shipped(lambda path: write_glb(with_mip_chains(io.load(model)), path, ktx2_only=True), target)
 
 
@@ -89,6 +98,5 @@ def write_compressed_chain(models: list[Path], target: Path, name: str, coverage
     (``io.gltf_lod_chain``), shipped as ``write_compressed`` ships one model, to ``target``;
     returns ``target``."""
     levels = [with_mip_chains(io.load(model)) for model in models]
-    shipped(lambda path: write_lod_chain(levels, path, name, coverages, ktx2_only=True), target)
-    relink_lod_chain(target)
-    return target
+    return shipped(lambda path: write_lod_chain(levels, path, name, coverages, ktx2_only=True), target,
+                   finish=relink_lod_chain)

@@ -13,7 +13,9 @@ the chain's, split over the levels by their sizes (``level_budgets``). ``lods.js
 levels; ``lods.glb`` holds them as engines load a chain (``MSFT_lod``, nodes ``NAME_LOD0 ...``),
 ``lodK.glb`` each alone (with ``io.compress``, ``lodK.compressed.glb`` and ``lods.compressed.glb``
 too), and ``report.html``
-compares each with the classic level its run started from (``jobs.lod_page``).
+compares each with the classic level its run started from (``jobs.lod_page``). A compressed file
+that fails (a tool that failed or hung) stops nothing: the chain and its other files are written,
+and the chain then ends with ``OutputsIncomplete`` naming it.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from pathlib import Path
 
 from .. import io
 from ..asset import Asset
-from ..errors import ConfigError
+from ..errors import ConfigError, OutputsIncomplete
 from ..init import decimate
 from ..init.initial_guess import InitialGuess, initial_guess_from_mesh
 from ..io.atomic import copy_atomic, write_text_atomic
@@ -40,7 +42,7 @@ from .compressed_model import COMPRESSED_NAME, write_compressed_chain
 from .input_asset import prepare_input
 from .lod_page import CLASSIC_NAME, write_chain_page
 from .outdir import CHECKPOINT_NAME, check_outdir
-from .outputs import CONFIG_NAME, METRICS_NAME, MODEL_NAME
+from .outputs import CONFIG_NAME, METRICS_NAME, MODEL_NAME, OptionalOutputs
 from .run import Application, run
 from .simplify import build_initial_guess
 
@@ -139,18 +141,23 @@ def level_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     ``count`` with its maps resampled to the level's size (``initial_guess_from_mesh``) as an
     alternative: the run starts from whichever scores higher on its validation views, since a
     fitted level may already hold what the next one needs (its silhouette, its prefiltered maps).
-    Where that start cannot be built (no atlas of the level's size fits it), the note says so."""
+    Where that start cannot be built (no atlas of the level's size fits it), the note says so.
+    The level above is decimated by the same guarded decimation as the input, and settled onto
+    the input's surface through the same guard (``initial_guess_from_mesh``); how far it then
+    strays is the alternative's distance, which becomes the start's if the run takes it."""
     guess = build_initial_guess(asset, cfg, count)
     if cfg.io.level_above and count is not None:
         above = merged_opaque(io.load(cfg.io.level_above))
         decimated = dataclasses.replace(above, mesh=decimate(above.mesh, count))
         try:
-            start = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size,
-                                            on_surface=True).start
+            settled = initial_guess_from_mesh(asset, decimated, "the level above", cfg.latent.texture_size,
+                                              on_surface=True)
         except ConfigError as e:  # e.g. its charts, decimated, fit no atlas of the level's size
             guess.notes.append(f"the level above was not offered as a start: {e}")
             return guess
-        guess.alternatives.append((f"the level above ({above.mesh.num_triangles} triangles) decimated", start))
+        label = f"the level above ({above.mesh.num_triangles} triangles) decimated"
+        guess.alternatives.append((label, settled.start))
+        guess.alternative_distances[label] = settled.start_distance
     return guess
 
 
@@ -217,7 +224,8 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
     ``options``: the run options (``jobs.run.RunOptions``) and settings every level shares by
     name (e.g. ``renderer="mitsuba"``: each level fitted to path-traced views); with ``resume``, finished levels are
     kept and an interrupted one resumed, else ``outdir`` is refused where it holds anything,
-    unless ``force``."""
+    unless ``force``. ``OutputsIncomplete`` at the end where a compressed file was not written
+    (a level whose was not keeps its checkpoint: ``resume`` writes its outputs again)."""
     outdir = Path(outdir)
     asset = input if isinstance(input, Asset) else io.load(input)
     radius = float(asset.mesh.bounding_sphere()[1])
@@ -226,14 +234,17 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
         check_outdir(outdir, force=options.get("force", False), resume=False)
     budgets = level_budgets(levels, time_budget)
     starts = [0.0] + [switch_distance(radius, c * VIEWPORT_HEIGHT) for c in switch_coverages(levels)[:-1]]
-    rows = []
+    rows, optional = [], OptionalOutputs(outdir)
     for k, (level, seconds) in enumerate(zip(levels, budgets)):
         folder = outdir / f"lod{k}"
         settings = {**level_settings(level, seconds),
                     **({"level_above": str(outdir / f"lod{k - 1}" / MODEL_NAME)} if k else {})}
         if not (resume and _finished(folder)):
-            run(LEVEL, asset, folder, config=config, **settings,
-                **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
+            try:
+                run(LEVEL, asset, folder, config=config, **settings,
+                    **{**options, "resume": resume and (folder / CHECKPOINT_NAME).is_file(), "force": True})
+            except OutputsIncomplete as e:  # the level's model, report and metrics are written: go on
+                optional.add(f"{folder.name}/{e.missing}", e.cause)
         metrics = json.loads((folder / METRICS_NAME).read_text())
         if metrics["interrupted"]:
             rows.append(level_row(k, level, settings, starts[k], folder, metrics))
@@ -246,9 +257,9 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
         write_lod_chain([io.load(outdir / row["folder"] / MODEL_NAME) for row in rows], outdir / CHAIN_NAME,
                         asset.name, switch_coverages(levels))
         if all("compressed" in row for row in rows):
-            write_compressed_chain([outdir / row["folder"] / MODEL_NAME for row in rows],
-                                   outdir / COMPRESSED_CHAIN_NAME,
-                                   asset.name, switch_coverages(levels))
+            with optional.attempt(COMPRESSED_CHAIN_NAME):
+                write_compressed_chain([outdir / row["folder"] / MODEL_NAME for row in rows],
+                                       outdir / COMPRESSED_CHAIN_NAME, asset.name, switch_coverages(levels))
         if all("classic" in row for row in rows):
             cfg = load_config(outdir / rows[0]["folder"] / CONFIG_NAME)
             write_chain_page(outdir, prepare_input(asset, options.get("material_override"))[0], rows,
@@ -258,6 +269,7 @@ def lod(input: str | Path | Asset, outdir: str | Path, levels: list[Level], *, c
                                 f"{FOVY_DEGREES:g} degrees, pixels the coverage where the level above gives way",
              "radius": radius, "coverages": switch_coverages(levels), "levels": rows}
     write_text_atomic(outdir / "lods.json", json.dumps(chain, indent=2))
+    optional.check()
     return rows
 
 

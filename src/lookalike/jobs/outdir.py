@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 from typing import Iterator
 
-from ..errors import ConfigError
+from ..errors import ConfigError, OutputsIncomplete
 
 CHECKPOINT_NAME = "checkpoint.pt"
 
@@ -44,10 +44,13 @@ def prepare_outdir(outdir: str | Path, *, force: bool, resume: bool) -> Path:
 @contextlib.contextmanager
 def left_as_found(outdir: Path) -> Iterator[None]:
     """Run the block; if it fails, and ``outdir`` did not exist before it, remove ``outdir``,
-    unless an interruption (Ctrl-C, SIGTERM) left a checkpoint in it to resume from."""
+    unless an interruption (Ctrl-C, SIGTERM) left a checkpoint in it to resume from, or the
+    block wrote its outputs but one (``OutputsIncomplete``: they, and the checkpoint, stay)."""
     created = not Path(outdir).exists()
     try:
         yield
+    except OutputsIncomplete:
+        raise
     except KeyboardInterrupt:
         if created and not (Path(outdir) / CHECKPOINT_NAME).exists():
             shutil.rmtree(outdir, ignore_errors=True)

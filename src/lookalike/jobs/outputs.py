@@ -4,7 +4,9 @@ PNG textures), ``config.toml``, ``report.html`` with ``report_files/``, and ``me
 Outputs appear only when complete: a job writes them into ``staged_outputs``, a temporary
 folder inside the output folder, which is moved into place entry by entry when every output
 is written (``metrics.json`` last, so its presence means the rest is there) and removed
-otherwise, leaving the folder as it was.
+otherwise, leaving the folder as it was. An output that needs an external tool
+(``model.compressed.glb``) is optional (``OptionalOutputs``): where it fails or hangs the others
+are written all the same, and the job then ends with ``OutputsIncomplete``.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import Iterator
 
 from .. import io
 from ..asset import Asset
+from ..errors import LookalikeError, OutputsIncomplete
 from ..io.atomic import TEMP_PREFIX, write_text_atomic
 from ..report.html import write_report
 from ..report.record import RunRecord
@@ -46,6 +49,36 @@ def staged_outputs(outdir: Path) -> Iterator[Path]:
             os.replace(entry, target)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+class OptionalOutputs:
+    """The outputs of a job that it writes where it can: a ``LookalikeError`` in one (a tool that
+    failed or hung) skips the rest of its block and is noted, so that the other outputs are still
+    written; ``check()``, once they are in place, raises ``OutputsIncomplete`` for it."""
+
+    def __init__(self, outdir: Path):
+        self.outdir = outdir
+        self.failed: list[tuple[str, str]] = []
+
+    @contextlib.contextmanager
+    def attempt(self, name: str, notes: list[str] | None = None) -> Iterator[None]:
+        """Run the block that writes output ``name``; where it raises a ``LookalikeError``, note
+        it (and, given ``notes``, say so there: the report's notes) and go on."""
+        try:
+            yield
+        except LookalikeError as e:
+            self.add(name, str(e))
+            if notes is not None:
+                notes.append(f"{name} was not written: {e}")
+
+    def add(self, name: str, cause: str) -> None:
+        """Note that output ``name`` was not written, for the reason ``cause``."""
+        self.failed.append((name, cause))
+
+    def check(self) -> None:
+        """``OutputsIncomplete`` naming the first output that failed, if any did."""
+        if self.failed:
+            raise OutputsIncomplete(self.outdir, *self.failed[0])
 
 
 def write_model(asset: Asset, folder: Path, obj: bool) -> Path:

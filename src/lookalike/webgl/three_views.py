@@ -4,7 +4,8 @@ three.js draws the file as its ``GLTFLoader`` reads it (metallic-roughness, norm
 maps, ``KHR_materials_emissive_strength``, ``KHR_texture_basisu`` through its KTX2 loader,
 ``KHR_lights_punctual`` point lights in candela with inverse-square falloff), into a float render target with ``samples``-fold MSAA, without tone
 mapping, so the pixels are linear radiance as ours are. It lights by the shading normal (no
-horizon test), as real-time engines do.
+horizon test), as real-time engines do. A batch of views runs with a deadline scaled to its
+samples (``render_deadline``, ``lookalike.external_tools``).
 """
 
 from __future__ import annotations
@@ -12,7 +13,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from ..errors import ConfigError, LookalikeError
+from ..external_tools import run_tool
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 
@@ -37,8 +38,19 @@ INSTALL_HINT = ("the three.js judge needs Node.js, Chromium and two npm packages
                 f"npm install --prefix {DEFAULT_MODULES.parent} three@0.170.0 puppeteer-core@23.11.1 "
                 f"(or point {MODULES_ENVIRONMENT} at a node_modules folder holding them)")
 
-TIMEOUT_S = 600.0
-"""Longest one batch of views may take."""
+BASE_S = 120.0
+"""Seconds a batch of views may take besides drawing them: starting node and Chromium and
+loading the model, on a busy machine."""
+
+SECONDS_PER_SAMPLE = 3e-6
+"""Seconds a batch may take per sample it draws (views x pixels x MSAA samples, at least one per
+pixel): about ten times what headless Chromium takes on a busy 2-core machine without a GPU."""
+
+
+def render_deadline(views: int, resolution: int, samples: int) -> float:
+    """``BASE_S + SECONDS_PER_SAMPLE * views * resolution² * max(samples, 1)``: how long drawing
+    ``views`` pictures of ``resolution``² pixels with ``samples``-fold MSAA may take."""
+    return BASE_S + SECONDS_PER_SAMPLE * views * resolution ** 2 * max(samples, 1)
 
 
 class WebglError(LookalikeError):
@@ -76,7 +88,8 @@ def render_threejs(model: str | Path, camera: Camera, resolution: int, light: Po
     own lights (views scored as ours are); ``None`` keeps the file's. ``samples``: MSAA samples
     per pixel (0: one).
 
-    Raises ``ConfigError`` where three.js is not installed, ``WebglError`` where it fails."""
+    Raises ``ConfigError`` where three.js is not installed, ``WebglError`` where it fails,
+    ``ExternalToolTimeout`` where it runs past ``render_deadline`` twice."""
     require_threejs(modules)
     views = []
     for k in range(camera.batch_size):
@@ -90,11 +103,9 @@ def render_threejs(model: str | Path, camera: Camera, resolution: int, light: Po
         job, out = Path(scratch) / "job.json", Path(scratch) / "pictures.bin"
         job.write_text(json.dumps({"model": str(Path(model).resolve()), "views": views, "size": int(resolution),
                                    "samples": int(samples)}))
-        try:
-            done = subprocess.run(["node", str(PACKAGE / "render.js"), str(_modules(modules)), str(PACKAGE), _browser(),
-                                   str(job), str(out)], capture_output=True, text=True, timeout=TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            raise WebglError(f"three.js took longer than {TIMEOUT_S:g} s on {model}") from None
+        done = run_tool(["node", str(PACKAGE / "render.js"), str(_modules(modules)), str(PACKAGE), _browser(),
+                         str(job), str(out)], tool="three.js", subject=Path(model).name,
+                        deadline=render_deadline(camera.batch_size, resolution, samples))
         if done.returncode != 0 or not out.is_file():
             raise WebglError(f"three.js failed on {model}: {done.stderr.strip()[-2000:]}")
         pixels = np.fromfile(out, dtype=np.float32).reshape(camera.batch_size, resolution, resolution, 4)
