@@ -206,7 +206,7 @@ def test_cards_resumes_bit_exactly_where_ctrl_c_stopped_it(tmp_path, monkeypatch
 
 def test_simplify_suggests_cards_for_aggregate_geometry(tmp_path, caplog):
     result = simplify(clumps(), tmp_path / "out", triangles=60, iterations=1, config=config_from_dict(TINY),
-                      progress=False)
+                      texture_size=128, progress=False)     # 60 leaves' triangles, each its own chart
     assert "lookalike cards" in caplog.text and "lookalike cards" in result.report.read_text()
 
 

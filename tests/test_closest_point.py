@@ -99,3 +99,19 @@ def test_surface_query_respects_labels():
 def test_surface_query_needs_triangles():
     with pytest.raises(ValueError):
         SurfaceQuery(np.zeros((3, 3)), np.zeros((0, 3), dtype=np.int64))
+
+
+def test_points_certainly_beyond_a_distance_get_an_upper_bound_within_the_cover_radius():
+    """``beyond``: a point every unexamined triangle lies that far from keeps its shortlist's best,
+    no nearer than the exact answer and within the cover radius of it; nearer points stay exact."""
+    mesh = icosphere(3)
+    query = SurfaceQuery(mesh.v_pos.double().numpy(), mesh.t_pos_idx.numpy())
+    rng = np.random.default_rng(4)
+    directions = rng.normal(size=(400, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    near, far = directions[:200] * rng.uniform(0.9, 1.1, (200, 1)), directions[200:] * rng.uniform(3, 5, (200, 1))
+    points = np.concatenate([near, far])
+    exact = query.closest(points).distance
+    bounded = query.closest(points, beyond=0.5).distance
+    np.testing.assert_array_equal(bounded[:200], exact[:200])
+    assert np.all(bounded[200:] >= exact[200:] - 1e-12) and np.all(bounded[200:] <= exact[200:] + query.cover_radius)

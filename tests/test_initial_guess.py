@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 import torch
+from mesh_factory import icosphere
 from test_conform import surface_distances
 
 import lookalike.init.initial_guess as initial_guess_module
@@ -23,6 +24,7 @@ from lookalike.init.initial_guess import (
     UV_OVERLAP_LIMIT,
     Ranges,
     decimation_baseline,
+    guarded_fit,
     initial_guess,
     initial_guess_from_mesh,
     resample,
@@ -216,3 +218,29 @@ def test_a_users_mesh_is_fitted_onto_the_inputs_surface():
     assert min(surface_distances(shrunk, asset.mesh)) > 3 * own
     assert max(surface_distances(guess.start.mesh, asset.mesh)) < 1.5 * own
     assert guess.baseline is lod and torch.equal(guess.baseline.mesh.v_pos, shrunk.v_pos)
+    distance = guess.start_distance                       # how far the fitted mesh strays, as measured
+    assert distance["of"] == "lod.glb, fitted onto the input's surface" and distance["triangles"] == 300
+    assert distance["far_area"] < 0.005 and distance["guard"]["snapped"] == distance["guard"]["removed"] == 0
+
+
+def test_a_fitted_mesh_passes_the_decimations_guard():
+    """A shard left after fitting is put back on the surface; a triangle spanning empty space,
+    corners on the surface, is removed with the UV rows only it used."""
+    sphere = icosphere(4)
+    low = unwrap(decimate(sphere, 300), texture_size=256)
+    v_pos = low.v_pos.clone()
+    v_pos[low.t_pos_idx[5]] *= 1.5                              # one triangle's corners pulled outwards
+    guarded, distance = guarded_fit(low.with_positions(v_pos), sphere, "a test")
+    assert distance["guard"]["snapped"] >= 3 and distance["guard"]["removed"] == 0     # its corners and neighbours
+    assert guarded.num_triangles == 300 and distance["far_area"] < 0.005
+    chord = torch.tensor([[1.0, 0.0, 0.0], [-0.5, 0.8660254, 0.0], [-0.5, -0.8660254, 0.0]])
+    corners = low.num_vertices + torch.arange(3)
+    v_tex, t_tex_idx = low.uv[0]
+    spanning = dataclasses.replace(low, v_pos=torch.cat([low.v_pos, chord]),
+                                   t_pos_idx=torch.cat([low.t_pos_idx, corners[None]]),
+                                   uv=[(torch.cat([v_tex, torch.zeros(3, 2)]),
+                                        torch.cat([t_tex_idx, len(v_tex) + torch.arange(3)[None]]))],
+                                   t_nrm_idx=None, t_mat_idx=torch.zeros(301, dtype=torch.int64))
+    kept, distance = guarded_fit(spanning, sphere, "a test")
+    assert distance["guard"]["removed"] == 1 and kept.num_triangles == 300
+    assert kept.num_vertices == low.num_vertices and kept.uv[0][0].shape == v_tex.shape

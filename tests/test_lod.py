@@ -129,6 +129,10 @@ def test_a_level_is_offered_the_level_above_decimated_and_settled_onto_the_surfa
     assert offered == [{"on_surface": True}]
     assert [name for name, _ in guess.alternatives] == ["the level above (400 triangles) decimated"]
     assert guess.alternatives[0][1].mesh.num_triangles == guess.start.mesh.num_triangles
+    # each start says how far it strays from the input: our decimation, the level above settled
+    assert guess.start_distance["of"] == "our decimation" and guess.start_distance["triangles"] == 100
+    settled = guess.alternative_distances["the level above (400 triangles) decimated"]
+    assert settled["of"] == "the level above, fitted onto the input's surface" and settled["far_area"] < 0.005
 
 
 def test_a_run_starts_from_the_alternative_that_scores_higher_on_its_validation_views():
@@ -140,9 +144,12 @@ def test_a_run_starts_from_the_alternative_that_scores_higher_on_its_validation_
             return asset.mesh.num_triangles
 
     small, large = (dataclasses.replace(bumpy_sphere(), mesh=decimate(bumpy_sphere().mesh, n)) for n in (100, 200))
-    guess = InitialGuess(start=small, baseline=small, bake=None, notes=[], alternatives=[("the larger", large)])
+    guess = InitialGuess(start=small, baseline=small, bake=None, notes=[], alternatives=[("the larger", large)],
+                         start_distance={"of": "the smaller"},
+                         alternative_distances={"the larger": {"of": "the larger"}})
     take_best_start(guess, Views(), None)
     assert guess.start is large and guess.alternatives == [] and "started from the larger" in guess.notes[-1]
+    assert guess.start_distance == {"of": "the larger"}
     kept = InitialGuess(start=large, baseline=large, bake=None, notes=[], alternatives=[("the smaller", small)])
     take_best_start(kept, Views(), None)
     assert kept.start is large and kept.alternatives == [] and kept.notes == []

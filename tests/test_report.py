@@ -165,3 +165,17 @@ def test_the_judges_scores_fill_the_reports_slot_and_replace_an_earlier_judging(
     again = path.read_text(encoding="utf-8")
     assert again.count("Scores in Blender Cycles") == 1 and "21.00" in again and "31.00" not in again
     assert again.replace(judge_section(result(20.0), RENDERERS, None), "") == empty
+
+
+def test_the_starts_distance_reaches_the_metrics_and_the_page(tmp_path):
+    """How far the start strays (``RunRecord.start_distance``): in ``metrics.json`` as given
+    (``None`` where not measured) and one line of the page."""
+    record = _data()
+    assert record.metrics()["start_distance"] is None
+    assert "How far the start strays" not in write_report(tmp_path, record).read_text()
+    record.start_distance = {"of": "our decimation", "setting": "meshoptimizer", "triangles": 1500,
+                             "far_area": 0.0012, "mean": 0.0019, "p99": 0.0071, "far": 0.03}
+    assert record.metrics()["start_distance"]["far_area"] == 0.0012
+    page = write_report(tmp_path, record).read_text()
+    assert ("How far the start strays: our decimation by meshoptimizer, 1,500 triangles: 0.12 % of the area lies "
+            "farther than 3 % of the bounding radius") in page

@@ -75,6 +75,8 @@ def test_the_tree_keeps_its_bark_as_one_mesh_beside_card_quads(tree, tree_start)
     np.testing.assert_array_equal(tree_start.card_of_triangle < 0, bark)
     assert len(tree_start.normals) == len(cards) // 2
     assert f"kept as a mesh of {kept} triangles" in tree_start.notes[0]
+    assert tree_start.kept_distance["triangles"] == kept                     # how far it strays from the bark
+    assert tree_start.kept_distance["of"] == "the solid parts kept as a mesh beside the cards"
 
 
 def test_the_kept_mesh_has_its_own_opaque_square_of_the_one_atlas(tree, tree_start):
@@ -170,7 +172,7 @@ def test_decimating_by_halves_keeps_the_bark_one_piece(tree):
 def test_a_cards_run_writes_the_tree_with_its_bark_one_mesh_among_quads(tmp_path, tree):
     io.save(tree, tmp_path / "tree.glb")
     settings = {"views": {"pool_size": 8, "refresh_every": 2, "heldout": 4, "validation": 2},
-                "render": {"resolution": 48}, "latent": {"texture_size": 64}, "optim": {"checkpoint_seconds": 1e9}}
+                "render": {"resolution": 48}, "latent": {"texture_size": 128}, "optim": {"checkpoint_seconds": 1e9}}
     result = cards(tmp_path / "tree.glb", tmp_path / "out", triangles=BUDGET, iterations=4,
                    config=config_from_dict(settings, base=CARDS_DEFAULTS), progress=False)
     model = io.load(result.model)

@@ -4,7 +4,9 @@ Run as ``python -m lookalike.blender.decimate_bake_worker JOB.json``; imports on
 ``xatlas``, NumPy and the standard library. The job (JSON) holds ``reference`` (a glb),
 ``output`` (the glb to write), ``stats`` (a JSON file for timings), ``scratch`` (a folder for
 the baked PNGs), ``triangles``, ``texture_size``, ``padding``, ``samples``, ``threads``,
-``cage_fraction``, ``margin`` and ``base_colour_pass`` (``"DIFFUSE"`` or ``"EMIT"``).
+``cage_fraction``, ``margin`` and ``base_colour_pass`` (``"DIFFUSE"`` or ``"EMIT"``); with
+``positions`` (a path), it stops after step 2 and writes the decimation there (``write_positions``:
+``lookalike bench decimate`` measures Blender's Decimate alone).
 
 Steps, as a Blender user does them:
 
@@ -109,6 +111,17 @@ def decimate(low, ratio: float) -> None:
     if mesh.has_custom_normals:
         bpy.ops.mesh.customdata_custom_splitnormals_clear()
     mesh.shade_smooth()
+
+
+def write_positions(mesh, path: str, seconds: float) -> None:
+    """The triangle ``mesh``'s positions ``[V, 3]`` in glTF's axes (Blender's Z up turned back
+    to Y up), its triangles ``[T, 3]`` and ``seconds`` as an ``.npz`` at ``path``."""
+    positions = np.empty(len(mesh.vertices) * 3, np.float64)
+    mesh.vertices.foreach_get("co", positions)
+    x, y, z = positions.reshape(-1, 3).T
+    faces = np.empty(len(mesh.polygons) * 3, np.int64)
+    mesh.polygons.foreach_get("vertices", faces)
+    np.savez(path, v_pos=np.stack([x, z, -y], axis=1), t_pos_idx=faces.reshape(-1, 3), seconds=seconds)
 
 
 def xatlas_uvs(mesh, texture_size: int, padding: int) -> np.ndarray:
@@ -388,6 +401,9 @@ def main(job_path: str) -> None:
     low = duplicate_joined(high)
     decimate(low, float(job["triangles"]) / max(input_triangles, 1))
     timings["decimate"] = time.monotonic() - started
+    if job.get("positions"):
+        write_positions(low.data, job["positions"], timings["decimate"])
+        return
 
     started = time.monotonic()
     uv_name = set_only_uv_map(low.data, xatlas_uvs(low.data, int(job["texture_size"]), int(job["padding"])))

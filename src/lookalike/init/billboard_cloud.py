@@ -140,6 +140,9 @@ class CardCloud:
             the kept mesh.
         notes: remarks for the report.
         kept: the number of triangles of the kept mesh, the last ones of ``asset`` (0: all cards).
+        kept_distance: how far the kept mesh strays from the solid parts it stands for
+            (``lookalike.init.surface_distance``, as ``InitialGuess.start_distance`` holds it),
+            or ``None`` (all cards).
     """
 
     asset: Asset
@@ -148,6 +151,7 @@ class CardCloud:
     card_of_triangle: np.ndarray
     notes: list[str] = field(default_factory=list)
     kept: int = 0
+    kept_distance: dict | None = None
 
 
 @dataclass

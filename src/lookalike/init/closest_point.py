@@ -240,13 +240,17 @@ class SurfaceQuery:
         self.tree = cKDTree(samples, balanced_tree=False, compact_nodes=False)   # builds faster, queries as fast
         self.t_label = None if t_label is None else np.asarray(t_label, dtype=np.int64)
 
-    def closest(self, points: np.ndarray, labels: np.ndarray | None = None) -> ClosestPoints:
+    def closest(self, points: np.ndarray, labels: np.ndarray | None = None, beyond: float = np.inf) -> ClosestPoints:
         """Closest points on the mesh to ``points [N, 3]``.
 
         Args:
             points: ``[N, 3]`` float query points.
             labels: optional ``[N]`` int64: point ``i`` only considers triangles with
                 ``t_label == labels[i]`` (needs ``t_label``; every label asked for must exist).
+            beyond: a point whose shortlist already shows every other triangle at least this far
+                away is not searched further: its answer is the best of its shortlist, at least
+                ``beyond`` away and no nearer than the exact one (a point far from the mesh
+                would otherwise widen its shortlist to most of the mesh). Default: exact.
 
         Returns:
             ``ClosestPoints`` of the N points.
@@ -274,7 +278,7 @@ class SurfaceQuery:
                         points[rows], None if labels is None else labels[rows], k_used)
                     triangle[rows], bary[rows], dist[rows] = best_t, best_b, best_d
                     if k_used < self.tree.n:
-                        unresolved.append(rows[best_d > bound])
+                        unresolved.append(rows[(best_d > bound) & (bound < beyond)])
             pending = np.concatenate(unresolved) if unresolved else np.zeros(0, dtype=np.int64)
             shortlist[pending] = self._next_shortlist(points[pending], dist[pending], shortlist[pending])
         point = (bary[:, :, None] * self.corners[triangle]).sum(axis=1)

@@ -1,30 +1,50 @@
-"""Quadric-error decimation to a triangle budget, the paper's initial guess.
+"""Quadric-error decimation to a triangle budget, the paper's initial guess, chosen by how far
+it strays from the input.
 
-Positions are welded first (so that UV-seam duplicates do not open cracks), the maintained
-``fast-simplification`` library collapses edges by quadric error (Garland and Heckbert 1997),
-the result is cleaned of degenerate triangles and zero-volume fins, and UVs, materials,
-vertex colours and skin weights are carried over from the input (``transfer``). Its normals are
-split at creases sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (normal slots
-only: the values follow the positions).
+Positions are welded first (so that UV-seam duplicates do not open cracks). Then each setting of
+``CANDIDATES`` brings the mesh to the count: the maintained ``fast-simplification`` library
+(edge collapses by quadric error, Garland and Heckbert 1997, each vertex placed where its error
+is least) with and without frozen borders (with its threshold growing faster, ``FASTER``, where
+it stops above the count), and meshoptimizer's ``meshopt_simplify`` (quadric collapses onto
+existing vertices, open borders collapsed only along themselves). Each result is cleaned of
+degenerate triangles and zero-volume fins. Among those that land on the count (within
+``_NEARLY``), the one that strays least from the input is kept: no shard (the guard, below)
+first, then the least far area, then the least mean of the sampled two-sided surface distance
+(``lookalike.init.surface_distance``, ``CHOICE_SAMPLES`` points each way). Which setting
+wins depends on the input: frozen borders keep open sheets whole but stall on meshes that are
+mostly border; fast-simplification's faster ``agg`` settings reach the count where the slower
+stop above it, and leave shards on many small open parts; meshoptimizer reaches the count on
+those whole, but keeps vertices where they were and so strays a little more on smooth scans
+(``lookalike bench decimate``, ``docs/benchmarks.md``). The slowest settings
+(``FALLBACKS``) are tried only where none of these reaches the count. UVs, materials, vertex
+colours and skin weights are then carried over from the input (``transfer``), and normals split
+at creases sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (normal slots only:
+the values follow the positions).
 
-fast-simplification's ``agg`` sets how fast its error threshold grows; low values keep the
-shape better than its default 7 (``docs/benchmarks.md``) but may stop above the requested
-count. Its quadrics do not guard open borders, so small flat parts (a quad
-of two triangles) and the rims of open sheets collapse first unless border vertices are frozen
-(``preserve_border``), which in turn stalls on meshes that are mostly border. So the mesh is
-scaled to a unit bounding-box diagonal (making the threshold independent of units) and the
-first setting of ``SCHEDULE`` that reaches the count is used.
+The guard. No triangle of the result may lie farther from the input than ``GUARD`` times the
+count's feature size ``s = sqrt(4 A / (sqrt(3) n))``, the edge of an equilateral triangle of the
+mean area when ``n`` triangles cover the input's area ``A``: a triangle whose corners lie on the
+surface is nowhere farther from it than its circumradius (``s / sqrt(3)`` for that triangle),
+and decimations without shards stay within half of ``s`` on every benchmark asset, where shards
+reach ``1.3 s`` (``docs/benchmarks.md``). A triangle's distance is the largest of its corners', edge midpoints' and
+centroid's (``SurfaceGauge.triangle_distances``). A setting that leaves a shard is not chosen
+while another does not; where all do, the chosen result is repaired (``repair_shards``): the
+corners of its shards are moved to their closest points on the input, and triangles that still
+lie beyond the bound (spanning empty space) are removed.
 
-Landing on the exact count takes several runs, each over the whole input; on a large input
-(over ``COARSE_ABOVE`` triangles) one run first brings it to ``COARSE_TRIANGLES``, and the
-runs that land on the count start from there, so that the whole input is decimated once.
+Landing on the exact count takes several runs of a setting, each over the whole input; on a
+large input (over ``COARSE_ABOVE`` triangles) one run first brings it to ``COARSE_TRIANGLES``,
+and every setting runs, and is measured, from there, so that the whole input is decimated once;
+``decimate_reported`` then measures the result against the whole input once more.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+import time
+from dataclasses import dataclass, field, replace
 
 import fast_simplification
+import meshoptimizer
 import numpy as np
 
 from ..asset.index_tables import triple_copies
@@ -32,14 +52,76 @@ from ..asset.mesh import Mesh
 from ..asset.parts import triangle_parts
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
+from .surface_distance import SurfaceDistance, SurfaceGauge
 from .transfer import transfer_attributes
 from .triangle_kernels import triangle_areas, triangle_areas_python
 from .weld import weld_tolerance, weld_vertices
 
-SCHEDULE = tuple((frozen, agg) for frozen in (True, False) for agg in (3.0, 5.0, 7.0, 10.0))
-"""``(preserve_border, agg)`` settings of fast-simplification, tried in order."""
-_ATTEMPTS = 4                      # runs per setting with a corrected request to land on the exact count
+FAST_SIMPLIFICATION = "fast-simplification"
+MESHOPTIMIZER = "meshoptimizer"
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One way to simplify: ``simplifier`` (``FAST_SIMPLIFICATION`` or ``MESHOPTIMIZER``),
+    whether border vertices are frozen (fast-simplification's ``preserve_border``,
+    meshoptimizer's ``SIMPLIFY_LOCK_BORDER``), and fast-simplification's ``agg`` (how fast its
+    error threshold grows: low values keep the shape better but may stop above the count)."""
+
+    simplifier: str
+    preserve_border: bool = False
+    agg: float = 0.0
+
+    @property
+    def label(self) -> str:
+        """E.g. ``"fast-simplification (borders frozen, agg 3)"``, ``"meshoptimizer"``."""
+        options = (["borders frozen"] if self.preserve_border else []) + \
+            ([f"agg {self.agg:g}"] if self.simplifier == FAST_SIMPLIFICATION else [])
+        return self.simplifier + (f" ({', '.join(options)})" if options else "")
+
+    def run(self, unit: np.ndarray, t_pos_idx: np.ndarray, request: int) -> tuple[int, np.ndarray, np.ndarray]:
+        """Simplify ``unit [V, 3]`` (unit bounding-box diagonal) / ``t_pos_idx [T, 3]`` towards
+        ``request`` triangles: ``(triangles returned, v_pos [V', 3], t_pos_idx [T', 3])``, the
+        latter cleaned (``clean_triangles``)."""
+        if self.simplifier == FAST_SIMPLIFICATION:
+            out_pos, out_idx = fast_simplification.simplify(unit, t_pos_idx, target_count=request, agg=self.agg,
+                                                             preserve_border=self.preserve_border)
+            return len(out_idx), *clean_triangles(np.asarray(out_pos, np.float64), np.asarray(out_idx, np.int64))
+        out = np.empty(t_pos_idx.size, np.uint32)
+        count = meshoptimizer.simplify(out, np.ascontiguousarray(t_pos_idx.reshape(-1), np.uint32),
+                                       np.ascontiguousarray(unit, np.float32), target_index_count=3 * request,
+                                       target_error=_ANY_ERROR,
+                                       options=meshoptimizer.SIMPLIFY_LOCK_BORDER if self.preserve_border else 0)
+        return count // 3, *clean_triangles(unit, out[:count].reshape(-1, 3).astype(np.int64))
+
+
+CANDIDATES = (Setting(FAST_SIMPLIFICATION, False, 3.0), Setting(FAST_SIMPLIFICATION, True, 3.0),
+              Setting(MESHOPTIMIZER))
+"""The settings tried on every input (a frozen border is skipped where the mesh has none: it
+changes nothing there)."""
+FASTER = {Setting(FAST_SIMPLIFICATION, False, 3.0): Setting(FAST_SIMPLIFICATION, False, 5.0),
+          Setting(FAST_SIMPLIFICATION, True, 3.0): Setting(FAST_SIMPLIFICATION, True, 5.0)}
+"""A candidate's next setting, tried where it stops above the count: fast-simplification's
+threshold growing faster (where ``agg`` 3 reaches the count, 5 strayed as far or further on the
+benchmark assets)."""
+CHOICE_SAMPLES = 5_000
+"""Points sampled each way when candidates are compared (the first of the gauge's); the result
+chosen is measured with all of them (``decimate_reported``)."""
+FALLBACKS = (Setting(FAST_SIMPLIFICATION, True, 7.0), Setting(FAST_SIMPLIFICATION, True, 10.0),
+             Setting(FAST_SIMPLIFICATION, False, 7.0), Setting(FAST_SIMPLIFICATION, False, 10.0))
+"""Tried only where no candidate reaches the count: they do, where the others stall, but stray
+far more (``lookalike bench decimate``)."""
+SCHEDULE = tuple(Setting(FAST_SIMPLIFICATION, frozen, agg) for frozen in (True, False)
+                 for agg in (3.0, 5.0, 7.0, 10.0))
+"""The settings of fast-simplification in the order the first decimation tried them, taking the
+first that reached the count (``lookalike bench decimate`` compares with it); the coarse pass
+of a large input uses its first."""
+GUARD = 1.0
+"""No triangle of a result may lie farther from the input than this many feature sizes of its
+count (module docstring)."""
+_ATTEMPTS = 6                      # runs per setting with a corrected request to land on the exact count
 _NEARLY = 2                        # a result this close to the count is accepted; a run this far above its request stalled
+_ANY_ERROR = 1.0                   # meshoptimizer's error limit, of the unit diagonal: none, the count decides
 _ZERO_AREA = 1e-12                 # triangle area below this times the squared bbox diagonal is degenerate
 COARSE_ABOVE = 400_000
 """Inputs with more triangles are first decimated once to ``COARSE_TRIANGLES``."""
@@ -119,47 +201,204 @@ def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray, areas=triangle_areas
     return area > _ZERO_AREA * diagonal ** 2
 
 
-def _unit_frame(v_pos: np.ndarray) -> tuple[np.ndarray, float]:
+def unit_frame(v_pos: np.ndarray) -> tuple[np.ndarray, float]:
     """``(centre [3], scale)`` that map ``v_pos [V, 3]`` to a unit bounding-box diagonal."""
     lo, hi = v_pos.min(axis=0), v_pos.max(axis=0)
     return 0.5 * (lo + hi), max(float(np.linalg.norm(hi - lo)), 1e-30)
 
 
-def _simplify_to_count(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int):
-    """Quadric decimation of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` to ``triangles`` cleaned
-    triangles: for each setting of ``SCHEDULE`` in turn, run with a request corrected by the
-    shortfall until the count is exact; move to the next setting when one stops above its
-    request. Returns the closest result found ``(v_pos, t_pos_idx)``, in the input's units."""
-    centre, scale = _unit_frame(v_pos)
-    unit = (v_pos - centre) / scale
-    best = None
-    for frozen, agg in SCHEDULE:
-        request = triangles
-        for _ in range(_ATTEMPTS):
-            request = int(np.clip(request, 1, len(t_pos_idx)))
-            out_pos, out_idx = fast_simplification.simplify(unit, t_pos_idx, target_count=request, agg=agg,
-                                                             preserve_border=frozen)
-            result = clean_triangles(np.asarray(out_pos, np.float64), np.asarray(out_idx, np.int64))
-            got = len(result[1])
-            if best is None or abs(got - triangles) < abs(len(best[1]) - triangles):
-                best = result
-            if got == triangles or len(out_idx) > request + _NEARLY:
-                break
-            request += triangles - got
-        if abs(len(best[1]) - triangles) <= _NEARLY:
+def has_open_border(t_pos_idx: np.ndarray) -> bool:
+    """Whether an edge of the triangles ``t_pos_idx [T, 3]`` belongs to one triangle only."""
+    if len(t_pos_idx) == 0:
+        return False
+    edges = np.sort(t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, uses = np.unique(edges[:, 0] * (int(t_pos_idx.max()) + 1) + edges[:, 1], return_counts=True)
+    return bool((uses == 1).any())
+
+
+def feature_size(area: float, triangles: int) -> float:
+    """``s = sqrt(4 A / (sqrt(3) n))``: the edge of an equilateral triangle of area ``A / n``,
+    the mean edge length of ``n = triangles`` triangles covering the area ``A = area``."""
+    return float(np.sqrt(4.0 * area / (np.sqrt(3.0) * max(triangles, 1))))
+
+
+def land(setting: Setting, unit: np.ndarray, t_pos_idx: np.ndarray, triangles: int) -> tuple[np.ndarray, np.ndarray]:
+    """``setting`` run on ``unit [V, 3]`` / ``t_pos_idx [T, 3]`` with requests corrected by the
+    shortfall until the cleaned result has ``triangles`` triangles, at most ``_ATTEMPTS`` runs;
+    a request never leaves the range between the largest that gave too few and the smallest
+    that gave too many (cleaning makes the count jump about). Stops where a run returns more
+    than ``_NEARLY`` above its request (the setting stalled). Returns the result closest to the
+    count ``(v_pos, t_pos_idx)``, in the unit frame."""
+    best, request = None, triangles
+    too_few, too_many = 0, len(t_pos_idx) + 1
+    for _ in range(_ATTEMPTS):
+        returned, out_pos, out_idx = setting.run(unit, t_pos_idx, request)
+        got = len(out_idx)
+        if best is None or abs(got - triangles) < abs(len(best[1]) - triangles):
+            best = out_pos, out_idx
+        if got == triangles or returned > request + _NEARLY:
             break
-    return best[0] * scale + centre, best[1]
+        if got < triangles:
+            too_few = max(too_few, request)
+        else:
+            too_many = min(too_many, request)
+        request += triangles - got
+        if not too_few < request < too_many:
+            request = (too_few + too_many) // 2
+        if not too_few < request < too_many:
+            break
+    return best
+
+
+@dataclass
+class Candidate:
+    """A setting's result ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` (the input's units), its
+    ``seconds``, and where it reached the count, its ``distance`` from the input and the seconds
+    that measuring took; ``shards``: how many of its triangles lie beyond the guard's bound,
+    where ``choose`` looked (``None`` where it did not)."""
+
+    setting: Setting
+    v_pos: np.ndarray
+    t_pos_idx: np.ndarray
+    seconds: float
+    distance: SurfaceDistance | None = None
+    shards: int | None = None
+    measure_seconds: float = 0.0
+
+    def key(self) -> tuple:
+        """Order of preference: the least far area (shards), then the least mean distance."""
+        combined = self.distance.combined
+        return combined.far_area, combined.mean
+
+    def row(self) -> dict:
+        """The candidate as ``DecimationReport.candidates`` lists it."""
+        row = {"setting": self.setting.label, "triangles": len(self.t_pos_idx), "seconds": self.seconds}
+        if self.distance is not None:
+            combined = self.distance.combined
+            row.update(far_area=combined.far_area, mean=combined.mean, p99=combined.p99, shards=self.shards,
+                       measure_seconds=self.measure_seconds)
+        return row
+
+
+def try_settings(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int, gauge: SurfaceGauge,
+                 settings: tuple[Setting, ...] = CANDIDATES, fallbacks: tuple[Setting, ...] = FALLBACKS
+                 ) -> list[Candidate]:
+    """Every setting of ``settings`` landed on ``triangles`` (``land``) from ``v_pos [V, 3]`` /
+    ``t_pos_idx [T, 3]`` (and its ``FASTER`` one where it stops above the count), and those of
+    ``fallbacks`` too where none reaches the count; each that does measured by ``gauge`` on
+    ``CHOICE_SAMPLES`` points each way. A frozen border is skipped where the mesh has none."""
+    centre, scale = unit_frame(v_pos)
+    unit = (v_pos - centre) / scale
+    open_border = has_open_border(t_pos_idx)
+    tried = []
+    for group in (settings, fallbacks):
+        queue = [setting for setting in group if open_border or not setting.preserve_border]
+        while queue:
+            setting = queue.pop(0)
+            started = time.monotonic()
+            out_pos, out_idx = land(setting, unit, t_pos_idx, triangles)
+            candidate = Candidate(setting, out_pos * scale + centre, out_idx, time.monotonic() - started)
+            if abs(len(out_idx) - triangles) <= _NEARLY:
+                started = time.monotonic()
+                candidate.distance = gauge.measure(candidate.v_pos, out_idx, CHOICE_SAMPLES)
+                candidate.measure_seconds = time.monotonic() - started
+            elif setting in FASTER:
+                queue.insert(0, FASTER[setting])
+            tried.append(candidate)
+        if any(c.distance is not None for c in tried):
+            break
+    return tried
+
+
+def choose(tried: list[Candidate], triangles: int, gauge: SurfaceGauge, bound: float) -> Candidate:
+    """Of the candidates that reached the count, in order of ``Candidate.key`` (the first of
+    equals first), the first with no triangle farther than ``bound`` from ``gauge``'s surface
+    (each looked at gets its ``shards``), else the first; where none reached the count, the one
+    closest to ``triangles`` (its ``distance`` ``None``)."""
+    reached = sorted((c for c in tried if c.distance is not None), key=Candidate.key)
+    for candidate in reached:
+        started = time.monotonic()
+        candidate.shards = int((gauge.triangle_distances(candidate.v_pos, candidate.t_pos_idx, bound) > bound).sum())
+        candidate.measure_seconds += time.monotonic() - started
+        if candidate.shards == 0:
+            return candidate
+    if reached:
+        return reached[0]
+    return min(tried, key=lambda c: abs(len(c.t_pos_idx) - triangles))
+
+
+def repair_shards(gauge: SurfaceGauge, v_pos: np.ndarray, t_pos_idx: np.ndarray, bound: float
+                  ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The guard's repair of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]``: the corners of triangles
+    farther than ``bound`` from ``gauge``'s surface (``SurfaceGauge.triangle_distances``) moved
+    to their closest points on it. Returns ``(v_pos [V, 3], keep [T] bool, corners moved)``,
+    ``keep`` false for the triangles that still lie beyond ``bound`` (they span empty space)."""
+    far = gauge.triangle_distances(v_pos, t_pos_idx, bound) > bound
+    if not far.any():
+        return v_pos, ~far, 0
+    corners = np.unique(t_pos_idx[far])
+    v_pos = np.array(v_pos, np.float64)
+    v_pos[corners] = gauge.vertex_closest(v_pos[corners]).point
+    return v_pos, gauge.triangle_distances(v_pos, t_pos_idx, bound) <= bound, len(corners)
 
 
 def _coarse_pass(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int):
     """One quadric decimation of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` towards ``triangles``
     (``SCHEDULE``'s first setting, the count not exact), cleaned; in the input's units."""
-    centre, scale = _unit_frame(v_pos)
-    frozen, agg = SCHEDULE[0]
-    out_pos, out_idx = fast_simplification.simplify((v_pos - centre) / scale, t_pos_idx, target_count=triangles,
-                                                     agg=agg, preserve_border=frozen)
-    out_pos, out_idx = clean_triangles(np.asarray(out_pos, np.float64), np.asarray(out_idx, np.int64))
+    centre, scale = unit_frame(v_pos)
+    _, out_pos, out_idx = SCHEDULE[0].run((v_pos - centre) / scale, t_pos_idx, triangles)
     return out_pos * scale + centre, out_idx
+
+
+@dataclass
+class DecimationReport:
+    """How a decimation went, and how far its result strays from the input.
+
+    Attributes:
+        setting: the chosen setting's label (and what followed it: parts dropped, shards repaired).
+        triangles: the result's count.
+        distance: its two-sided distance from the input (``lookalike.init.surface_distance``, in
+            the input's bounding radii): from the whole welded input, or from the coarse mesh
+            where ``against`` is ``"coarse"`` (``decimate`` of a large input); on all the
+            gauge's points (``decimate_reported``) or ``CHOICE_SAMPLES`` (``decimate``).
+        bound: the guard's bound, in bounding radii.
+        snapped, removed: corners the guard moved onto the input, triangles it removed.
+        candidates: each setting tried (``Candidate.row``), in order.
+        seconds: the whole decimation; measure_seconds: of which measuring distances.
+        against: ``"input"`` or ``"coarse"``.
+        samples: points sampled on each surface for ``distance``.
+    """
+
+    setting: str
+    triangles: int
+    distance: SurfaceDistance
+    bound: float
+    snapped: int = 0
+    removed: int = 0
+    candidates: list[dict] = field(default_factory=list)
+    seconds: float = 0.0
+    measure_seconds: float = 0.0
+    against: str = "input"
+    samples: int = 0
+
+    @property
+    def far_area(self) -> float:
+        return self.distance.combined.far_area
+
+    @property
+    def mean(self) -> float:
+        return self.distance.combined.mean
+
+    @property
+    def p99(self) -> float:
+        return self.distance.combined.p99
+
+    def as_dict(self) -> dict:
+        """Plain values, as ``metrics.json``'s ``start_distance`` holds them."""
+        guard = {"bound": self.bound, "snapped": self.snapped, "removed": self.removed}
+        return {"of": "our decimation", "setting": self.setting, "triangles": self.triangles,
+                **self.distance.as_dict(), "against": self.against, "samples": self.samples, "guard": guard,
+                "seconds": self.seconds, "measure_seconds": self.measure_seconds, "candidates": self.candidates}
 
 
 def largest_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int) -> tuple[np.ndarray, np.ndarray]:
@@ -182,7 +421,16 @@ def largest_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int) -> t
 
 
 def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_ANGLE) -> Mesh:
-    """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes.
+    """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes:
+    ``decimate_reported``'s mesh, without measuring the result once more for the report (on all
+    the points, and for a large input against the whole input)."""
+    return _decimate(mesh, triangles, crease_angle, whole_input=False)[0]
+
+
+def decimate_reported(mesh: Mesh, triangles: int,
+                      crease_angle: float = DEFAULT_CREASE_ANGLE) -> tuple[Mesh, DecimationReport]:
+    """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes,
+    choosing among the settings by how far each strays from the input (module docstring).
 
     Args:
         mesh: the input; positions may be unwelded (coincident copies are merged within
@@ -191,29 +439,72 @@ def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_AN
             exactly this many triangles unless fins or degenerate triangles had to be removed
             after the last correction run (then within ``_NEARLY`` = 2), or unless the input is
             many disjoint parts that cannot be reduced to it: then its smallest parts are
-            dropped until it fits (``largest_parts``), and it may have a few fewer.
+            dropped until it fits (``largest_parts``), and it may have a few fewer; the guard
+            may remove a few more (``DecimationReport.removed``).
         crease_angle: dihedral angle in degrees above which an edge of the result is hard
             (``lookalike.asset.normals.crease_normal_index``).
 
     Returns:
-        A welded ``Mesh`` (``v_pos [V, 3]`` float32, ``t_pos_idx [T, 3]`` int64) with the input's
-        UV sets, materials, vertex colours and skin weights carried over (see
-        ``lookalike.init.transfer``) and normal slots ``t_nrm_idx`` split at creases (no
-        authored values). A watertight input gives a watertight result.
+        ``(mesh, report)``: a welded ``Mesh`` (``v_pos [V, 3]`` float32, ``t_pos_idx [T, 3]``
+        int64) with the input's UV sets, materials, vertex colours and skin weights carried over
+        (see ``lookalike.init.transfer``) and normal slots ``t_nrm_idx`` split at creases (no
+        authored values), a watertight input giving a watertight result; and the
+        ``DecimationReport`` (the distance measured against the whole welded input).
 
     Raises:
         ConfigError: the target is not a positive whole number below the input's count.
     """
+    return _decimate(mesh, triangles, crease_angle, whole_input=True)
+
+
+def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool) -> tuple[Mesh, DecimationReport]:
+    """``decimate_reported``; ``whole_input``: measure a large input's result against the whole
+    input too (else against its coarse mesh)."""
+    started = time.monotonic()
     triangles = check_triangle_target(triangles, mesh.num_triangles)
     src_pos = mesh.v_pos.detach().cpu().numpy().astype(np.float64)
     w_pos, welded_idx, _ = weld_vertices(src_pos, mesh.t_pos_idx.cpu().numpy(), weld_tolerance(src_pos))
-    w_pos, w_idx = clean_triangles(w_pos, welded_idx)
+    whole = w_pos, w_idx = clean_triangles(w_pos, welded_idx)
     coarse = max(COARSE_TRIANGLES, 20 * triangles)
-    if len(w_idx) > max(COARSE_ABOVE, 2 * coarse):
+    coarsened = len(w_idx) > max(COARSE_ABOVE, 2 * coarse)
+    if coarsened:
         w_pos, w_idx = _coarse_pass(w_pos, w_idx, coarse)
+    measuring = time.monotonic()
+    gauge = SurfaceGauge(w_pos, w_idx)
+    measured = time.monotonic() - measuring
+    bound = GUARD * feature_size(float(triangle_areas(w_pos, w_idx).sum()), triangles)
+    tried, distance, shards = [], None, 0
     if len(w_idx) > triangles:
-        w_pos, w_idx = _simplify_to_count(w_pos, w_idx, triangles)
+        tried = try_settings(w_pos, w_idx, triangles, gauge)
+        chosen = choose(tried, triangles, gauge, bound)
+        w_pos, w_idx, setting = chosen.v_pos, chosen.t_pos_idx, chosen.setting.label
+        distance, shards = chosen.distance, chosen.shards
+        measured += sum(c.measure_seconds for c in tried)
+    else:
+        setting = "none: the welded input has no more triangles"
     if len(w_idx) > triangles + _NEARLY:
         w_pos, w_idx = largest_parts(w_pos, w_idx, triangles)
+        setting, distance, shards = f"{setting}, its smallest parts dropped", None, None
+    measuring = time.monotonic()
+    snapped = removed = 0
+    if shards != 0:                                  # not known to be free of shards
+        w_pos, keep, snapped = repair_shards(gauge, w_pos, w_idx, bound)
+        if snapped:
+            count = len(w_idx)
+            w_pos, w_idx = clean_triangles(w_pos, w_idx[keep])
+            setting, distance, removed = f"{setting}, the guard's repair", None, count - len(w_idx)
+    if whole_input:
+        distance, samples = (SurfaceGauge(*whole) if coarsened else gauge).measure(w_pos, w_idx), gauge.samples
+    else:
+        samples = CHOICE_SAMPLES
+        if distance is None:
+            distance = gauge.measure(w_pos, w_idx, samples)
+    measured += time.monotonic() - measuring
+    against = "coarse" if coarsened and not whole_input else "input"
     low = transfer_attributes(mesh, w_pos, w_idx, welded_idx)
-    return replace(low, t_nrm_idx=crease_normal_index(low.v_pos, low.t_pos_idx, crease_angle))
+    low = replace(low, t_nrm_idx=crease_normal_index(low.v_pos, low.t_pos_idx, crease_angle))
+    report = DecimationReport(setting=setting, triangles=low.num_triangles, distance=distance,
+                              bound=bound / max(gauge.radius, 1e-300), snapped=snapped, removed=removed,
+                              candidates=[c.row() for c in tried], seconds=time.monotonic() - started,
+                              measure_seconds=measured, against=against, samples=samples)
+    return low, report

@@ -33,7 +33,10 @@ from ..io.glb_bytes import from_glb_bytes, to_glb_bytes
 from ..phases import phase
 from .projection_bake import BakeResult, bake
 from .conform import CONFORM_ROUNDS, SETTLE_ROUNDS, UNFOLD_PASSES, conform_to_surface, reattach_detached_parts
-from .decimate import check_triangle_target
+from .decimate import GUARD, check_triangle_target, feature_size, repair_shards
+from .surface_distance import SurfaceGauge
+from .triangle_kernels import triangle_areas
+from .trunk_and_cards import triangle_subset
 from .unwrap import unwrap
 
 UV_OVERLAP_LIMIT = 0.05
@@ -72,6 +75,13 @@ class InitialGuess:
             (e.g. the classic bake at each triangle count a displaced model is drawn at).
         alternatives: other starts, as ``(label, asset)``, which the run takes instead of
             ``start`` where one scores higher on its validation views (``take_start``).
+        start_distance: how far the start's mesh strays from the input, where it was measured
+            (``metrics.json``'s ``start_distance``): the sampled two-sided surface distance
+            (``lookalike.init.surface_distance``) of our decimation
+            (``DecimationReport.as_dict``), of a low-poly mesh fitted onto the surface
+            (``fitted_distance``) or of a kept trunk beside cards; ``"of"`` says which. ``None``
+            where the start holds no such mesh (a sphere, cards alone).
+        alternative_distances: ``start_distance`` of each alternative, by its label.
     """
 
     start: Asset
@@ -80,14 +90,18 @@ class InitialGuess:
     notes: list[str]
     comparisons: list[tuple[str, str, Asset]] = field(default_factory=list)
     alternatives: list[tuple[str, Asset]] = field(default_factory=list)
+    start_distance: dict | None = None
+    alternative_distances: dict[str, dict] = field(default_factory=dict)
 
     def take_start(self, label: str, start: Asset) -> None:
         """Start from ``start`` (``label``: what it is) instead, with no alternatives left; a
-        classic bake the start was stays scored, as the comparison ``"baked"``."""
+        classic bake the start was stays scored, as the comparison ``"baked"``; the start's
+        distance becomes the alternative's."""
         replaced = "the classic bake" if self.bake is not None else "the usual start"
         if self.bake is not None:
             self.comparisons.append(("baked", "Classic bake", self.baked))
         self.start, self.bake, self.alternatives = start, None, []
+        self.start_distance = self.alternative_distances.get(label)
         self.notes.append(f"started from {label}: it scored higher on the validation views than {replaced}")
 
     def __getstate__(self) -> dict:
@@ -98,7 +112,8 @@ class InitialGuess:
 
     def __setstate__(self, state: dict) -> None:
         comparisons = [(key, label, from_glb_bytes(data)) for key, label, data in state.get("comparisons", [])]
-        self.__dict__.update({**state, "comparisons": comparisons})
+        self.__dict__.update({"start_distance": None, "alternative_distances": {}, **state,
+                              "comparisons": comparisons})
 
     @property
     def baked(self) -> Asset | None:
@@ -322,12 +337,14 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
     with belong to its old shape. The baseline is ``lod`` as given. ``on_surface``: ``lod`` is a
     model fitted to this input, decimated, so ``SETTLE_ROUNDS`` rounds without unfolding put it
     back (a chain's level starting from the level above, where the full fit would take most of a
-    small level's budget)."""
+    small level's budget). Either way the fitted mesh then passes the decimation's guard against
+    shards (``guarded_fit``), and its distance from the input is the guess's ``start_distance``."""
     rounds, unfold = (SETTLE_ROUNDS, 0) if on_surface else (CONFORM_ROUNDS, UNFOLD_PASSES)
     with phase("fit onto the surface"):
         mesh, welded = reattach_detached_parts(lod.mesh)
         mesh = dataclasses.replace(conform_to_surface(mesh, asset.mesh, rounds=rounds, unfold_passes=unfold),
                                    t_nrm_idx=None)
+        mesh, distance = guarded_fit(mesh, asset.mesh, f"{lod_name}, fitted onto the input's surface")
     notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, fitted onto the input's surface"
              + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else "")]
     overlap = uv_overlap(mesh) if mesh.uv else None
@@ -340,9 +357,29 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
         guess = initial_guess(dataclasses.replace(lod, mesh=mesh), mesh, "source", size, Ranges(),
                               np.random.default_rng(0))
         notes.append(f"kept {lod_name}'s UVs and textures")
-        return InitialGuess(start=guess.start, baseline=lod, bake=None, notes=notes)
+        return InitialGuess(start=guess.start, baseline=lod, bake=None, notes=notes, start_distance=distance)
     guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
-    return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes)
+    return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes, start_distance=distance)
+
+
+def guarded_fit(mesh: Mesh, surface: Mesh, of: str) -> tuple[Mesh, dict]:
+    """``mesh``, fitted onto ``surface``, through the decimation's guard
+    (``lookalike.init.decimate.repair_shards``): the corners of triangles farther from the
+    surface than ``GUARD`` feature sizes of its count moved to their closest points on it, and
+    triangles still beyond that removed (with the rows only they used). Returns the mesh and its
+    distance from the surface as ``InitialGuess.start_distance`` holds it (``of``: what it is;
+    the guard's bound in bounding radii, the corners moved and the triangles removed)."""
+    surface_pos, surface_idx = surface.v_pos.detach().double().numpy(), surface.t_pos_idx.numpy()
+    gauge = SurfaceGauge(surface_pos, surface_idx)
+    bound = GUARD * feature_size(float(triangle_areas(surface_pos, surface_idx).sum()), mesh.num_triangles)
+    v_pos, keep, snapped = repair_shards(gauge, mesh.v_pos.detach().double().numpy(), mesh.t_pos_idx.numpy(), bound)
+    if snapped:
+        mesh = mesh.with_positions(torch.from_numpy(v_pos).to(mesh.v_pos.dtype))
+    if not keep.all():
+        mesh = triangle_subset(Asset(mesh=mesh), keep).mesh
+    distance = gauge.measure(mesh.v_pos.detach().double().numpy(), mesh.t_pos_idx.numpy())
+    guard = {"bound": bound / max(gauge.radius, 1e-300), "snapped": snapped, "removed": int((~keep).sum())}
+    return mesh, {"of": of, "triangles": mesh.num_triangles, **distance.as_dict(), "guard": guard}
 
 
 def decimation_baseline(asset: Asset, decimated: Mesh) -> Asset:

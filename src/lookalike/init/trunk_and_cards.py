@@ -15,8 +15,9 @@ has the parity of ``N``, so that the cards (two triangles each) fill the rest ex
 is under ``MIN_KEPT_TRIANGLES`` (too few for a solid shape), the input has no solid part or the
 atlas is under twice ``MIN_KEPT_TEXELS`` across, everything is cards, exactly the billboard cloud.
 
-Mesh. The solid parts are welded and decimated to ``k`` triangles (``lookalike.init.decimate``)
-by halves, each time keeping only as many connected parts as there are solid parts, those of
+Mesh. The solid parts are welded and decimated to ``k`` triangles (``lookalike.init.decimate``,
+whose guard keeps every half free of shards) by halves, each time keeping only as many
+connected parts as there are solid parts, those of
 largest area (thin branching tubes decimated to a few dozen triangles at once fall apart into
 floating pieces), unwrapped (``lookalike.init.unwrap``) into a square of
 ``r = ceil(S sqrt(a))`` texels (the atlas side ``S`` times the square root of their area share,
@@ -49,6 +50,7 @@ from ..phases import phase
 from .billboard_cloud import CHART_GAP, CardCloud, billboard_cloud
 from .decimate import decimate
 from .projection_bake import bake
+from .surface_distance import surface_distance
 from .unwrap import unwrap
 from .weld import weld_tolerance, weld_vertices
 
@@ -103,9 +105,13 @@ def trunk_and_cards(asset: Asset, triangles: int, texture_size: int, rng: np.ran
     card_of_triangle[~solid] = cloud.card_of_triangle
     start = Asset(mesh=joined_mesh(cloud.asset.mesh, low, side / texture_size),
                   materials=[merged_material(cloud.asset.materials[0], trunk, side)], source=asset.source)
+    distance = surface_distance(solid_asset.mesh.v_pos.detach().double().numpy(), solid_asset.mesh.t_pos_idx.numpy(),
+                                low.v_pos.detach().double().numpy(), low.t_pos_idx.numpy())
     return CardCloud(asset=start, normals=cloud.normals, offsets=cloud.offsets, card_of_triangle=card_of_triangle,
                      notes=[split_note(solid_part, int(solid.sum()), low.num_triangles, cloud)] + cloud.notes,
-                     kept=low.num_triangles)
+                     kept=low.num_triangles,
+                     kept_distance={"of": "the solid parts kept as a mesh beside the cards",
+                                    "triangles": low.num_triangles, **distance.as_dict()})
 
 
 def split_note(solid_part: np.ndarray, solid_triangles: int, kept: int, cloud: CardCloud) -> str:

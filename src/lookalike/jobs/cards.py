@@ -51,8 +51,9 @@ by more than about a hundredth of its size per step tears from the leaves it sta
 def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     """The billboard cloud of ``asset`` with ``count`` triangles and ``cfg.latent.texture_size``
     textures, its large solid parts (a trunk, a pot) kept beside the cards as a decimated mesh
-    where the budget allows (``lookalike.init.trunk_and_cards``), and plain decimation to the
-    same count as the baseline. Raises ``ConfigError`` for settings that do not apply
+    where the budget allows (``lookalike.init.trunk_and_cards``; how far that mesh strays from
+    those parts is the guess's ``start_distance``), and plain decimation to the same count as
+    the baseline. Raises ``ConfigError`` for settings that do not apply
     (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
     if cfg.io.init_mesh or count is None:
         raise ConfigError("cards starts from its own billboard cloud: io.init_mesh does not apply")
@@ -64,7 +65,7 @@ def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     with phase("decimation"):
         decimated = decimate(asset.mesh, count)
     return InitialGuess(start=cloud.asset, baseline=decimation_baseline(asset, decimated), bake=None,
-                        notes=list(cloud.notes))
+                        notes=list(cloud.notes), start_distance=cloud.kept_distance)
 
 
 CARDS = Application(command="cards", outdir_suffix="-cards", initial_guess=cards_guess,

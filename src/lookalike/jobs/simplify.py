@@ -16,7 +16,7 @@ import numpy as np
 from .. import io
 from ..asset import Asset
 from ..asset.parts import aggregate_traits
-from ..init import decimate
+from ..init.decimate import decimate_reported
 from ..init.initial_guess import InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh
 from ..init.sphere_start import tessellated_sphere
 from ..phases import phase
@@ -29,7 +29,8 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     """The user's mesh (``cfg.io.init_mesh``) with its own textures or a bake; for
     ``latent.init = "sphere"``, a tessellated sphere of ``count`` triangles around the input
     (its bounding sphere) with the input's mean material, beside plain decimation as the
-    baseline; else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures."""
+    baseline; else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures, how
+    far it strays from the input as the guess's ``start_distance``."""
     size = cfg.latent.texture_size
     if cfg.io.init_mesh:
         lod = io.load(cfg.io.init_mesh)
@@ -38,13 +39,14 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
     rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
     with phase("decimation"):
-        decimated = decimate(asset.mesh, count)
+        decimated, report = decimate_reported(asset.mesh, count)
     if cfg.latent.init == "sphere":
         centre, radius = asset.mesh.bounding_sphere()
         guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
         return dataclasses.replace(guess, baseline=decimation_baseline(asset, decimated),
                                    notes=["started from a tessellated sphere around the input (--init sphere)"])
-    return initial_guess(asset, decimated, cfg.latent.init, size, ranges, rng)
+    return dataclasses.replace(initial_guess(asset, decimated, cfg.latent.init, size, ranges, rng),
+                               start_distance=report.as_dict())
 
 
 def aggregate_remarks(asset: Asset) -> list[str]:
