@@ -193,13 +193,13 @@ def test_the_reference_peels_as_deep_as_the_judge_sees_where_models_peel():
 
     from lookalike.asset import Asset, Mesh
     from lookalike.fit.reference import MeshReference
-    from lookalike.jobs.run import input_reference
+    from lookalike.jobs.reference_kinds import run_reference
     from lookalike.limits import MAX_LAYERS
     from lookalike.settings import RenderConfig
 
     assert RenderConfig(layers=1).reference_layers == 1
     assert RenderConfig(layers=8).reference_layers == MAX_LAYERS == 16
     cfg = Config(render=RenderConfig(layers=8))
-    reference = input_reference(Asset(mesh=Mesh(v_pos=torch.rand(3, 3), t_pos_idx=torch.tensor([[0, 1, 2]]))), cfg,
-                                False)
+    reference = run_reference(Asset(mesh=Mesh(v_pos=torch.rand(3, 3), t_pos_idx=torch.tensor([[0, 1, 2]]))), cfg,
+                              False).renderer
     assert isinstance(reference, MeshReference) and reference.layers == MAX_LAYERS

@@ -227,6 +227,39 @@ def test_cycles_agrees_with_our_renderer_on_a_smooth_textured_sphere(tmp_path):
 
 
 @needs_blender
+def test_cycles_lights_by_an_environment_map_from_where_mitsuba_does(tmp_path, monkeypatch):
+    """A grey ball under a map with a warm spot up one side and a blue one low on another:
+    Cycles' world, turned by ``ENVIRONMENT_TURN``, lights it as Mitsuba's ``envmap`` does in our
+    frame (the turn a quarter off lights it from elsewhere, far worse)."""
+    pytest.importorskip("mitsuba", reason="needs Mitsuba 3 (the pathtrace extra)")
+    from lookalike.blender import cycles as cycles_module
+    from lookalike.io.environment_map import write_environment_map
+    from lookalike.jobs.judge_scores import score_renders
+    from lookalike.shading.fixed_lighting import environment_lighting
+    from lookalike.shading.path_tracing import mitsuba_scene, render_path_traced
+
+    rows, columns = np.mgrid[0:32, 0:64]
+    sky = np.full((32, 64, 3), 0.02, dtype=np.float32)
+    sky += 20 * np.exp(-((columns - 10) ** 2 + (rows - 10) ** 2) / 12.0)[..., None] * np.float32([1.0, 0.6, 0.2])
+    sky += 10 * np.exp(-((columns - 38) ** 2 + (rows - 19) ** 2) / 12.0)[..., None] * np.float32([0.2, 0.4, 1.0])
+    environment = write_environment_map(tmp_path / "sky.exr", sky)
+    asset = Asset(mesh=uv_sphere(24, 48), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]),
+                                                              ks=Texture.constant(LAMBERTIAN))])
+    glb = _save(asset, tmp_path / "ball.glb")
+    camera = _camera([[0.0, 0.5, 3.5], [3.0, -0.5, -1.5]], [[0.0, 0.0, 0.0]] * 2, 40.0)
+    dark = PointLight(position=torch.zeros(1, 3), intensity=torch.zeros(1, 3))
+    mitsuba = render_path_traced(mitsuba_scene(asset, environment_lighting(environment, torch.zeros(3)), 2), camera,
+                                 32, 64)
+    right, scores = cycles_module.ENVIRONMENT_TURN, {}
+    for turn in (right, right - math.pi / 2):
+        monkeypatch.setattr(cycles_module, "ENVIRONMENT_TURN", turn)
+        pictures = cycles_module.render_cycles_views(glb, camera, dark, 32, (True,), samples=64,
+                                                     environment=environment).images[True]
+        scores[turn] = score_renders(mitsuba, pictures)["psnr"]
+    assert scores[right] > 28.0 and scores[right - math.pi / 2] < scores[right] - 8, scores
+
+
+@needs_blender
 def test_shadows_off_lights_what_the_occluder_shades(tmp_path):
     from lookalike.blender.cycles import render_cycles_views
 

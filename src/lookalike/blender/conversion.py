@@ -18,6 +18,12 @@ Point lights. Ours gives a surface facing it at distance ``d`` the irradiance ``
 falloff) on that surface as ``a P / (4 pi^2 d^2)``; equal radiance needs ``P = 4 pi I``. A
 coloured intensity ``I = (r, g, b)`` becomes colour ``I / max(I)`` and power ``4 pi max(I)``.
 
+Environment maps. Mitsuba's ``envmap`` (as our path-traced reference places it) looks a
+direction ``(x, y, z)`` of our world up at column ``u = atan2(x, -z) / 2 pi`` (and row
+``acos(y) / pi`` from the top); Blender's world texture looks the same direction, ``(x, -z, y)``
+in its axes, up at ``u = atan2(z, x) / 2 pi + 1/2``, which is a quarter turn further. A world
+texture turned by ``ENVIRONMENT_TURN`` about Blender's z axis lights the model as Mitsuba does.
+
 Poses. A view of an animated model shows clip ``c`` (an index into the glb's animations, the
 order ``lookalike.io`` writes ``Asset.animations`` in) at ``t`` seconds; the worker plays the
 importer's action of that animation at frame ``t * fps`` (``lookalike.blender.cycles_worker``).
@@ -31,6 +37,9 @@ import math
 import numpy as np
 
 from ..asset.pose import REST
+
+ENVIRONMENT_TURN = math.pi / 2
+"""Radians a Blender world texture turns about z to match Mitsuba's ``envmap`` (see the module)."""
 
 GLTF_TO_BLENDER = np.array([
     [1.0, 0.0, 0.0, 0.0],

@@ -21,17 +21,23 @@ import numpy as np
 import torch
 
 from ..asset.pose import Poses
+from ..io.gltf_data import triangle_count
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..threads import thread_count
-from .conversion import blender_cameras, blender_point_lights, blender_poses
-from .process import run_worker
+from .conversion import ENVIRONMENT_TURN, blender_cameras, blender_point_lights, blender_poses
+from .process import run_worker, worker_deadline
 
 SAMPLES = 32
 """Cycles samples per pixel (the judge's prescribed setting): antialiasing, and the alpha of blended surfaces."""
 
 SEED = 0
 """Cycles' sampling seed: the same views give the same pixels."""
+
+SECONDS_PER_SAMPLE = 5e-6
+"""Seconds a worker may take per Cycles sample (views x shadow settings x pixels x samples per
+pixel x (1 + bounces)): about ten times what Cycles takes on a busy 2-core machine
+(``docs/judge.md``)."""
 
 
 @dataclass
@@ -59,7 +65,8 @@ def _size(resolution) -> tuple[int, int]:
 
 def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight, resolution,
                         shadows: tuple[bool, ...] = (True, False), samples: int = SAMPLES,
-                        threads: int | None = None, pose: Poses | None = None) -> CyclesRender:
+                        threads: int | None = None, pose: Poses | None = None, environment: str | Path | None = None,
+                        bounces: int = 0) -> CyclesRender:
     """Render the glb at ``glb_path`` in Cycles from B cameras, each lit by its point light, once
     for each setting in ``shadows`` (True: the model casts shadows; False: no object does).
 
@@ -73,7 +80,8 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
             ``None``: the rest pose (a still glb shows itself as it is).
     Raises:
         ConfigError: ``bpy`` is not installed; JudgeError: Blender failed (e.g. a pose names an
-            animation the glb lacks).
+            animation the glb lacks); ExternalToolTimeout: Blender ran past its deadline (the
+            glb's triangles, once per view where posed, and ``SECONDS_PER_SAMPLE``), twice.
     """
     height, width = _size(resolution)
     count = camera.batch_size
@@ -84,8 +92,12 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
         output, stats = Path(scratch) / "images.npy", Path(scratch) / "stats.json"
         job = {"glb": str(Path(glb_path).resolve()), "output": str(output), "stats": str(stats), "scratch": scratch,
                "width": width, "height": height, "samples": int(samples), "seed": SEED,
-               "threads": threads or thread_count(), "views": views, "shadows": [bool(s) for s in shadows]}
-        seconds = run_worker("cycles_worker", job)
+               "threads": threads or thread_count(), "views": views, "shadows": [bool(s) for s in shadows],
+               "environment": str(Path(environment).resolve()) if environment else None, "bounces": int(bounces),
+               "environment_turn": ENVIRONMENT_TURN}
+        work = SECONDS_PER_SAMPLE * count * len(shadows) * height * width * samples * (1 + int(bounces))
+        deadline = worker_deadline(triangle_count(glb_path) * (1 if pose is None else count), work)
+        seconds = run_worker("cycles_worker", job, deadline, Path(glb_path).name)
         pixels = np.load(output)
         figures = json.loads(stats.read_text())
     images = {bool(s): torch.from_numpy(np.ascontiguousarray(pixels[i])) for i, s in enumerate(shadows)}

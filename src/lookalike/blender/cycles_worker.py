@@ -10,17 +10,20 @@ imports only ``bpy``, NumPy and the standard library. The job (JSON) holds:
   ``clip_end``), a light (``location``, ``color``, ``energy`` in W) and a ``pose`` (``clip``: an
   index into the glb's animations, ``time`` in seconds; ``None`` or absent: the rest pose), from
   ``lookalike.blender.conversion``;
-- ``shadows``: a list of booleans, one pass over every view for each.
+- ``shadows``: a list of booleans, one pass over every view for each;
+- ``environment``: a latitude-longitude map lighting the scene (``None``: a black world), turned
+  by ``environment_turn`` radians about z; ``bounces``: light bounces (0: direct light only).
 
 The output is ``[S, B, H, W, 4]`` float32 (S shadow settings, B views): linear RGB over black
 (premultiplied by coverage, as Cycles' transparent film writes it) and alpha = coverage, row 0
 at the top of the picture.
 
 Scene settings, so that Cycles draws what our pipeline draws: Cycles on the CPU, ``samples``
-per pixel, no denoising, no adaptive sampling, direct light only (``max_bounces = 0``; the
-transparent bounces stay, so blended materials show what lies behind them), a box pixel filter
-1 pixel wide (ours averages its supersamples in the pixel), Standard view transform, no world
-light, transparent film, a point light of radius 0 without soft falloff, the light threshold
+per pixel, no denoising, no adaptive sampling, direct light only unless the job asks for
+``bounces`` (``max_bounces = 0``; the transparent bounces stay, so blended materials show what
+lies behind them), a box pixel filter 1 pixel wide (ours averages its supersamples in the
+pixel), Standard view transform, no world light unless the job names an environment map (never
+seen: the film is transparent), a point light of radius 0 without soft falloff, the light threshold
 at 0 (no light is culled as too faint).
 
 Poses (an animated glb: a skin and animations). Blender's glTF importer turns each glTF
@@ -174,8 +177,9 @@ def configure_cycles(scene: bpy.types.Scene, job: dict) -> None:
     cycles.use_adaptive_sampling = False
     cycles.use_denoising = False
     cycles.seed = int(job.get("seed", 0))
-    cycles.max_bounces = 0
-    cycles.diffuse_bounces = cycles.glossy_bounces = cycles.transmission_bounces = cycles.volume_bounces = 0
+    bounces = int(job.get("bounces", 0))
+    cycles.max_bounces = bounces
+    cycles.diffuse_bounces = cycles.glossy_bounces = cycles.transmission_bounces = cycles.volume_bounces = bounces
     cycles.transparent_max_bounces = 16
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
@@ -201,13 +205,41 @@ def configure_cycles(scene: bpy.types.Scene, job: dict) -> None:
     settings.color_mode = "RGBA"
     settings.color_depth = "32"
     settings.exr_codec = "NONE"
+    scene.world = environment_world(job["environment"], job.get("environment_turn", 0.0)) if job.get("environment") \
+        else black_world()
+
+
+def black_world() -> bpy.types.World:
+    """A world that gives no light."""
     world = bpy.data.worlds.new("black")
     world.color = (0.0, 0.0, 0.0)
     if world.node_tree is not None:
         for node in world.node_tree.nodes:
             if node.type == "BACKGROUND":
                 node.inputs["Strength"].default_value = 0.0
-    scene.world = world
+    return world
+
+
+def environment_world(path: str, turn: float) -> bpy.types.World:
+    """A world lit by the latitude-longitude map at ``path`` (strength 1, linear), turned by
+    ``turn`` radians about z (``lookalike.blender.conversion.ENVIRONMENT_TURN``)."""
+    world = bpy.data.worlds.new("environment")
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    nodes.clear()
+    coordinates, mapping = nodes.new("ShaderNodeTexCoord"), nodes.new("ShaderNodeMapping")
+    texture, background = nodes.new("ShaderNodeTexEnvironment"), nodes.new("ShaderNodeBackground")
+    output = nodes.new("ShaderNodeOutputWorld")
+    texture.image = bpy.data.images.load(path)
+    texture.image.colorspace_settings.name = "Linear Rec.709"
+    texture.interpolation = "Linear"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, float(turn))
+    background.inputs["Strength"].default_value = 1.0
+    links.new(coordinates.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], background.inputs["Color"])
+    links.new(background.outputs["Background"], output.inputs["Surface"])
+    return world
 
 
 def add_camera(scene: bpy.types.Scene) -> bpy.types.Object:

@@ -14,6 +14,7 @@ from ..asset import Asset, PunctualLight, Texture
 from ..asset.material import unlit_material
 from ..errors import ConfigError
 from ..fit.reference import PathTracedReference
+from ..io.environment_map import read_environment_map
 from ..settings import Config
 from ..shading.fixed_lighting import FixedLighting, environment_lighting, studio_lighting
 from ..shading.light import PointLight
@@ -21,21 +22,15 @@ from ..shading.light import PointLight
 CACHE_FOLDER = "pathtraced-views"
 """The output folder's sub-folder that keeps the path-traced views (``PathTracedReference``)."""
 
-ENVIRONMENT_SUFFIXES = (".hdr", ".exr")
-"""Environment map files the path tracer reads."""
-
-
 def fixed_lighting(cfg: Config, asset: Asset) -> FixedLighting:
     """``reference.lighting`` around ``asset``: the generated studio, or its environment map
-    (``ConfigError`` naming the file where it is missing or not an ``.hdr``/``.exr``)."""
+    (``AssetError`` naming the file where it is not one Mitsuba reads,
+    ``lookalike.io.environment_map``)."""
     centre, radius = asset.mesh.bounding_sphere()
     if cfg.reference.lighting == "studio":
         return studio_lighting(centre, radius)
     path = Path(cfg.reference.lighting)
-    if path.suffix.lower() not in ENVIRONMENT_SUFFIXES:
-        raise ConfigError(f"{path}: --lighting takes 'studio' or an environment map (.hdr or .exr)")
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such environment map")
+    read_environment_map(path)
     return environment_lighting(path.resolve(), centre)
 
 

@@ -10,8 +10,9 @@ report and metrics (paper Sec. 4 and 6), in named phases:
 
 How to add an application (``jobs/cards.py`` is the example): write ``jobs/NAME.py`` with
 (1) its initial guess, ``(input, cfg, count) -> InitialGuess`` (``lookalike.init``); (2) where
-the input is not a mesh our pipeline draws, its ``reference``, ``(input, cfg, moving) ->
-Reference`` (``lookalike.fit.reference``); (3) where the model is not a textured mesh, its
+its reference is not the input drawn by its own renderer, its ``reference``, ``(input, cfg,
+moving) -> RunReference`` (``jobs.reference_kinds``: a kind of input brings its baselines and
+report lines with it); (3) where the model is not a textured mesh, its
 ``latent``, ``(input, start, cfg, moving) -> Latent`` (``lookalike.fit.latent``); (4) its
 ``defaults``, a ``Config`` holding only what differs; (5) ``APP = Application(...)`` and
 ``def NAME(input, outdir=None, **keywords): return run(APP, input, outdir, **keywords)`` with
@@ -42,14 +43,14 @@ from ..fit.from_settings import lookup_footprint, loop_settings, objective
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
 from ..fit.progress_bar import CountedReference
-from ..fit.reference import FieldReference, MeshReference, Reference, SkinnedReference
+from ..fit.reference import Reference
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
 from ..init.initial_guess import InitialGuess, target_triangle_count, uses_alpha
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
-from ..limits import MAX_WORKERS
+from ..limits import MAX_LAYERS, MAX_WORKERS
 from ..phases import Profile, phase, recording
 from ..report.heldout import HeldoutViews
 from ..report.record import MethodResult, RunRecord
@@ -62,9 +63,11 @@ from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .compressed_model import COMPRESSED_NAME, check_compression_tools, compress_seconds, write_compressed
 from .input_asset import prepare_input
-from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
 from .outdir import CHECKPOINT_NAME, check_outdir, left_as_found, prepare_outdir
-from .outputs import CONFIG_NAME, MODEL_NAME, REPORT_NAME, staged_outputs, write_model, write_record
+from .outputs import (CONFIG_NAME, MODEL_NAME, REPORT_NAME, OptionalOutputs, staged_outputs, write_model,
+                      write_record)
+from .reference_coverage import check_reference_coverage
+from .reference_kinds import RunReference, run_reference
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
 from .written_model import WrittenModel
@@ -80,34 +83,14 @@ validation renders of its candidate cutoffs (``lookalike.jobs.alpha_export``).""
 OUTPUT_TIME_MARGIN = 5.0
 """Plus these seconds (writing the glTF and the report's pictures)."""
 
-FIELD_MARGIN = 1.0 / 64
-"""An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
-(which marching cubes places within a cube of the surface)."""
-
 POOL_STREAM, TEXTURE_STREAM = 1, 2
 """Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
 optimisation loop itself draws from ``default_rng(seed)``)."""
 
 
-def input_reference(asset: Asset, cfg: Config, moving: bool) -> Reference:
-    """The input drawn by its own renderer: path traced under fixed lighting where
-    ``reference.renderer`` says so (``jobs.path_traced``); an implicit surface sphere-traced (in
-    a sphere around its mesh, one marching-cubes cube wider); a mesh by our pipeline, posed per
-    view where ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
-    if cfg.reference.path_traced:
-        return path_traced_reference(asset, cfg, moving)
-    if asset.field is not None:
-        centre, radius = asset.mesh.bounding_sphere()
-        return FieldReference(asset.field, (centre, radius + FIELD_MARGIN * float((asset.field.hi - asset.field.lo).max())))
-    return SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.reference_layers)
-
-
 def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent:
     """The textured low-poly mesh that starts as ``start`` (with trained skinning weights where
-    ``moving``; with an emission map where the reference is path traced), in the frame of
-    ``asset``'s bind pose."""
-    if cfg.reference.path_traced:
-        start = with_emission(start)
+    ``moving``), in the frame of ``asset``'s bind pose."""
     centre, radius = asset.mesh.bounding_sphere()
     surface = {"centre": centre, "radius": radius, "limits": cfg.clamp, "msaa": cfg.render.latent_msaa,
                "train_alpha": uses_alpha(start), "layers": cfg.render.layers,
@@ -153,7 +136,8 @@ class Application:
         start_label: the label its start is scored under beside the baselines, or ``None``
             (then a start that is a classic bake is scored as "Classic bake").
         remarks: ``input -> [str]``, what to say about the input (logged, and in the report).
-        reference: ``(input, cfg, moving) -> Reference``, what the views show.
+        reference: ``(input, cfg, moving) -> RunReference``, what the views show, and what
+            that kind of reference brings to the run (``jobs.reference_kinds``).
         latent: ``(input, start, cfg, moving) -> Latent``, the model the loop fits.
         variants: ``(model, cfg) -> [(key, label, asset)]``, other forms of the written model
             scored beside it (e.g. a displaced model at each tessellation level).
@@ -171,7 +155,7 @@ class Application:
     defaults: Config = field(default_factory=Config)
     start_label: str | None = None
     remarks: Callable[[Asset], list[str]] = no_remarks
-    reference: Callable[[Asset, Config, bool], Reference] = input_reference
+    reference: Callable[[Asset, Config, bool], RunReference] = run_reference
     latent: Callable[[Asset, Asset, Config, bool], Latent] = mesh_latent
     variants: Callable[[Asset, Config], list[tuple[str, str, Asset]]] = no_variants
     written_form: Callable[[Asset], Asset] = as_fitted
@@ -273,8 +257,9 @@ def run(app: Application, input: str | Path | Asset, outdir: str | Path | None =
     name, which override it, and the fields of ``RunOptions``.
 
     Outputs appear only when complete (``jobs.outputs``); a run that fails leaves ``outdir``
-    as it found it (an interrupted run keeps its checkpoint). Raises ``ConfigError`` or
-    ``AssetError`` with a message naming the problem."""
+    as it found it (an interrupted run keeps its checkpoint, and one whose compressed model
+    failed keeps its other outputs and its checkpoint: ``OutputsIncomplete``). Raises
+    ``ConfigError`` or ``AssetError`` with a message naming the problem."""
     options, settings = split_keywords(keywords)
     name = input.name if isinstance(input, Asset) else Path(input).stem
     outdir = Path(outdir) if outdir is not None else Path.cwd() / f"{name}{app.outdir_suffix}"
@@ -298,18 +283,21 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         reference = s.app.reference(asset, cfg, moving)
         guess, checkpointer = starting_point(s, cfg, asset, moving)
     with s.stage("reference views"):
-        heldout, validation, source = reference_views(cfg, asset, reference, moving, s.options.progress)
+        heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress)
     draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers, footprint=lookup_footprint(cfg))
+    with s.stage("scoring the input's coverage"):
+        coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
+                                            partial(draw, layers=MAX_LAYERS))
     with s.stage("the start"):
         take_best_start(guess, validation, draw)
         start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
-        latent = s.app.latent(asset, start, cfg, moving)
+        latent = s.app.latent(asset, reference.latent_start(start), cfg, moving)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
     with s.stage("alpha of the start"):
         start_written = written.start(start)
-    methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset)
+    methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset, reference)
     fitter = Fitter(latent, source, objective(cfg), loop_settings(cfg, outline=not uses_alpha(start)),
                     validate=None if validation is None else written.validate,
                     checkpointer=checkpointer, cores=CoreShare())
@@ -318,8 +306,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None,
                           len(s.app.variants(start_written, cfg)))
     fit, export = optimise(s, fitter, seconds, written, start_written, notes)
-    if reference.fixed_light is not None:
-        export = lit_as_fitted(export, reference.fixed_light, cfg.reference.unlit)
+    export = reference.written(export)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
     interrupted = fit.interrupted
@@ -331,13 +318,11 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         methods += [heldout.score(key, label, variant, draw, cfg.latent.texture_size)
                     for key, label, variant in s.app.variants(export, cfg)]
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
-    motion = moving_picture(s, cfg, reference, export, heldout) if moving else None
+    motion = moving_picture(s, cfg, reference.renderer, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
-    if cfg.reference.path_traced:
-        record.reference_views = {**reference.summary(), "pool_bytes": source.nbytes}
-        record.reference_label = "Reference (path traced)"
-        record.notes.append(path_traced_note(record.reference_views))
+    record.reference_coverage, record.start_distance = coverage, guess.start_distance
+    reference.annotate(record, getattr(source, "nbytes", 0))
     metrics = write_outputs(s, cfg, export, guess, record,
                             lambda model: heldout.score("compressed", "Ours, compressed", model, draw,
                                                         cfg.latent.texture_size))
@@ -349,13 +334,6 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     baselines.update({key: model for key, _, model in guess.comparisons})
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
-
-
-def path_traced_note(cost: dict) -> str:
-    """The report's line on what a path-traced reference cost (``PathTracedReference.summary``)."""
-    return (f"reference: path traced by Mitsuba 3 ({cost['variant']}), {cost['lighting']} lighting, {cost['spp']} "
-            f"samples per pixel, paths of up to {cost['max_depth']} vertices: {cost['views_rendered']} views rendered "
-            f"in {cost['seconds']:.0f} s, {cost['views_from_cache']} read from {CACHE_FOLDER}/")
 
 
 def peeling_note(used: LayerCount, layers: int) -> str:
@@ -477,27 +455,32 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: boo
 
 
 def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess: InitialGuess,
-                    start: Asset, asset: Asset) -> list[MethodResult]:
-    """The held-out scores of plain decimation (or the user's mesh), of the input ``asset``
-    rasterized where the reference is path traced (what a rasterizer shows of it without global
-    illumination), of the initial guess's comparisons, and of the application's start (or, where it has no label of its own, the
-    classic bake)."""
+                    start: Asset, asset: Asset, reference: RunReference) -> list[MethodResult]:
+    """The held-out scores of plain decimation (or the user's mesh), of the initial guess's
+    comparisons, of the application's start (or, where it has no label of its own, the classic
+    bake), each drawn as the reference says (``RunReference.baseline_draw``), and of what the
+    reference adds (``RunReference.extra_baselines``, e.g. the input rasterized beside a path
+    tracer's pictures of it)."""
     key, label = (("init_mesh", f"Your mesh ({Path(cfg.io.init_mesh).name})") if cfg.io.init_mesh
                   else ("decimated", "Plain decimation"))
-    with s.stage("scoring plain decimation"):
-        methods = [heldout.score(key, label, guess.baseline, draw, None)]
-    if cfg.reference.path_traced:
-        with s.stage("scoring the input rasterized"):
-            methods.append(heldout.score("input_rasterized", "Input, rasterized", asset, draw, None))
-    for key, label, model in guess.comparisons:
+    baseline_draw, drawn = reference.baseline_draw(draw)
+    scoring = "drawing" if drawn else "scoring"  # only our own draw's stages estimate the outputs' time
+    with s.stage(f"{scoring} plain decimation"):
+        methods = [heldout.score(key, label + drawn, guess.baseline, baseline_draw, None)]
+    for key, label, model in reference.extra_baselines(asset):
         with s.stage(f"scoring {label}"):
-            methods.append(heldout.score(key, label, model, draw, cfg.latent.texture_size))
+            methods.append(heldout.score(key, label, model, draw, None))
+    for key, label, model in guess.comparisons:
+        with s.stage(f"{scoring} {label}"):
+            methods.append(heldout.score(key, label + drawn, model, baseline_draw, cfg.latent.texture_size))
     if s.app.start_label is not None:
-        with s.stage("scoring the start"):
-            methods.append(heldout.score("start", s.app.start_label, start, draw, cfg.latent.texture_size))
+        with s.stage(f"{scoring} the start"):
+            methods.append(heldout.score("start", s.app.start_label + drawn, start, baseline_draw,
+                                         cfg.latent.texture_size))
     elif guess.baked is not None:
-        with s.stage("scoring the classic bake"):
-            methods.append(heldout.score("baked", "Classic bake", guess.baked, draw, cfg.latent.texture_size))
+        with s.stage(f"{scoring} the classic bake"):
+            methods.append(heldout.score("baked", "Classic bake" + drawn, guess.baked, baseline_draw,
+                                         cfg.latent.texture_size))
     return methods
 
 
@@ -586,18 +569,24 @@ def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, 
     """``model.glb`` (+ ``model.obj``; with ``io.compress``, ``model.compressed.glb``, read back
     and scored by ``score`` among the record's methods), the application's own files,
     ``config.toml``, ``report.html`` and ``metrics.json``, all or none
-    (``jobs.outputs.staged_outputs``); returns the metrics."""
+    (``jobs.outputs.staged_outputs``); returns the metrics. A compressed model whose tool fails
+    or hangs is left out (the report says so) and, the others in place, ``OutputsIncomplete``
+    is raised (``left_as_found`` leaves them, and the checkpoint)."""
+    optional = OptionalOutputs(s.outdir)
     with staged_outputs(s.outdir) as staging:
         with s.stage("export"):
             model = write_model(s.app.written_form(export), staging, cfg.io.export_obj)
             if cfg.io.compress:
-                record.methods.append(score(io.load(write_compressed(model, staging / COMPRESSED_NAME))))
+                with optional.attempt(COMPRESSED_NAME, record.notes):
+                    record.methods.append(score(io.load(write_compressed(model, staging / COMPRESSED_NAME))))
             record.levels = s.app.files(export, guess, cfg, staging, record.methods)
         write_text_atomic(staging / CONFIG_NAME, to_toml(cfg))
         if s.recorder is not None:
             record.profile = s.recorder.as_dict()
         with s.stage("report"):
-            return write_record(staging, record, s.started - s.seconds_before)
+            metrics = write_record(staging, record, s.started - s.seconds_before)
+    optional.check()
+    return metrics
 
 
 KEYWORD_SETTINGS = ("triangles", "ratio", "texture_size", "resolution", "time_budget", "iterations", "seed",

@@ -319,6 +319,19 @@ def add_judge_section(report_path: str | Path, section: str) -> None:
     write_text_atomic(path, page[:start + len(JUDGE_SLOT[0])] + section + page[end:])
 
 
+def _start_distance_note(data: RunRecord) -> str:
+    """One line on how far the start strays from the input (``RunRecord.start_distance``), or
+    nothing where it was not measured."""
+    d = data.start_distance
+    if not d:
+        return ""
+    setting = f" by {_esc(d['setting'])}" if d.get("setting") else ""
+    return (f'<p class="notes">How far the start strays: {_esc(d["of"])}{setting}, {d["triangles"]:,} triangles: '
+            f'{100 * d["far_area"]:.2f} % of the area lies farther than {100 * d["far"]:g} % of the bounding radius '
+            f'from the other surface (both ways); mean distance {100 * d["mean"]:.3f} %, 99th percentile '
+            f'{100 * d["p99"]:.2f} % of the radius.</p>')
+
+
 def write_report(outdir: str | Path, data: RunRecord) -> Path:
     """Write ``outdir/report.html`` and its pictures under ``outdir/report_files/``.
 
@@ -368,6 +381,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
 <h2>Scores on the held-out views</h2>
 {_methods_table(data)}
 {f'<ul class="notes">{notes}</ul>' if notes else ''}
+{_start_distance_note(data)}
 {_levels_section(data, files)}
 {"".join(JUDGE_SLOT)}
 <h2>Held-out views</h2>

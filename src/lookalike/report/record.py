@@ -131,6 +131,12 @@ class RunRecord:
         reference_views: what a path-traced reference cost (its variant, lighting, samples,
             views rendered and read from the cache, seconds, and the pool's bytes), or ``None``.
         reference_label: what the report calls the reference's pictures.
+        reference_coverage: the reference's coverage of each held-out and validation view as a
+            share of the input's (``jobs.reference_coverage``): ``{"min", "max", "mean",
+            "views"}``, or ``None``.
+        start_distance: how far the start's mesh strays from the input
+            (``InitialGuess.start_distance``: ``"of"``, ``"far_area"``, ``"mean"``, ``"p99"`` in
+            bounding radii, ...), or ``None`` where it was not measured.
     """
 
     asset_name: str
@@ -162,6 +168,8 @@ class RunRecord:
     reference_views: dict | None = None
     reference_label: str = "Reference"
     position_backoffs: int = 0
+    reference_coverage: dict | None = None
+    start_distance: dict | None = None
 
     @property
     def baseline(self) -> MethodResult:
@@ -205,7 +213,9 @@ class RunRecord:
                            "map_noise": m.map_noise, "psnr_views": m.psnr_views.tolist(), "flip_views": m.flip_views.tolist()}
                    for m in self.methods},
             },
+            "start_distance": self.start_distance,
             **({"levels": self.levels} if self.levels else {}),
             **({"reference_views": self.reference_views} if self.reference_views else {}),
+            **({"reference_coverage": self.reference_coverage} if self.reference_coverage else {}),
             **({"profile": self.profile} if self.profile is not None else {}),
         }

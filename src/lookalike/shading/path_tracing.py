@@ -15,9 +15,19 @@ a shape of their own that reads the normal map with ``y`` negated. Vertex colour
 converted.
 
 Cameras are our OpenGL cameras (``perspective``, vertical field of view from the projection);
-the film is box-filtered RGBA with directly seen emitters hidden, so a picture is, as every
-``Reference``'s, linear RGB weighted by coverage, and coverage. Each view's samples are seeded
-from its camera, so a view renders the same wherever it falls in a batch.
+the film is box-filtered RGBA, so a picture is, as every ``Reference``'s, linear RGB weighted by
+coverage, and coverage. The lighting must not be seen behind the asset, yet the asset's own
+emission must be: Mitsuba's ``hide_emitters`` hides every shape that emits, the asset's too. So
+an asset that emits is rendered as two scenes whose sum is the whole, light transport being
+linear in its sources: ``lit``, the asset without its emission under the lighting with directly
+seen emitters hidden (it gives the coverage), and ``glow``, the asset's emission alone, seen and
+bounced, with no other light and nothing behind it. Mitsuba's alpha counts a camera ray as
+covered wherever it meets a surface, even one its ``mask`` lets through; where an asset has
+alpha, a third scene, ``holdout``, gives the coverage as glTF viewers composite it: every
+surface black with its opacity, under a white sky seen behind it, so that a pixel's value is
+the light that reaches the background through it, ``T``, and its coverage ``1 - T``. Each
+view's samples are seeded from its camera, so a view renders the same wherever it falls in a
+batch.
 
 Mitsuba's variant is chosen by ``lookalike.io.mitsuba_runtime``. An asset read from a Mitsuba
 scene file (``lookalike.io.mitsuba_xml``) is drawn as the file has it: its own shapes and BSDFs
@@ -27,6 +37,7 @@ under the run's lighting (the file's emitters left out).
 from __future__ import annotations
 
 import hashlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +67,23 @@ def _channel(mi, texture: Texture, channels: slice | int, wrap: str):
     return _bitmap(mi, data, wrap)
 
 
+def _opacity(mi, material: Material, bsdf: dict) -> dict:
+    """``bsdf`` behind ``material``'s alpha as a ``mask`` (thresholded at its cutoff where
+    alpha-tested); ``bsdf`` itself where the material is opaque."""
+    if material.alpha_mode == "OPAQUE":
+        return bsdf
+    alpha = material.kd.data[..., 3:4].detach().float()
+    if material.alpha_mode == "MASK":
+        alpha = (alpha >= material.alpha_cutoff).float()
+    return {"type": "mask", "opacity": _channel(mi, Texture(alpha), 0, material.kd.wrap), "bsdf": bsdf}
+
+
+def holdout_bsdf(mi, material: Material, mirrored: bool) -> dict:
+    """A black BSDF with ``material``'s opacity: what stops the light of the ``holdout`` scene
+    (see the module); ``mirrored`` is unused (no normal map)."""
+    return _opacity(mi, material, {"type": "diffuse", "reflectance": 0.0})
+
+
 def material_bsdf(mi, material: Material, mirrored: bool) -> dict:
     """The Mitsuba BSDF dictionary of ``material`` (see the module) for triangles whose UVs are
     ``mirrored`` or not (the normal map's ``y``)."""
@@ -71,12 +99,7 @@ def material_bsdf(mi, material: Material, mirrored: bool) -> dict:
         bsdf = {"type": "normalmap", "normalmap": _bitmap(mi, 0.5 * normal + 0.5, material.normal.wrap), "bsdf": bsdf}
     if material.double_sided:
         bsdf = {"type": "twosided", "bsdf": bsdf}
-    if material.alpha_mode != "OPAQUE":
-        alpha = material.kd.data[..., 3:4].detach().float()
-        if material.alpha_mode == "MASK":
-            alpha = (alpha >= material.alpha_cutoff).float()
-        bsdf = {"type": "mask", "opacity": _channel(mi, Texture(alpha), 0, wrap), "bsdf": bsdf}
-    return bsdf
+    return _opacity(mi, material, bsdf)
 
 
 def _mirrored(uv: torch.Tensor) -> torch.Tensor:
@@ -114,21 +137,35 @@ def _shape(mi, name: str, corners: torch.Tensor, normals: torch.Tensor, uv: torc
     return mesh
 
 
-def mitsuba_scene(asset: Asset, lighting: FixedLighting, max_depth: int):
-    """The Mitsuba scene of ``asset`` under ``lighting``, rendered by a path tracer of at most
-    ``max_depth`` vertices per path (2: direct light only) with directly seen emitters hidden; an
-    asset read from a Mitsuba scene file is its file's shapes that do not emit."""
-    mi = mitsuba()
-    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": int(max_depth), "hide_emitters": True},
-             **lighting.emitters}
-    if asset.source is not None and Path(asset.source).suffix.lower() == ".xml":
-        shapes = [shape for shape in mi.load_file(str(asset.source)).shapes() if not shape.is_emitter()]
-        return mi.load_dict({**scene, **{f"file_shape_{k}": shape for k, shape in enumerate(shapes)}})
+@dataclass(frozen=True)
+class TracedScene:
+    """An asset ready to path trace: ``lit``, the Mitsuba scene of the asset under the lighting
+    with directly seen emitters hidden and the asset's emission left out; ``glow``, the scene of
+    its emission alone (no other light, emitters seen), or ``None`` where it emits nothing;
+    ``holdout``, the scene whose pictures give its coverage, or ``None`` where it is opaque
+    (then ``lit``'s alpha is its coverage). A view's colour is the sum of ``lit``'s and
+    ``glow``'s (see the module)."""
+
+    lit: object
+    glow: object | None = None
+    holdout: object | None = None
+
+
+def _emits(material: Material) -> bool:
+    """Whether ``material`` has an emission that is not black."""
+    return material.emissive is not None and bool((material.emissive.data.detach() > 0).any())
+
+
+def _asset_shapes(mi, asset: Asset, emission: bool, bsdf=material_bsdf) -> dict:
+    """The Mitsuba meshes of ``asset`` by name, one per material and UV handedness, with the
+    BSDF ``bsdf(mi, material, mirrored)`` gives, each an area emitter of its material's
+    emission where ``emission`` (see the module)."""
     mesh = asset.mesh
     v_nrm, t_nrm_idx = mesh.normals()
     corners = mesh.v_pos.detach().float()[mesh.t_pos_idx]
     normals = v_nrm.detach().float()[t_nrm_idx]
     t_mat_idx = mesh.t_mat_idx if mesh.t_mat_idx is not None else torch.zeros(mesh.num_triangles, dtype=torch.int64)
+    shapes = {}
     for index, material in enumerate(asset.materials):
         chosen = t_mat_idx == index
         uv_of = _uv_of(material, mesh)
@@ -139,13 +176,33 @@ def mitsuba_scene(asset: Asset, lighting: FixedLighting, max_depth: int):
             if rows.numel() == 0:
                 continue
             props = mi.Properties()
-            props["bsdf"] = mi.load_dict(material_bsdf(mi, material, flipped))
-            if material.emissive is not None:
+            props["bsdf"] = mi.load_dict(bsdf(mi, material, flipped))
+            if emission and _emits(material):
                 props["emitter"] = mi.load_dict({"type": "area", "radiance": _channel(mi, material.emissive, slice(0, 3),
                                                                                      material.emissive.wrap)})
             name = f"material_{index}_{'mirrored' if flipped else 'plain'}"
-            scene[name] = _shape(mi, name, corners[rows], normals[rows], None if uv is None else uv[rows], props)
-    return mi.load_dict(scene)
+            shapes[name] = _shape(mi, name, corners[rows], normals[rows], None if uv is None else uv[rows], props)
+    return shapes
+
+
+def mitsuba_scene(asset: Asset, lighting: FixedLighting, max_depth: int) -> TracedScene:
+    """The scenes of ``asset`` under ``lighting`` (``TracedScene``), rendered by a path tracer
+    of at most ``max_depth`` vertices per path (2: direct light only); an asset read from a
+    Mitsuba scene file is its file's shapes that do not emit."""
+    mi = mitsuba()
+    integrator = {"type": "path", "max_depth": int(max_depth)}
+    lit = {"type": "scene", "integrator": {**integrator, "hide_emitters": True}, **lighting.emitters}
+    if asset.source is not None and Path(asset.source).suffix.lower() == ".xml":
+        shapes = [shape for shape in mi.load_file(str(asset.source)).shapes() if not shape.is_emitter()]
+        return TracedScene(mi.load_dict({**lit, **{f"file_shape_{k}": shape for k, shape in enumerate(shapes)}}))
+    seen = {"type": "scene", "integrator": {**integrator, "hide_emitters": False}}
+    glow = holdout = None
+    if any(_emits(material) for material in asset.materials):
+        glow = mi.load_dict({**seen, **_asset_shapes(mi, asset, emission=True)})
+    if any(material.alpha_mode != "OPAQUE" for material in asset.materials):
+        holdout = mi.load_dict({**seen, "white": {"type": "constant", "radiance": {"type": "rgb", "value": [1.0] * 3}},
+                                **_asset_shapes(mi, asset, emission=False, bsdf=holdout_bsdf)})
+    return TracedScene(mi.load_dict({**lit, **_asset_shapes(mi, asset, emission=False)}), glow, holdout)
 
 
 def _sensor(mi, camera: Camera, resolution: int, spp: int) -> object:
@@ -172,13 +229,23 @@ def view_seed(camera: Camera, seed: int) -> int:
     return int.from_bytes(digest[:4], "little") & 0x7FFFFFFF
 
 
-def render_path_traced(scene, camera: Camera, resolution: int, spp: int, seed: int = 0) -> torch.Tensor:
+def render_path_traced(scene: TracedScene, camera: Camera, resolution: int, spp: int, seed: int = 0) -> torch.Tensor:
     """``[B, H, W, 4]`` float32 pictures of ``scene`` (``mitsuba_scene``) from B cameras, ``spp``
-    samples per pixel: linear RGB weighted by coverage, and coverage; row 0 at the top."""
+    samples per pixel: linear RGB weighted by coverage, and coverage; row 0 at the top. An
+    asset that emits is its lit scene's picture plus its glow's colour (same samples); one with
+    alpha takes its coverage from its holdout."""
     mi = mitsuba()
     pictures = []
     for k in range(camera.batch_size):
         view = camera[k]
-        image = mi.render(scene, sensor=_sensor(mi, view, resolution, spp), spp=spp, seed=view_seed(view, seed))
-        pictures.append(torch.from_numpy(np.array(image, dtype=np.float32)))
+        sensor, view_seed_k = _sensor(mi, view, resolution, spp), view_seed(view, seed)
+        picture = torch.from_numpy(np.array(mi.render(scene.lit, sensor=sensor, spp=spp, seed=view_seed_k),
+                                            dtype=np.float32))
+        if scene.glow is not None:
+            glow = np.array(mi.render(scene.glow, sensor=sensor, spp=spp, seed=view_seed_k), dtype=np.float32)
+            picture[..., :3] += torch.from_numpy(glow[..., :3])
+        if scene.holdout is not None:
+            through = np.array(mi.render(scene.holdout, sensor=sensor, spp=spp, seed=view_seed_k), dtype=np.float32)
+            picture[..., 3] = torch.from_numpy(1.0 - through[..., :3].mean(axis=-1)).clamp(0.0, 1.0)
+        pictures.append(picture)
     return torch.stack(pictures)

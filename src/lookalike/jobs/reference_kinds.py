@@ -1,0 +1,146 @@
+"""The reference of a run and what each kind of it brings to the run (``jobs.run``).
+
+A reference draws the input by the input's own renderer (``lookalike.fit.reference``). Beside
+its pictures, each kind of input brings what only it knows: the start the latent is given, how
+the baselines are drawn and which ones it adds, what is written after the fit, and what the
+report says of it. ``run_reference`` picks the kind; the run itself has no branch on it.
+
+- ``RunReference``: a mesh drawn by our pipeline (posed per view where it moves): its views
+  are the input as our rasterizer draws it.
+- ``FieldInput``: an implicit surface, sphere traced in a sphere around its mesh.
+- ``PathTracedInput``: an asset path traced under fixed lighting (``jobs.path_traced``).
+"""
+
+from __future__ import annotations
+
+import torch
+
+from ..asset import Asset
+from ..asset.pose import Poses
+from ..fit.reference import FieldReference, MeshReference, PathTracedReference, Reference, SkinnedReference
+from ..report.heldout import AssetRenderer
+from ..report.record import RunRecord
+from ..settings import Config
+from ..shading.camera import Camera
+from ..shading.light import PointLight
+from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
+
+FIELD_MARGIN = 1.0 / 64
+"""An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
+(which marching cubes places within a cube of the surface)."""
+
+
+class RunReference:
+    """A reference as a run uses it: ``renderer`` draws the views (``lookalike.fit.reference``);
+    the methods say what the kind adds to the run. This base class is
+    the input drawn by our own pipeline, so its views are the input's own rasterization
+    (``draws_input``) and it adds nothing.
+
+    Attributes:
+        label: what the report calls its pictures.
+        draws_input: its coverage is, by construction, the input's as our rasterizer draws it.
+    """
+
+    label = "Reference"
+    draws_input = True
+
+    def __init__(self, renderer: Reference):
+        self.renderer = renderer
+
+    def latent_start(self, start: Asset) -> Asset:
+        """The model the latent starts as, given the run's ``start``."""
+        return start
+
+    def baseline_draw(self, draw: AssetRenderer) -> tuple[AssetRenderer, str]:
+        """How the baselines are drawn, given how ours is (``draw``), and the words added to
+        their labels."""
+        return draw, ""
+
+    def extra_baselines(self, asset: Asset) -> list[tuple[str, str, Asset]]:
+        """``(key, label, model)`` scored beside the baselines every run has."""
+        return []
+
+    def written(self, model: Asset) -> Asset:
+        """What is written of the fitted ``model``."""
+        return model
+
+    def annotate(self, record: RunRecord, pool_bytes: int) -> None:
+        """Add what the report says of this reference to ``record`` (its coverage already
+        there; the training views' pool holds ``pool_bytes``)."""
+        coverage = record.reference_coverage
+        if not self.draws_input and coverage:
+            record.notes.append(f"{self.label.lower()} covers {coverage['min']:.1%} to {coverage['max']:.1%} of the "
+                                f"input's rasterized silhouette in its {coverage['views']} held-out and validation views")
+
+
+class FieldInput(RunReference):
+    """An implicit surface sphere-traced (``FieldReference``): its outline is the field's, not
+    its marching-cubes mesh's."""
+
+    draws_input = False
+
+
+class PathTracedInput(RunReference):
+    """An asset path traced under fixed lighting (``PathTracedReference``). The latent learns
+    the light our rasterizer does not compute into an emission map; the model is written lit
+    by the lighting's analytic part, or unlit. Where that analytic part lights nothing (an
+    environment map, or ``--unlit``), our rasterizer would draw the baselines black: they are
+    path traced under the same lighting instead, as an offline renderer shows them."""
+
+    label = "Reference (path traced)"
+    draws_input = False
+
+    def __init__(self, renderer: PathTracedReference, cfg: Config):
+        super().__init__(renderer)
+        self.cfg = cfg
+        self.lit = bool(renderer.fixed_light.intensity.abs().max() > 0)
+        self._traced: tuple[Asset, PathTracedReference] | None = None
+
+    def latent_start(self, start: Asset) -> Asset:
+        return with_emission(start)
+
+    def draw_traced(self, model: Asset, camera: Camera, light: PointLight, pose: Poses | None = None) -> torch.Tensor:
+        """``model`` path traced as the reference is (no cache: a baseline is drawn once)."""
+        if self._traced is None or self._traced[0] is not model:
+            reference = self.renderer
+            self._traced = (model, PathTracedReference(model, reference.lighting, reference.spp,
+                                                           reference.max_depth, None, reference.seed))
+        return self._traced[1].render(camera, light, self.cfg.render.resolution, self.cfg.render.target_spp)
+
+    def baseline_draw(self, draw: AssetRenderer) -> tuple[AssetRenderer, str]:
+        return (draw, "") if self.lit else (self.draw_traced, " (path traced)")
+
+    def extra_baselines(self, asset: Asset) -> list[tuple[str, str, Asset]]:
+        return [("input_rasterized", "Input, rasterized", asset)] if self.lit else []
+
+    def written(self, model: Asset) -> Asset:
+        return lit_as_fitted(model, self.renderer.fixed_light, self.cfg.reference.unlit)
+
+    def annotate(self, record: RunRecord, pool_bytes: int) -> None:
+        super().annotate(record, pool_bytes)
+        cost = {**self.renderer.summary(), "pool_bytes": pool_bytes}
+        record.reference_views, record.reference_label = cost, self.label
+        record.notes.append(
+            f"reference: path traced by Mitsuba 3 ({cost['variant']}), {cost['lighting']} lighting, {cost['spp']} "
+            f"samples per pixel, paths of up to {cost['max_depth']} vertices: {cost['views_rendered']} views rendered "
+            f"in {cost['seconds']:.0f} s, {cost['views_from_cache']} read from {CACHE_FOLDER}/")
+        if not self.lit:
+            record.notes.append(
+                "the baselines are path traced under the reference's lighting: it has no part a rasterizer computes "
+                f"({'--unlit' if self.cfg.reference.unlit else 'an environment map'}), so ours, drawn unlit, is "
+                "compared with what an offline renderer shows of them (the input rasterized is not scored)")
+
+
+def run_reference(asset: Asset, cfg: Config, moving: bool) -> RunReference:
+    """The input drawn by its own renderer: path traced under fixed lighting where
+    ``reference.renderer`` says so; an implicit surface sphere-traced (in a sphere around its
+    mesh, ``FIELD_MARGIN`` of its bounds wider); a mesh by our pipeline, posed per view where
+    ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
+    if cfg.reference.path_traced:
+        return PathTracedInput(path_traced_reference(asset, cfg, moving), cfg)
+    if asset.field is not None:
+        centre, radius = asset.mesh.bounding_sphere()
+        extent = float((asset.field.hi - asset.field.lo).max())
+        return FieldInput(FieldReference(asset.field, (centre, radius + FIELD_MARGIN * extent)))
+    return RunReference(SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.reference_layers))
+
