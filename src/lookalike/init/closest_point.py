@@ -214,6 +214,16 @@ class ClosestPoints:
     distance: np.ndarray
 
 
+PARALLEL_QUERY = 100_000
+"""Neighbours a k-d tree query looks up at least before it runs on every core: SciPy starts its
+threads for each query, which costs more than a small query itself."""
+
+
+def _query_workers(lookups: int) -> int:
+    """Threads a k-d tree query of ``lookups`` neighbours runs on (``PARALLEL_QUERY``)."""
+    return thread_count() if lookups >= PARALLEL_QUERY else 1
+
+
 class SurfaceQuery:
     """Closest-point queries against a fixed triangle mesh, optionally restricted by label.
 
@@ -291,7 +301,7 @@ class SurfaceQuery:
         found = np.isfinite(best)
         if found.any():
             inside = self.tree.query_ball_point(points[found], best[found] + self.cover_radius,
-                                                  return_length=True, workers=thread_count())
+                                                  return_length=True, workers=_query_workers(int(found.sum())))
             needed = 2 ** np.ceil(np.log2(np.asarray(inside, dtype=np.float64) + 1)).astype(np.int64)
             size[found] = np.maximum(needed, 2 * last[found])
         return size
@@ -299,7 +309,7 @@ class SurfaceQuery:
     def _shortlist(self, points: np.ndarray, labels: np.ndarray | None, k: int):
         """Best exact candidate among the k nearest samples of each point ``[P, 3]``;
         returns ``(triangle [P], bary [P, 3], distance [P], bound [P])``."""
-        sample_dist, sample = self.tree.query(points, k=k, workers=thread_count())
+        sample_dist, sample = self.tree.query(points, k=k, workers=_query_workers(len(points) * k))
         sample_dist, sample = sample_dist.reshape(len(points), k), sample.reshape(len(points), k)
         candidates = self.sample_triangle[sample]                                  # [P, k]
         no_labels = np.zeros(0, dtype=np.int64)

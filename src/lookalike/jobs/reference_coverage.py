@@ -4,8 +4,8 @@ A reference that shows nothing (a path tracer that hides the asset, a field trac
 surface, cameras that miss it) gives a fit with nothing to match, and scores that mean nothing.
 So before any fitting, each held-out and validation view's coverage by the reference,
 ``sum(alpha_ref)``, is compared with the input's as our rasterizer draws it from the same
-camera (through every depth-peeled layer of its blended surfaces), ``sum(alpha_input)``: their
-ratio is the view's share. A view whose share is below
+camera (through every depth-peeled layer where it has alpha), ``sum(alpha_input)``: their ratio
+is the view's share. A view whose share is below
 ``MIN_COVERAGE_SHARE`` stops the run with one line.
 """
 

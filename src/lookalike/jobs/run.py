@@ -288,7 +288,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                    layers=cfg.render.layers, footprint=lookup_footprint(cfg))
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
-                                            partial(draw, layers=MAX_LAYERS))
+                                            partial(draw, layers=MAX_LAYERS if uses_alpha(asset) else 1))
     with s.stage("the start"):
         take_best_start(guess, validation, draw)
         start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
