@@ -95,3 +95,32 @@ def test_replaces_existing_uv_sets_and_keeps_materials():
 def test_bad_settings_are_refused(size, padding, message):
     with pytest.raises(ConfigError, match=message):
         unwrap(icosphere(1), texture_size=size, padding=padding)
+
+
+def _tetrahedra(count: int, seed: int = 0):
+    """``count`` separate small tetrahedra scattered in a cube: a mesh of many small parts."""
+    from lookalike.asset import Mesh
+
+    rng = np.random.default_rng(seed)
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64) * 0.05
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    v_pos = np.concatenate([tet + rng.uniform(-1, 1, 3) for _ in range(count)])
+    t_pos_idx = np.concatenate([faces + 4 * i for i in range(count)])
+    return Mesh(v_pos=torch.tensor(v_pos, dtype=torch.float32), t_pos_idx=torch.tensor(t_pos_idx))
+
+
+def test_many_small_parts_fit_a_small_texture_with_less_padding():
+    """20 tetrahedra in 64 texels: their 4-texel padding alone fills the texture at any density
+    (an error before), so the gap narrows and every chart still gets a texel of its own."""
+    size = 64
+    out = unwrap(_tetrahedra(20), texture_size=size, padding=4)
+    uv = out.v_tex.double().numpy()[out.t_tex_idx.numpy()]
+    assert out.v_tex.min() >= 0 and out.v_tex.max() <= 1
+    assert _texel_coverage(uv, size).max() == 1
+    chart = _charts(out.t_tex_idx.numpy(), len(out.v_tex))
+    assert all(_texel_coverage(uv[chart == c], size, shrink=-1e-3).any() for c in np.unique(chart))
+
+
+def test_a_mesh_no_padding_fits_is_refused_in_one_line():
+    with pytest.raises(ConfigError, match="no UV atlas of 64 texels with 4 texels of padding"):
+        unwrap(_tetrahedra(50), texture_size=64, padding=4)

@@ -12,6 +12,7 @@ from ..bench import benchmark_modules
 from ..bench.quality import ASSETS, JUDGES, select_assets
 from ..bench.cards import ASSETS as CARDS_ASSETS
 from ..bench.decimate import ASSETS as DECIMATE_ASSETS
+from ..bench.pathtraced import ASSETS as PATHTRACED_ASSETS
 from ..bench.skinned import ASSETS as SKINNED_ASSETS
 from ..errors import ConfigError
 
@@ -28,13 +29,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              + ", ".join(case.name for case in ASSETS) + "; skinned: "
                              + ", ".join(case.name for case in SKINNED_ASSETS) + "; cards: "
                              + ", ".join(case.name for case in CARDS_ASSETS) + "; decimate: "
-                             + ", ".join(case.name for case in DECIMATE_ASSETS) + ")")
+                             + ", ".join(case.name for case in DECIMATE_ASSETS) + "; pathtraced: "
+                             + ", ".join(case.name for case in PATHTRACED_ASSETS) + ")")
     parser.add_argument("--assets-dir", default=None, metavar="DIR",
-                        help="folder holding the benchmark assets (quality, warmstart, repair, contention, lod and decimate; default: "
+                        help="folder holding the benchmark assets (quality, warmstart, repair, contention, lod, decimate and pathtraced; default: "
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
                         help="blender (quality, skinned, cards, displace, implicit; decimate: Blender's Decimate "
-                             "alone): also render every method in Blender "
+                             "alone; pathtraced: Cycles under the sky): also render every method in Blender "
                              "Cycles (shadows on and off) and run Blender's own decimate + bake; needs pip install -e "
                              "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
                              "Chromium, see the README)")

@@ -28,13 +28,35 @@ def _generate(v_pos: np.ndarray, t_pos_idx: np.ndarray, texture_size: int, paddi
     return atlas
 
 
+def _paddings(padding: int) -> list[int]:
+    """``padding`` and its halvings down to one texel: ``4 -> [4, 2, 1]``, ``0 -> [0]``."""
+    steps = [padding]
+    while steps[-1] > 1:
+        steps.append(steps[-1] // 2)
+    return steps
+
+
+def _packed(unit: np.ndarray, indices: np.ndarray, texture_size: int, padding: int) -> xatlas.Atlas:
+    """The first atlas that fits one texture: densest first, then with less padding (``unwrap``)."""
+    for gap in _paddings(padding):
+        texels_per_unit = _FIRST_FILL * texture_size
+        for _ in range(_ATTEMPTS):
+            atlas = _generate(unit, indices, texture_size, gap, texels_per_unit)
+            if atlas.atlas_count == 1:
+                return atlas
+            texels_per_unit *= _SHRINK
+    raise ConfigError(f"no UV atlas of {texture_size} texels with {padding} texels of padding fits this mesh")
+
+
 def unwrap(mesh: Mesh, texture_size: int = 1024, padding: int = 4) -> Mesh:
     """Replace the UV sets of ``mesh`` with one new atlas in which no two triangles overlap.
 
     xatlas cuts the surface into charts, flattens each, and packs them into one
     ``texture_size`` square with at least ``padding`` texels between charts. The mesh is scaled
     to unit surface area for xatlas and the texel density starts at ``0.75 * texture_size``
-    per unit length, shrinking by 10% until every chart fits in one texture.
+    per unit length, shrinking by 10% until every chart fits in one texture. Where no density
+    fits (a small texture for a mesh of many small parts, whose padding alone fills it), the
+    padding halves, down to one texel: a narrower gap costs less than charts of a texel or two.
 
     Args:
         mesh: positions welded (``t_pos_idx`` is kept as it is).
@@ -59,14 +81,7 @@ def unwrap(mesh: Mesh, texture_size: int = 1024, padding: int = 4) -> Mesh:
     unit = (v_pos / np.sqrt(max(area, 1e-30))).astype(np.float32)
     indices = t_pos_idx.astype(np.uint32)
 
-    texels_per_unit = _FIRST_FILL * texture_size
-    for _ in range(_ATTEMPTS):
-        atlas = _generate(unit, indices, int(texture_size), int(padding), texels_per_unit)
-        if atlas.atlas_count == 1:
-            break
-        texels_per_unit *= _SHRINK
-    else:
-        raise ConfigError(f"no UV atlas of {texture_size} texels with {padding} texels of padding fits this mesh")
+    atlas = _packed(unit, indices, int(texture_size), int(padding))
 
     _, t_tex_idx, v_tex = atlas[0]
     v_tex = v_tex * np.array([atlas.width, atlas.height], dtype=np.float32) / texture_size
