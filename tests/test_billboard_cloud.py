@@ -285,7 +285,7 @@ def test_bad_budgets_and_sizes_are_config_errors():
 def test_triangles_edge_on_to_their_card_bake_no_undefined_texels():
     """A tree's bark has triangles seen edge-on from their card; they add nothing to its
     texels, which stay finite (their barycentrics are not)."""
-    from lookalike.jobs.foliage import broadleaf_tree
+    from lookalike.samples.foliage import broadleaf_tree
 
     cloud = billboard_cloud(broadleaf_tree(3), 500, 1024, np.random.default_rng((0, 2)))
     for material in cloud.asset.materials:

@@ -10,7 +10,7 @@ import torch
 
 from lookalike import io
 from lookalike.asset.parts import triangle_parts
-from lookalike.jobs.foliage import (
+from lookalike.samples.foliage import (
     BLADE_ROWS,
     BLADES,
     CARDS,
@@ -25,7 +25,7 @@ from lookalike.jobs.foliage import (
     grass_tuft,
     stitch,
 )
-from lookalike.jobs.shrub import shrub
+from lookalike.samples.shrub import shrub
 
 SMALL = {"broadleaf-tree": lambda seed: broadleaf_tree(seed, cards=150, branches=3),
          "grass-tuft": lambda seed: grass_tuft(seed, blades=40),

@@ -8,7 +8,7 @@ import torch
 
 from lookalike import io
 from lookalike.asset.parts import triangle_parts
-from lookalike.jobs.shrub import (
+from lookalike.samples.shrub import (
     BRANCHES,
     HEIGHT,
     LEAF_COLS,

@@ -12,7 +12,7 @@ from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.parts import triangle_parts
 from lookalike.errors import ConfigError
 from lookalike.init.stochastic import stochastic_simplification
-from lookalike.jobs.shrub import (
+from lookalike.samples.shrub import (
     BRANCHES,
     LEAF_COLS,
     LEAF_ROWS,

@@ -25,8 +25,8 @@ from lookalike.init.trunk_and_cards import (
     trunk_and_cards,
 )
 from lookalike.jobs.cards import CARDS_DEFAULTS, cards
-from lookalike.jobs.foliage import broadleaf_tree, grass_tuft
-from lookalike.jobs.shrub import shrub
+from lookalike.samples.foliage import broadleaf_tree, grass_tuft
+from lookalike.samples.shrub import shrub
 from lookalike.settings import config_from_dict
 
 BUDGET, SIZE = 212, 128

@@ -1,5 +1,5 @@
 """``lookalike bench cards``: foliage as cards on the generated foliage of
-``lookalike.jobs.foliage`` (the shrub of leaf meshes, and a broadleaf tree, a grass tuft and a
+``lookalike.samples.foliage`` (the shrub of leaf meshes, and a broadleaf tree, a grass tuft and a
 conifer drawn as real-time foliage is, alpha-textured cards on bark), each at two budgets,
 0.5 % and 2 % of its triangles.
 
@@ -49,7 +49,7 @@ NOT_RUN = float("nan")
 
 @dataclass(frozen=True)
 class CardsCase:
-    """One benchmark case: the foliage ``kind`` (``jobs.foliage.FOLIAGE``, generated with
+    """One benchmark case: the foliage ``kind`` (``samples.foliage.FOLIAGE``, generated with
     ``sizes``) kept at ``share`` of its triangles; ``simplify``: run ``simplify`` beside it."""
 
     name: str
@@ -96,7 +96,7 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
         ``{renderer: {method: {"psnr", "flip"}}}``.
     """
     from ..io import save
-    from ..jobs.foliage import FOLIAGE
+    from ..samples.foliage import FOLIAGE
 
     if judge is not None:
         check_judge(judge)

@@ -21,7 +21,7 @@ import torch
 from .. import io
 from ..asset import Asset, Material, Mesh, Texture
 from .cards import cards
-from .shrub import shrub
+from ..samples.shrub import shrub
 from .run_result import RunResult
 from .simplify import simplify
 
@@ -125,7 +125,7 @@ def demo(outdir: str | Path = "lookalike-demo", time_budget: float = DEMO_TIME_B
 
 def demo_cards(outdir: str | Path = "lookalike-cards-demo", time_budget: float = DEMO_TIME_BUDGET_S,
                force: bool = False, progress: bool = True) -> RunResult:
-    """``cards`` of the generated shrub (``lookalike.jobs.shrub``, written to a temporary glTF
+    """``cards`` of the generated shrub (``lookalike.samples.shrub``, written to a temporary glTF
     first) to ``DEMO_CARDS_SHARE`` of its triangles, with ``DEMO_TEXTURE_SIZE`` textures and
     ``DEMO_RESOLUTION`` views, within ``time_budget`` seconds, into ``outdir``."""
     with tempfile.TemporaryDirectory(prefix="lookalike-demo-") as folder:

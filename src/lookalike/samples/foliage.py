@@ -1,8 +1,8 @@
 """Seeded foliage assets for the ``cards`` application, drawn as real-time foliage is: leaves,
 needles and blades as alpha-textured quads (cut-outs), unlike the leaf meshes of
-``lookalike.jobs.shrub``.
+``lookalike.samples.shrub``.
 
-Frame and conventions as in ``lookalike.jobs.shrub``: glTF, +Y up, metres, the foot at the
+Frame and conventions as in ``lookalike.samples.shrub``: glTF, +Y up, metres, the foot at the
 origin, linear colours, ``np.random.default_rng(seed)`` (the same seed gives the same arrays).
 
 Bark. Branches are tapered tubes around quadratic Bezier curves (``shrub.branch_mesh``'s
