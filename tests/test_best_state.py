@@ -1,14 +1,20 @@
 """``BestState``: which state is kept (the higher finite score; the lowest loss average without
-a validator), when the validator scores, and its checkpoint round trip."""
+a validator), when the validator scores, and its checkpoint round trip; the run's validator, which
+weighs FLIP beside PSNR where ``optim.validation_flip_share`` says so."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 
+from lookalike.asset import Asset
+from lookalike.colour import srgb_decode
 from lookalike.fit.best_state import LOSS_EMA, BestState
+from mesh_factory import icosphere
 
 
 def weight(value: float) -> torch.nn.Linear:
@@ -80,3 +86,90 @@ def test_the_state_round_trips():
     assert restored.state_dict() == best.state_dict()
     restored.validate(weight(3.0), iteration=5)
     assert float(restored.model(weight(0.0)).weight) == 4.0 and len(best.validation) == 1
+
+
+# --- the run's validator: PSNR, and FLIP where it weighs in ---------------------------------
+
+
+SIZE = 48
+
+
+def display_image(pattern: str, step: float) -> torch.Tensor:
+    """``[SIZE, SIZE, 3]`` tone-mapped values: a smooth gradient (``"reference"``), or it moved
+    by ``step`` everywhere, all up (``"shift"``) or up and down at random per pixel
+    (``"grain"``): the same squared error either way."""
+    y, x = torch.meshgrid(torch.linspace(0, 1, SIZE), torch.linspace(0, 1, SIZE), indexing="ij")
+    image = torch.stack([0.3 + 0.3 * x, 0.4 + 0.2 * y, torch.full_like(x, 0.5)], dim=-1).double()
+    if pattern == "shift":
+        return image + step
+    if pattern == "grain":
+        signs = torch.from_numpy(np.random.default_rng(3).choice([-1.0, 1.0], size=image.shape))
+        return image + step * signs
+    return image
+
+
+def linear_rgba(display: torch.Tensor) -> torch.Tensor:
+    """``[1, H, W, 4]`` linear radiance whose tone-mapped values (``colour.tonemap``) are
+    ``display``, fully covered."""
+    rgb = torch.expm1(srgb_decode(display)).float()
+    return torch.cat([rgb, torch.ones_like(rgb[..., :1])], dim=-1)[None]
+
+
+class FixedPicture:
+    """A reference that shows the same picture in every view."""
+
+    fixed_light = None
+
+    def __init__(self, rgba: torch.Tensor):
+        self.rgba = rgba
+
+    def render(self, camera, light, resolution, spp, pose=None):
+        return self.rgba.expand(camera.batch_size, -1, -1, -1)
+
+    def bounding_sphere(self):
+        return torch.zeros(3), 1.0
+
+
+class Picture:
+    """A latent whose model draws as one fixed picture (``draw`` below)."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def export(self) -> Asset:
+        return Asset(mesh=icosphere(0), source=Path(f"{self.name}.glb"))
+
+    def state_dict(self) -> dict:
+        return {"name": self.name}
+
+
+@pytest.mark.parametrize("first", ["shift", "grain"])
+def test_of_two_states_with_equal_psnr_the_one_with_lower_flip_is_kept(first):
+    from lookalike.fit.training_views import view_sampler
+    from lookalike.jobs.written_model import WrittenModel
+    from lookalike.report.heldout import HeldoutViews
+    from lookalike.report.metrics import flip, psnr
+
+    step = 0.02
+    # FLIP sees a shift of the whole picture more than grain finer than its filters (at 67 pixels
+    # per degree); the shift is a hair closer, so that PSNR alone keeps it whichever comes first
+    pictures = {"shift": linear_rgba(display_image("shift", 0.999 * step)),
+                "grain": linear_rgba(display_image("grain", step))}
+    reference = linear_rgba(display_image("reference", 0.0))
+    scores = {name: (psnr(reference[..., :3], rgba[..., :3]), flip(reference[..., :3], rgba[..., :3]))
+              for name, rgba in pictures.items()}
+    assert scores["shift"][0] - scores["grain"][0] == pytest.approx(0.0087, abs=0.001)   # equal PSNR, to 0.01 dB
+    assert scores["grain"][1] < scores["shift"][1] - 0.01
+    lower_flip, higher_psnr = "grain", "shift"
+
+    def draw(asset, camera, light, pose=None):
+        return pictures[asset.name].expand(camera.batch_size, -1, -1, -1)
+
+    views = HeldoutViews(FixedPicture(reference), view_sampler(torch.zeros(3), 1.0), 2, 0, SIZE, 1)
+    second = "grain" if first == "shift" else "shift"
+    for share, kept in ((0.0, higher_psnr), (0.5, lower_flip)):
+        written = WrittenModel("auto", views, draw, flip_share=share)
+        best = BestState(written.validate, validate_every=1, start={})
+        best.validate(Picture(first), iteration=0)
+        best.validate(Picture(second), iteration=1)
+        assert best.state == {"name": kept}, share

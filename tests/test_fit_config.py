@@ -9,6 +9,7 @@ from lookalike.errors import ConfigError
 from lookalike.fit.from_settings import loop_settings, objective
 from lookalike.settings import (
     COLD_START,
+    FIELD_FLIP_SHARE,
     FIELD_START,
     SPHERE_START,
     WARM_START,
@@ -16,6 +17,7 @@ from lookalike.settings import (
     learning_rates,
     outline_views,
     refresh_interval,
+    validation_flip_share,
 )
 from lookalike.settings import (
     config_from_dict,
@@ -165,6 +167,16 @@ def test_an_implicit_surfaces_bake_steps_its_texels_more_finely(input, expected)
     assert FIELD_START.lr_textures < WARM_START.lr_textures
     assert learning_rates(config_from_dict({"io": {"input": input}, "latent": {"init": "sphere"}}))[1] == \
         SPHERE_START.lr_textures
+
+
+@pytest.mark.parametrize("input, expected", [("rook.py", FIELD_FLIP_SHARE), ("gear.GLSL", FIELD_FLIP_SHARE),
+                                             ("bunny.glb", 0.0), ("", 0.0)])
+def test_flip_weighs_in_the_validation_of_an_implicit_surface_only_unless_set(input, expected):
+    assert validation_flip_share(config_from_dict({"io": {"input": input}})) == expected
+    assert validation_flip_share(config_from_dict({"io": {"input": input}, "optim": {"validation_flip_share": 0.25}})) \
+        == 0.25
+    with pytest.raises(ConfigError, match="validation_flip_share"):
+        config_from_dict({"optim": {"validation_flip_share": 1.5}})
 
 
 def test_a_users_mesh_starts_warm():

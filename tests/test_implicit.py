@@ -3,6 +3,8 @@ the readers' answers to bad fields, and a short run."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -10,6 +12,7 @@ import torch
 from field_factory import box_field, sphere_field, sphere_volume, write_fields
 from lookalike import io
 from lookalike.asset.implicit import axes_points, field_mesh, field_normals, grid_axes, narrow_band_values
+from lookalike.bench.implicit import FIELDS
 from lookalike.cli import main
 from lookalike.errors import AssetError, UserCodeError
 from lookalike.fit.reference import FieldReference
@@ -258,3 +261,100 @@ def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_pa
     up = asset.mesh.v_pos[asset.mesh.t_pos_idx].mean(dim=1)[:, 1] > 0.05
     metal = torch.tensor([float(m.ks.data.reshape(-1)[2]) for m in asset.materials])[asset.mesh.t_mat_idx]
     assert bool((metal[up] == 1.0).all())
+
+
+CONSTANT_MATERIAL_FIELD = '''
+import torch
+
+bounds = ((-0.7, -0.7, -0.7), (0.7, 0.7, 0.7))
+
+
+def sdf(p):
+    """A box with rounded edges."""
+    q = p.abs() - torch.tensor([0.4, 0.3, 0.25])
+    return q.clamp(min=0).norm(dim=-1) + q.max(dim=-1).values.clamp(max=0) - 0.1
+
+
+def material(p):
+    n = p.shape[0]
+    return {"base_color": torch.tensor([0.6, 0.3, 0.1]).expand(n, 3), "roughness": torch.full((n,), 0.35),
+            "metallic": torch.ones(n)}
+'''
+
+FLAT_MAP_STD = 1e-4
+"""Most standard deviation of a flat map over the texels its triangles cover: one texel in the
+1,024 of a 32 x 32 map one 8-bit step (1/255) off has about 1.2e-4, so this allows no grain at
+all, only float rounding."""
+
+
+def map_grain(texture: torch.Tensor, mesh, size: int) -> float:
+    """The largest standard deviation over channels of ``texture [h, w, C]`` (resampled, nearest,
+    to ``size`` x ``size``: a constant may be one texel) over the texels ``mesh``'s triangles
+    cover in UV set 0."""
+    from io_factory import covered_texels
+
+    resized = torch.nn.functional.interpolate(texture.float().permute(2, 0, 1)[None], size=(size, size),
+                                              mode="nearest")[0].permute(1, 2, 0)
+    return float(resized[covered_texels(mesh, 0, size, size)].std(dim=0).max())
+
+
+@pytest.mark.slow
+def test_a_field_whose_material_is_constant_gets_flat_maps(tmp_path):
+    """The start bakes the field's one material, and the fit keeps it one value
+    (``fit.textured_mesh.constant_channels``): grain the fit paints into base colour or
+    specular shows as perceptual error on a plain material."""
+    from lookalike.jobs.simplify import simplify
+    from lookalike.settings import config_from_dict
+
+    path = tmp_path / "plain.py"
+    path.write_text(CONSTANT_MATERIAL_FIELD)
+    size = 32
+    tiny = {"views": {"pool_size": 2, "heldout": 1, "batch_size": 1, "validation": 0}, "render": {"resolution": 48},
+            "latent": {"texture_size": size}, "optim": {"checkpoint_seconds": 1e9}}
+    result = simplify(path, tmp_path / "out", triangles=300, iterations=10, config=config_from_dict(tiny),
+                      progress=False)
+    for model in (result.baselines["baked"], io.load(result.model)):
+        material = model.materials[0]
+        assert map_grain(material.kd.data[..., :3], model.mesh, size) < FLAT_MAP_STD
+        assert map_grain(material.ks.data, model.mesh, size) < FLAT_MAP_STD
+        kd, ks = material.kd.data.reshape(-1, 4)[0], material.ks.data.reshape(-1, 3)[0]
+        assert kd[:3].tolist() == pytest.approx([0.6, 0.3, 0.1], abs=0.01)     # 8-bit sRGB steps
+        assert ks[1:].tolist() == pytest.approx([0.35, 1.0], abs=0.005)
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SHELL = 0.02
+SLOPE_LIMIT = 1.05
+"""Most slope accepted of an example field: 1 and the few percent that the bundled rook's smooth
+unions reach near its surface."""
+
+
+@pytest.mark.parametrize("name, file", FIELDS)
+def test_every_example_field_has_a_surface_that_traces_and_its_distances_are_a_bound(name, file):
+    """Each field of ``examples/`` (the bench's, ``bench.implicit.FIELDS``) meshes, sphere-traces
+    and is about 1-Lipschitz outside its solid and in a shell ``SHELL`` deep inside it (so it
+    does not exceed the true distance there; deeper inside, a cut may jump), its material finite."""
+    from lookalike.fit.reference import FieldReference
+    from lookalike.fit.training_views import view_sampler
+    from lookalike.io.field_glsl import load_glsl_field
+    from lookalike.io.field_python import load_python_field
+
+    path = EXAMPLES / file
+    if path.suffix == ".glsl" and not gl_available():
+        pytest.skip("no headless OpenGL")
+    surface = (load_glsl_field if path.suffix == ".glsl" else load_python_field)(path)
+    mesh = field_mesh(surface, 40)
+    assert mesh.num_triangles > 1000
+    centre, radius = mesh.bounding_sphere()
+    views = view_sampler(centre, radius)(np.random.default_rng(1), 2)
+    coverage = FieldReference(surface, (centre, radius)).render(views.camera, views.light, 32, 1)[..., 3]
+    assert float(coverage.mean(dim=(1, 2)).min()) > 0.05
+    generator = torch.Generator().manual_seed(0)
+    a = surface.lo + (surface.hi - surface.lo) * torch.rand(8192, 3, generator=generator)
+    b = a + 0.01 * torch.nn.functional.normalize(torch.randn(8192, 3, generator=generator), dim=-1)
+    fa, fb = surface.distance(a), surface.distance(b)
+    outside = (fa > -SHELL) & (fb > -SHELL)                # where tracing and the bake's projection step by it
+    slope = (fa - fb).abs() / (a - b).norm(dim=-1)
+    assert int(outside.sum()) > 1000 and float(slope[outside].max()) <= SLOPE_LIMIT
+    kd, ks = surface.channels(mesh.v_pos)
+    assert bool(torch.isfinite(kd).all() and torch.isfinite(ks).all())

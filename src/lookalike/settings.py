@@ -331,6 +331,12 @@ class OptimConfig:
             fallen to 1 % of lambda_0 - lambda_min (see ``lookalike.fit.schedule``; 0.2
             reproduces the paper's k = 1e-6 on its 10k-step runs).
         validate_every: steps between scorings on the validation views (``views.validation``).
+        validation_flip_share: how much FLIP weighs in the validation score that chooses the
+            best state and what is written (``lookalike.report.metrics.perceptual_score``): the
+            score is ``(1 - share) * PSNR + share * (-20 log10 FLIP)``, both in dB, so that of
+            two states with the same PSNR the one with less perceptual error (grain, blotches)
+            is kept. 0 scores PSNR alone; ``None`` picks ``validation_flip_share``'s default for
+            the input (``FIELD_FLIP_SHARE`` for an implicit surface, else 0).
         checkpoint_seconds: write ``OUTDIR/checkpoint.pt`` at most this often.
         rollback_lr_factor: a non-finite step rolls back and multiplies the lr by this.
         max_rollbacks: give up (keeping the best state) after this many rollbacks in a row.
@@ -360,6 +366,7 @@ class OptimConfig:
     laplacian_min_fraction: float = 0.02
     laplacian_decay_fraction: float = 0.2
     validate_every: int = 25
+    validation_flip_share: float | None = None
     checkpoint_seconds: float = 60.0
     rollback_lr_factor: float = 0.5
     max_rollbacks: int = 8
@@ -441,6 +448,8 @@ class Config:
             (1 <= lat.skin_candidates <= MAX_SKIN_CANDIDATES,
              f"latent.skin_candidates must lie in [1, {MAX_SKIN_CANDIDATES}], not {lat.skin_candidates}"),
             (opt.validate_every >= 1, f"optim.validate_every must be at least 1, not {opt.validate_every}"),
+            (opt.validation_flip_share is None or 0 <= opt.validation_flip_share <= 1,
+             f"optim.validation_flip_share must lie in [0, 1], not {opt.validation_flip_share}"),
             (opt.time_budget > 0, f"optim.time_budget must be positive, not {opt.time_budget}"),
             (opt.iterations is None or opt.iterations >= 0,
              f"optim.iterations must not be negative, not {opt.iterations}"),
@@ -506,14 +515,34 @@ SPHERE_START = StartDefaults(lr_positions=0.01, lr_textures=0.03, lr_decades=2.0
 radius, and the outline views pull the silhouette into shape."""
 
 
+def field_input(config: Config) -> bool:
+    """Whether the run's input (``io.input``) is an implicit surface (``FIELD_SUFFIXES``)."""
+    return Path(config.io.input).suffix.lower() in FIELD_SUFFIXES
+
+
 def start_defaults(config: Config) -> StartDefaults:
     """``WARM_START`` for a user's mesh (``io.init_mesh``: it is fitted onto the input's surface
     and baked or keeps its own maps, ``lookalike.init.conform``) and for ``WARM_INITS``
     (``FIELD_START`` where the input is an implicit surface), ``SPHERE_START`` for ``sphere``,
     else ``COLD_START``."""
     if config.io.init_mesh or config.latent.init in WARM_INITS:
-        return FIELD_START if Path(config.io.input).suffix.lower() in FIELD_SUFFIXES else WARM_START
+        return FIELD_START if field_input(config) else WARM_START
     return SPHERE_START if config.latent.init == "sphere" else COLD_START
+
+
+FIELD_FLIP_SHARE = 0.5
+"""``optim.validation_flip_share`` where the input is an implicit surface: PSNR and FLIP weigh
+the same. A field's start already holds its own material, so what the fit changes in its maps
+is small, and a PSNR that climbs by a fraction of a dB can come with grain that FLIP sees."""
+
+
+def validation_flip_share(config: Config) -> float:
+    """``optim.validation_flip_share`` where set, else ``FIELD_FLIP_SHARE`` for an implicit
+    surface (``field_input``) and 0 (PSNR alone, no FLIP computed) for any other input."""
+    share = config.optim.validation_flip_share
+    if share is not None:
+        return share
+    return FIELD_FLIP_SHARE if field_input(config) else 0.0
 
 
 def learning_rates(config: Config) -> tuple[float, float]:

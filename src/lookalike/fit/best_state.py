@@ -19,7 +19,8 @@ LOSS_EMA = 0.9
 without a validator."""
 
 Validator = Callable[[Latent], float]
-"""Scores a model on views it is not trained on; higher is better (e.g. the mean PSNR)."""
+"""Scores a model on views it is not trained on; higher is better (e.g. the mean PSNR, or PSNR and
+FLIP blended: ``lookalike.report.metrics.perceptual_score``)."""
 
 
 class BestState:

@@ -332,15 +332,17 @@ def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:
     """The material channels (``"kd"``, ``"ks"``) that hold one value over the whole of
     ``asset``: every material's texture of that channel varies by at most ``tolerance`` and all
     materials agree (and, for ``"kd"``, the mesh has no vertex colours); for an implicit
-    surface, both where its field gives no material, else neither (its mesh's material is only
-    the mean of the field's)."""
-    if asset.field is not None:
-        return frozenset() if asset.field.material is not None else frozenset({"kd", "ks"})
+    surface, those whose field's own values (``ImplicitSurface.channels``) at every vertex of
+    its mesh (within a marching-cubes cube of the surface) vary by at most ``tolerance``: its
+    mesh's materials are only a rounded palette of them."""
 
     def constant(textures: list[torch.Tensor]) -> bool:
         texels = torch.cat([t.detach().reshape(-1, t.shape[-1]) for t in textures])
         return bool((texels.max(dim=0).values - texels.min(dim=0).values).max() <= tolerance)
 
+    if asset.field is not None:
+        values = asset.field.channels(asset.mesh.v_pos.detach().float())
+        return frozenset(name for name, value in zip(("kd", "ks"), values) if constant([value]))
     channels = set()
     if asset.mesh.v_color is None and constant([m.kd.data for m in asset.materials]):
         channels.add("kd")

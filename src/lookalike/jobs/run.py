@@ -52,11 +52,11 @@ from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..limits import MAX_LAYERS, MAX_WORKERS
 from ..phases import Profile, phase, recording
-from ..report.heldout import HeldoutViews
+from ..report.heldout import AssetRenderer, HeldoutViews
 from ..report.record import MethodResult, RunRecord
 from ..shading.peeled_layers import LayerCount
 from ..settings import (Config, config_to_dict, refresh_interval, section_of, setting_help, setting_value, to_toml,
-                        with_overrides)
+                        validation_flip_share, with_overrides)
 from ..threads import CoreShare, set_threads
 from . import animated
 from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
@@ -100,6 +100,14 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
                "footprint": lookup_footprint(cfg),
                "absolute_laplacian": cfg.latent.init == "sphere"}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
+
+
+def scoring_draw(cfg: Config) -> AssetRenderer:
+    """How a run draws ours and the baselines on its held-out and validation views:
+    ``render_asset`` at ``render.resolution``, with ``render.latent_msaa`` samples per axis, each
+    shaded, ``render.layers`` layers and the texture footprint of ``render.mip_footprint``."""
+    return partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
+                   layers=cfg.render.layers, footprint=lookup_footprint(cfg))
 
 
 def no_remarks(asset: Asset) -> list[str]:
@@ -284,8 +292,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         guess, checkpointer = starting_point(s, cfg, asset, moving)
     with s.stage("reference views"):
         heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress)
-    draw = partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
-                   layers=cfg.render.layers, footprint=lookup_footprint(cfg))
+    draw = scoring_draw(cfg)
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
                                             partial(draw, layers=MAX_LAYERS if uses_alpha(asset) else 1))
@@ -294,7 +301,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
         latent = s.app.latent(asset, reference.latent_start(start), cfg, moving)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
-                           forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)])
+                           forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)],
+                           flip_share=validation_flip_share(cfg))
     with s.stage("alpha of the start"):
         start_written = written.start(start)
     methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset, reference)
@@ -321,6 +329,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     motion = moving_picture(s, cfg, reference.renderer, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
+    record.validation_metric = written.metric
     record.reference_coverage, record.start_distance = coverage, guess.start_distance
     reference.annotate(record, getattr(source, "nbytes", 0))
     metrics = write_outputs(s, cfg, export, guess, record,
@@ -514,7 +523,7 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
     with s.stage("alpha cutoff"):
         export, is_start = written.kept(written.finished(fit.best.export()), start)
     if is_start:
-        notes.append(remark := f"the fit did not improve on its start as written (validation PSNR "
+        notes.append(remark := f"the fit did not improve on its start as written (validation {written.metric} "
                      f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB): model.glb is the start")
         log.warning(remark)
     if written.alpha.get("written"):

@@ -1,8 +1,10 @@
 """The model a run writes, chosen as the user receives it: the start and every state of the
 fit are scored on the validation views as they would be written (alpha-tested at the chosen
 cutoff, dithered, or blended: ``jobs.alpha_export``), so that the best state is the best
-*written* state, and a fit that ends below its start returns its start. Without validation
-views, the fit's best state is written as it is chosen by the loop (nothing to compare on)."""
+*written* state, and a fit that ends below its start returns its start. The score is the mean
+PSNR, or where FLIP weighs in (``optim.validation_flip_share``) a blend of PSNR and FLIP in dB
+(``lookalike.report.metrics.perceptual_score``). Without validation views, the fit's best state
+is written as it is chosen by the loop (nothing to compare on)."""
 
 from __future__ import annotations
 
@@ -18,29 +20,37 @@ class WrittenModel:
     """Scores and chooses models as written for ``latent.alpha_mode`` ``mode`` on
     ``validation`` (``None``: no validation views), drawn by ``draw``; ``annealed``: the fit
     trains its alpha test in (``latent.mask_anneal``), at the start's cutoff; ``forms``: the
-    forms a model is scored in, by the mean of their PSNRs (e.g. a displaced model at each of
-    its tessellation levels; by default the model alone).
+    forms a model is scored in, by the mean of their scores (e.g. a displaced model at each of
+    its tessellation levels; by default the model alone); ``flip_share``: FLIP's weight in the
+    score (``HeldoutViews.validation_score``; 0: PSNR alone).
 
     Attributes:
         choice: the alpha choice of the start, with which every state of the fit is scored.
-        scores: ``{"start": PSNR, "ours": PSNR}`` of the written models on the validation
-            views, once ``kept`` has compared them.
+        scores: ``{"start": score, "ours": score}`` of the written models on the validation
+            views (``score``), once ``kept`` has compared them.
         alpha: ``{"start": label, "ours": label}``, how each writes its alpha
             (``alpha_export.alpha_label``), once chosen; ``"written"`` is added by ``kept``
             (the one of the model it returns).
     """
 
     def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False,
-                 forms: Callable[[Asset], list[Asset]] = lambda model: [model]):
+                 forms: Callable[[Asset], list[Asset]] = lambda model: [model], flip_share: float = 0.0):
         self.mode, self.validation, self.draw, self.annealed, self.forms = mode, validation, draw, annealed, forms
+        self.flip_share = flip_share
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
         self.alpha: dict[str, str | None] = {}
 
+    @property
+    def metric(self) -> str:
+        """What ``score`` is, for the report's lines."""
+        return "PSNR" if self.flip_share == 0 else f"score (PSNR and FLIP, FLIP's share {self.flip_share:g})"
+
     def score(self, asset: Asset) -> float:
-        """Mean PSNR of ``asset`` (as it is) on the validation views, over its ``forms``."""
+        """The validation score (dB, higher is better) of ``asset`` (as it is), the mean over its
+        ``forms``: its mean PSNR, FLIP weighing in by ``flip_share``."""
         forms = self.forms(asset)
-        return sum(self.validation.psnr(form, self.draw) for form in forms) / len(forms)
+        return sum(self.validation.validation_score(form, self.draw, self.flip_share) for form in forms) / len(forms)
 
     def _scorer(self):
         return None if self.validation is None else self.score

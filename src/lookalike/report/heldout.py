@@ -1,6 +1,7 @@
 """Held-out views: a fixed set of cameras and lights, never trained on, on which every method
 (plain decimation, the classic bake, ours) is scored against the reference (PSNR and FLIP),
-and on which (another set of them) the optimisation validates its states (PSNR)."""
+and on which (another set of them) the optimisation validates its states (PSNR, and FLIP
+where it weighs in: ``HeldoutViews.validation_score``)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from ..fit.training_views import ViewSampler
 from ..shading.camera import Camera
 from ..shading.light import PointLight
 from .map_noise import map_noise
-from .metrics import psnr, silhouette_band, silhouette_iou
+from .metrics import flip, perceptual_score, psnr, silhouette_band, silhouette_iou
 from .record import MethodResult, score_method
 
 BACKGROUND = (0.2, 0.2, 0.2)
@@ -80,3 +81,11 @@ class HeldoutViews:
     def psnr(self, asset: Asset, render: AssetRenderer) -> float:
         """Mean PSNR (dB, ``lookalike.report.metrics.psnr``) of ``asset`` drawn by ``render``."""
         return psnr(self.reference, self.images(asset, render))
+
+    def validation_score(self, asset: Asset, render: AssetRenderer, flip_share: float) -> float:
+        """``lookalike.report.metrics.perceptual_score`` (dB) of ``asset`` drawn by ``render``:
+        the mean PSNR, and where ``flip_share`` > 0 the mean FLIP with that weight (FLIP is
+        computed only then)."""
+        images = self.images(asset, render)
+        score = psnr(self.reference, images)
+        return perceptual_score(score, flip(self.reference, images), flip_share) if flip_share > 0 else score

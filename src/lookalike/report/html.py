@@ -356,7 +356,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
     files.mkdir(parents=True, exist_ok=True)
     views = _write_view_pictures(data, files)
     plot_loss(data.loss_history, files / "loss.png", title=f"Training loss, {data.asset_name}",
-              validation=data.validation_history)
+              validation=data.validation_history, validation_metric=data.validation_metric)
 
     figures = [_view_figure(data, i, paths) for i, paths in enumerate(views)]
     views_div = f'<div class="views" style="--fig:{(len(data.methods) + 1) * _MIN_CELL_PX}px">{{}}</div>'

@@ -172,6 +172,23 @@ def flip(reference, test) -> float:
     return float(flip_views(reference, test)[0].mean())
 
 
+def flip_psnr(flip_mean: float) -> float:
+    """A mean FLIP error on PSNR's scale: ``-20 log10(FLIP)``, the PSNR of an image whose RMS
+    error (peak 1) equals that FLIP, capped at ``PSNR_CAP_DB`` as PSNR is (FLIP 0). Both are
+    logarithms of an error in [0, 1], so a change of either in dB is the same relative change of
+    its error."""
+    return float(min(-20.0 * np.log10(max(flip_mean, 1e-300)), PSNR_CAP_DB))
+
+
+def perceptual_score(psnr_db: float, flip_mean: float, flip_share: float) -> float:
+    """A score in dB that weighs perceptual error beside the mean squared one:
+    ``(1 - flip_share) * PSNR + flip_share * flip_psnr(FLIP)``; higher is better, and it is the
+    PSNR where ``flip_share`` is 0. Why: grain and blotches in the maps cost a mean squared error
+    little and a viewer (and FLIP) much, so that of two models with the same PSNR the one with
+    the lower FLIP scores higher."""
+    return (1.0 - flip_share) * psnr_db + flip_share * flip_psnr(flip_mean)
+
+
 def temporal_change(frames) -> float:
     """Mean absolute difference between consecutive frames of ``frames [T, H, W, C>=3]``
     (linear; tone-mapped and clamped as for PSNR): ``mean_t mean |x'_{t+1} - x'_t|``, over

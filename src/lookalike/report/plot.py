@@ -25,14 +25,16 @@ def _minor_label(value: float, _position) -> str:
     return f"{value:g}" if leading in (2, 5) else ""
 
 
-def plot_loss(history, path: str | Path, title: str = "Training loss", validation=None) -> Path:
+def plot_loss(history, path: str | Path, title: str = "Training loss", validation=None,
+              validation_metric: str = "PSNR") -> Path:
     """Write the loss curve: raw loss per iteration (light) under its smoothed curve, log y;
-    with ``validation``, its PSNR on a second axis at the right.
+    with ``validation``, its scores on a second axis at the right.
 
     Args:
         history: ``[N]`` loss per iteration (non-positive values are dropped from the log plot).
         path: the PNG to write.
-        validation: optional ``[K, 2]`` (iteration, PSNR in dB) scorings on validation views.
+        validation: optional ``[K, 2]`` (iteration, score in dB) scorings on validation views.
+        validation_metric: what those scores are (e.g. ``"PSNR"``).
 
     Returns:
         ``path``.
@@ -69,9 +71,10 @@ def plot_loss(history, path: str | Path, title: str = "Training loss", validatio
         if validation is not None and len(validation):
             points = np.asarray(validation, dtype=np.float64).reshape(-1, 2)
             right = ax.twinx()
+            label = f"validation {validation_metric} (dB)"
             right.plot(points[:, 0], points[:, 1], color="#c0562b", linewidth=1.6, marker="o", markersize=2.5,
-                       label="validation PSNR (dB)")
-            right.set_ylabel("validation PSNR (dB)", color="#c0562b")
+                       label=label)
+            right.set_ylabel(label, color="#c0562b")
             right.tick_params(colors="#c0562b", labelsize=9)
             for side in ("top", "left"):
                 right.spines[side].set_visible(False)

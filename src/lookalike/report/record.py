@@ -101,9 +101,12 @@ class RunRecord:
         texture_size: side of our textures in texels.
         resolution: side of the training and held-out images in pixels.
         loss_history: ``[N]`` training loss per iteration (NaN for rolled-back steps).
-        validation_history: ``[K, 2]`` (iteration, PSNR on the validation views) of the
+        validation_history: ``[K, 2]`` (iteration, score on the validation views) of the
             optimisation's scorings, drawn with the loss curve.
         validation_views: how many validation views those scores are over.
+        validation_metric: what those scores are: ``"PSNR"``, or where FLIP weighs in a
+            description of the blend (``jobs.written_model.WrittenModel.metric``); in dB
+            either way.
         iterations: optimisation steps taken.
         rollbacks: steps rolled back after a non-finite loss or gradient.
         position_backoffs: returns to the best state that halved the position learning rate
@@ -119,7 +122,7 @@ class RunRecord:
         view_labels: what each held-out view shows besides its camera (an animated input's
             clip and time, e.g. ``"Walk at 0.42 s"``), or ``None``.
         motion: the animated comparison of an animated input, or ``None``.
-        written: ``{"start": PSNR, "ours": PSNR}`` on the validation views of the start and
+        written: ``{"start": score, "ours": score}`` on the validation views of the start and
             of the fit's best model as written, by which the run chose what it wrote (empty
             without validation views).
         written_alpha: how the start, ours and the model written (``"written"``) write their
@@ -170,6 +173,7 @@ class RunRecord:
     position_backoffs: int = 0
     reference_coverage: dict | None = None
     start_distance: dict | None = None
+    validation_metric: str = "PSNR"
 
     @property
     def baseline(self) -> MethodResult:
@@ -189,6 +193,7 @@ class RunRecord:
         losses = np.asarray(self.loss_history, dtype=np.float64)
         finite = losses[np.isfinite(losses)]
         validation = np.asarray(self.validation_history, dtype=np.float64).reshape(-1, 2)
+        scores = "psnr" if self.validation_metric == "PSNR" else "score"
         return {
             "input": self.input,
             "methods": [m.key for m in self.methods],
@@ -202,8 +207,9 @@ class RunRecord:
             "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
             "final_loss": float(finite[-1]) if len(finite) else None,
             "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],
-                           "psnr": [float(v) for v in validation[:, 1]], "written": dict(self.written),
-                           "written_alpha": dict(self.written_alpha)},
+                           "metric": self.validation_metric,
+                           scores: [float(v) for v in validation[:, 1]],
+                           "written": dict(self.written), "written_alpha": dict(self.written_alpha)},
             "heldout": {
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
