@@ -2,36 +2,50 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from lookalike.bench.displace import ASSETS, format_table, level_rows
 
 
-def _metrics(minutes: float, ours: list[float], bakes: list[float]) -> dict:
+def _metrics(minutes: float, ours: list[float], starts: list[float], bakes: list[float]) -> dict:
+    """Levels 0.. with ours, the classic displacement bake (FLIP 0.001 above ours) and the
+    classic decimate + bake at each level's count (bytes doubling per level)."""
     levels = [{"level": k, "triangles": 1000 * 4 ** k, "bytes": 500_000, "psnr": p, "flip": 0.05 - k / 100,
-               "bake_triangles": 1000 * 4 ** k, "bake_bytes": 200_000 * 2 ** k, "bake_psnr": b,
-               "bake_flip": 0.05 - k / 100 + 0.001}
-              for k, (p, b) in enumerate(zip(ours, bakes))]
+               "start_psnr": s, "start_flip": 0.05 - k / 100 + 0.001, "bake_triangles": 1000 * 4 ** k,
+               "bake_bytes": 200_000 * 2 ** k, "bake_psnr": b, "bake_flip": 0.05 - k / 100 + 0.001}
+              for k, (p, s, b) in enumerate(zip(ours, starts, bakes))]
     return {"seconds": {"total": 60 * minutes}, "levels": levels}
 
 
-def _simplified(psnr: float) -> dict:
-    return {"heldout": {"ours": {"psnr": psnr, "flip": 0.04}}}
-
-
-def test_every_level_from_1_up_needs_the_gain_over_the_classic_bake_and_a_lower_flip():
-    rows = level_rows(ASSETS[0], _metrics(9.0, [20.0, 30.6, 40.4], [25.0, 30.0, 40.0]),
-                      {k: _simplified(30.0) for k in range(3)})
-    assert [r["meets_bar"] for r in rows] == [True, True, False]  # level 0 is not held to it; +0.4 < +0.5
-    assert rows[1]["gain_over_bake_db"] == 30.6 - 30.0 and rows[1]["simplify_psnr"] == 30.0
-    slow = level_rows(ASSETS[0], _metrics(11.0, [20.0, 31.0], [25.0, 30.0]), {})
+def test_every_level_needs_the_gain_over_the_classic_displacement_bake_and_a_lower_flip():
+    rows = level_rows(ASSETS[0], _metrics(9.0, [30.0, 31.0, 33.5, 34.0], [29.5, 30.6, 33.0, 33.0],
+                                          [30.0, 35.0, 40.0, 45.0]))
+    assert [r["meets_bar"] for r in rows] == [True, False, True, True]  # +0.4 < +0.5 at level 1
+    assert rows[2]["gain_over_start_db"] == 33.5 - 33.0 and rows[2]["gain_over_base_bake_db"] == 3.5
+    slow = level_rows(ASSETS[0], _metrics(11.0, [30.0, 31.0], [29.0, 30.0], [29.0, 30.0]))
     assert [r["meets_bar"] for r in slow] == [False, False]  # over 10 minutes
 
 
+def test_a_level_below_the_one_under_it_or_level_2_near_the_base_bake_misses_the_bar():
+    falling = level_rows(ASSETS[0], _metrics(9.0, [30.0, 32.0, 33.5, 33.3], [29.0, 31.0, 32.0, 32.0],
+                                             [30.0, 35.0, 40.0, 45.0]))
+    assert [r["meets_bar"] for r in falling] == [True, True, True, False]  # 0.2 dB below level 2
+    near = level_rows(ASSETS[0], _metrics(9.0, [30.0, 31.0, 32.9, 33.0], [29.0, 30.0, 32.0, 32.0],
+                                          [30.0, 35.0, 40.0, 45.0]))
+    assert [r["meets_bar"] for r in near] == [True, True, False, True]  # level 2 only +2.9 over the base's bake
+
+
+def test_the_same_bytes_buy_the_plain_mesh_interpolated_in_log_bytes():
+    rows = level_rows(ASSETS[0], _metrics(9.0, [30.0, 31.0, 32.0], [29.0, 30.0, 31.0], [30.0, 36.0, 42.0]))
+    assert abs(rows[0]["same_bytes_psnr"] - (36.0 + 6.0 * np.log(500_000 / 400_000) / np.log(2))) < 1e-9
+
+
 def test_the_table_lists_each_level_with_bytes_scores_and_the_bar():
-    rows = level_rows(ASSETS[0], _metrics(9.0, [20.0, 31.0], [25.0, 30.0]), {1: _simplified(29.5)})
+    rows = level_rows(ASSETS[0], _metrics(9.0, [30.0, 31.0], [29.0, 30.0], [30.0, 35.0]))
     text = format_table({"runs": rows, "all_meet_bar": False, "judged": {}, "outputs": None})
     lines = text.splitlines()
-    assert "nefertiti" in lines[2] and "500,000" in lines[2] and "—" in lines[2]  # no simplify run at level 0
-    assert "+1.00" in lines[3] and "29.50" in lines[3] and lines[3].split()[-1] == "ok"
+    assert "nefertiti" in lines[2] and "500,000" in lines[2]
+    assert "+1.00" in lines[3] and "29.00" not in lines[3] and lines[3].split()[-1] == "ok"
     assert "NOT met" in text
 
 

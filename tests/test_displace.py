@@ -15,7 +15,7 @@ from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.displacement import (corner_heights, displaced, seam_gaps, stitched_displacement,
                                           tessellated, tessellation)
 from lookalike.asset.material import Displacement
-from lookalike.asset.normals import angle_weighted_normals, angle_weighted_normals_python
+from lookalike.asset.normals import angle_weighted_normals, angle_weighted_normals_python, split_normals_python
 from lookalike.blender.process import judge_available
 from lookalike.cli import main
 from lookalike.fit.displaced_mesh import DisplacedMesh
@@ -74,11 +74,34 @@ def test_angle_weighted_normals_match_their_loop_and_keep_under_subdivision():
     assert torch.allclose(finer[:mesh.num_vertices], fast, atol=1e-10)
 
 
+def interpolated_normals_python(mesh: Mesh, fine: Mesh, level: int) -> torch.Tensor:
+    """``[V_fine, 3]`` by a loop over the base triangles: each fine vertex's barycentric
+    coordinates ``b`` in the base triangle it descends from (fine triangles ``4^level t ..``),
+    solved from its undisplaced position, and ``normalize(sum_i b_i n_i)`` of the base's smooth
+    vertex normals."""
+    base_normals = split_normals_python(mesh.v_pos.double(), mesh.t_pos_idx, mesh.t_pos_idx, mesh.num_vertices)
+    out = torch.zeros(fine.num_vertices, 3, dtype=torch.float64)
+    children = 4 ** level
+    for t, corners in enumerate(mesh.t_pos_idx.tolist()):
+        p = mesh.v_pos.double()[corners]
+        for vertex in fine.t_pos_idx[t * children:(t + 1) * children].reshape(-1).tolist():
+            edges = torch.stack([p[1] - p[0], p[2] - p[0]], dim=1)
+            b12 = torch.linalg.lstsq(edges, fine.v_pos.double()[vertex] - p[0]).solution
+            b = torch.cat([1 - b12.sum().reshape(1), b12])
+            n = (b[:, None] * base_normals[corners]).sum(0)
+            out[vertex] = n / n.norm()
+    return out
+
+
 def loop_displaced(mesh: Mesh, displacement: Displacement) -> torch.Tensor:
-    """``displaced`` by a loop over the fine vertices: each moved along its angle-weighted normal
-    by the mean of its UV sides' bilinear samples (texel centres at (i + 1/2) / S, clamped)."""
+    """``displaced`` by a loop over the fine vertices: each moved along its direction (the
+    angle-weighted normal of the undisplaced fine mesh, or the base's interpolated normal) by the
+    mean of its UV sides' bilinear samples (texel centres at (i + 1/2) / S, clamped)."""
     fine = tessellation(mesh, displacement.level).subdivided(mesh, displacement.level)
-    normals = angle_weighted_normals_python(fine.v_pos.double(), fine.t_pos_idx)
+    if displacement.shading == "recomputed":
+        normals = angle_weighted_normals_python(fine.v_pos.double(), fine.t_pos_idx)
+    else:
+        normals = interpolated_normals_python(mesh, fine, displacement.level)
     image = displacement.heights.data[..., 0].double()
     size = image.shape[0]
 
@@ -98,12 +121,25 @@ def loop_displaced(mesh: Mesh, displacement: Displacement) -> torch.Tensor:
     return out
 
 
-def test_displacement_along_normals_matches_a_per_vertex_loop():
+@pytest.mark.parametrize("shading", ["engine", "recomputed"])
+def test_displacement_along_normals_matches_a_per_vertex_loop(shading):
     mesh = seamed_quad()
-    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.3, 0.5, level=2)
+    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.3, 0.5, level=2, shading=shading)
     fine, gaps = displaced(mesh, displacement)
     assert torch.allclose(fine.v_pos.double(), loop_displaced(mesh, displacement), atol=1e-5)
     assert gaps.abs().max() > 0.01  # the two islands read different heights on their shared edge
+    if shading == "engine":  # the directions are the shading normals
+        assert torch.allclose(fine.normals()[0].double(), interpolated_normals_python(
+            mesh, tessellation(mesh, 2).subdivided(mesh, 2), 2), atol=1e-6)
+
+
+def test_the_two_conventions_move_the_bent_quads_vertices_apart():
+    """A midpoint of the bent edge: the base's interpolated normal and the subdivided mesh's
+    own angle-weighted normal differ, so a test of one convention cannot pass for the other."""
+    mesh = seamed_quad()
+    engine, recomputed = (displaced(mesh, Displacement(Texture(random_heights(), wrap="clamp"), 0.3, 0.5, level=2,
+                                                       shading=shading))[0].v_pos for shading in ("engine", "recomputed"))
+    assert (engine - recomputed).norm(dim=1).max() > 1e-3
 
 
 def test_the_seam_regulariser_reads_the_gaps_from_the_uvs_alone():
@@ -120,15 +156,16 @@ def test_displacement_matches_blender_for_the_first_vertices():
     assert torch.allclose(heights, torch.tensor([0.3 / 7, 6.7 / 7, 5.5 / 7]), atol=1e-6)
 
 
-def test_gradients_through_subdivision_displacement_and_normals_match_finite_differences():
+@pytest.mark.parametrize("shading", ["engine", "recomputed"])
+def test_gradients_through_subdivision_displacement_and_normals_match_finite_differences(shading):
     mesh = seamed_quad()
     mesh.v_pos, mesh.uv = mesh.v_pos.double(), [(mesh.v_tex.double(), mesh.t_tex_idx)]
     heights = random_heights(8).double()
 
     def surface(v_pos, image):
         moved = dataclasses.replace(mesh, v_pos=v_pos)
-        fine, _ = displaced(moved, Displacement(Texture(image), 0.2, 0.5, level=2))
-        return angle_weighted_normals(fine.v_pos, fine.t_pos_idx).sum(dim=1) + fine.v_pos.sum(dim=1)
+        fine, _ = displaced(moved, Displacement(Texture(image), 0.2, 0.5, level=2, shading=shading))
+        return fine.normals()[0].sum(dim=1) + fine.v_pos.sum(dim=1)
 
     assert torch.autograd.gradcheck(surface, (mesh.v_pos.clone().requires_grad_(), heights.requires_grad_()),
                                     eps=1e-6, atol=1e-5)
@@ -196,10 +233,12 @@ def bumpy_plane(n: int = 33) -> tuple[Mesh, torch.Tensor]:
 
 
 def test_a_plane_displaced_by_a_known_height_field_is_recovered_from_renders():
+    """With recomputed shading the heights shade the surface, so renders alone recover them
+    (with engine shading a plane without a normal map shades flat at any height)."""
     reference, truth = bumpy_plane()
     base = plane(3)
     material = Material(kd=Texture.constant([0.7, 0.7, 0.7, 1.0]), ks=Texture.constant([0.0, 0.5, 0.0]))
-    start = Displacement(Texture(torch.full((32, 32, 1), 0.5)), 0.3, 0.5, level=3)
+    start = Displacement(Texture(torch.full((32, 32, 1), 0.5)), 0.3, 0.5, level=3, shading="recomputed")
     surface = TexturedMesh.from_asset(Asset(mesh=base, materials=[material]), torch.tensor([0.5, 0.5, 0.0]), 0.8,
                                       limits=config_from_dict({}).clamp, msaa=1, train_alpha=False)
     latent = DisplacedMesh(surface, start, (3,))
@@ -222,6 +261,72 @@ def test_a_plane_displaced_by_a_known_height_field_is_recovered_from_renders():
     fitted = latent.heights().detach()[4:-4, 4:-4, 0].reshape(-1)
     expected = truth[4:-4, 4:-4, 0].reshape(-1)
     assert float(torch.corrcoef(torch.stack([fitted, expected]))[0, 1]) > 0.9
+
+
+def shaded_levels(shading: str) -> list[torch.Tensor]:
+    """A flat plane with a smooth normal map (as baked for a plane) and a random displacement
+    map, rendered from straight above at levels 0 to 3: ``[H, W, 4]`` images."""
+    u = (torch.arange(32) + 0.5) / 32
+    tilt = 0.4 * torch.stack([torch.sin(2 * np.pi * u)[None, :].expand(32, 32),
+                              torch.cos(2 * np.pi * u)[:, None].expand(32, 32)], dim=-1)
+    normal_map = torch.cat([tilt, torch.ones(32, 32, 1)], dim=-1)
+    normal_map = normal_map / normal_map.norm(dim=-1, keepdim=True)
+    heights = Displacement(Texture(0.5 + 0.5 * (random_heights(32) - 0.5), wrap="clamp"), 0.2, 0.5,
+                           shading=shading)
+    material = Material(kd=Texture.constant([0.7, 0.7, 0.7, 1.0]), ks=Texture.constant([0.0, 0.5, 0.0]),
+                        normal=Texture(normal_map), displacement=heights)
+    model = Asset(mesh=plane(3), materials=[material])
+    camera = Camera.looking_at(torch.tensor([[0.5, 0.5, 20.0]]), torch.tensor([[0.5, 0.5, 0.0]]),
+                               fovy=np.radians(3.0))
+    light = PointLight(torch.tensor([[0.5, 0.5, 200.0]]), torch.full((1, 3), 4e4))
+    return [render(tessellated(model, level), camera, light, 64)[0] for level in range(4)]
+
+
+def test_engine_shading_is_the_same_at_every_level_on_a_plane():
+    """Engine shading reads the normal map in the base's interpolated frame: a plane shades the
+    same at every level, however its heights move it; recomputed shading does not."""
+    engine, recomputed = shaded_levels("engine"), shaded_levels("recomputed")
+    inside = (slice(8, -8), slice(8, -8))  # away from the edges, which displacement moves
+    for level in (1, 2, 3):
+        assert (engine[level][inside] - engine[0][inside]).abs().max() < 2e-3
+    assert max((recomputed[level][inside] - recomputed[0][inside]).abs().max() for level in (1, 2, 3)) > 0.02
+
+
+def test_the_classic_displacement_bake_reads_the_ray_offsets_of_a_known_height_field():
+    """A flat base under the surface z = h(x, y) (``bumpy_plane``): rays along the base's
+    interpolated normal (+z) meet it at h, so every displaced vertex lies on it."""
+    reference, _ = bumpy_plane(65)
+    reference.v_pos[:, 2] *= 0.5  # within the rays' reach, 5 % of the diagonal
+    displacement = bake_displacement(Asset(mesh=reference), plane(5), 3, 128)
+    moved, _ = displaced(plane(5), displacement)
+    x, y = moved.v_pos[:, 0].double(), moved.v_pos[:, 1].double()
+    expected = 0.04 * torch.sin(2 * np.pi * x) * torch.cos(2 * np.pi * y)
+    flat = tessellation(plane(5), 3).subdivided(plane(5), 3)
+    assert torch.allclose(moved.v_pos[:, :2], flat.v_pos[:, :2], atol=1e-6)  # moved along +z only
+    inside = (x > 1e-6) & (x < 1 - 1e-6) & (y > 1e-6) & (y < 1 - 1e-6)  # a ray along the input's rim may miss
+    assert inside.sum() == 31 ** 2
+    assert (moved.v_pos[:, 2].double() - expected)[inside].abs().max() < 1e-5  # on the input's own vertices
+
+
+def test_each_level_of_the_classic_displacement_bake_looks_at_least_as_good_as_the_one_below():
+    """A generated relief (``bumpy_sphere``), its classic displacement bake with engine
+    shading: one normal map at every level, so each level adds silhouette and parallax only."""
+    from lookalike.jobs.displace import at_level, displace_guess
+    from lookalike.report.metrics import psnr
+    from test_fit_simplify import bumpy_sphere
+
+    asset = bumpy_sphere()
+    cfg = config_from_dict({"latent": {"texture_size": 256}})
+    start = displace_guess(asset, cfg, 120).start
+    rng = np.random.default_rng(1)
+    eyes = rng.normal(size=(6, 3))
+    eyes = torch.tensor(3.0 * eyes / np.linalg.norm(eyes, axis=1, keepdims=True), dtype=torch.float32)
+    cameras = Camera.looking_at(eyes, torch.zeros(6, 3), fovy=np.radians(45.0))
+    light = PointLight(eyes * 1.5 + torch.tensor([0.5, 1.0, 0.0]), torch.full((6, 3), 20.0))
+    target = render(asset, cameras, light, 128)
+    scores = [psnr(target, render(at_level(start, level), cameras, light, 128)) for level in range(4)]
+    assert all(finer >= coarser - 0.1 for coarser, finer in zip(scores, scores[1:])), scores
+    assert scores[3] > scores[0] + 1.0, scores  # the relief's silhouette, which level 0 lacks
 
 
 TINY = {"views": {"pool_size": 8, "refresh_every": 2, "heldout": 4, "validation": 2, "batch_size": 2},
@@ -277,11 +382,47 @@ def nearest_distances(points: np.ndarray, others: np.ndarray) -> np.ndarray:
     return cKDTree(others).query(points)[0]
 
 
-@pytest.mark.skipif(not judge_available(), reason="the Blender round trip needs bpy (pip install -e '.[judge]')")
-def test_blender_rebuilds_every_level_from_the_base_and_the_maps_as_the_readme_says(displace_run):
-    from lookalike.blender.displaced import blender_displaced
+def test_each_written_level_carries_the_base_s_interpolated_normals(displace_run):
+    """Engine shading (the default): ``lodK.glb``'s NORMAL is the base's normal interpolated
+    over each base triangle, so a viewer that reads it shades as a tessellating engine does."""
+    from scipy.spatial import cKDTree
 
     outdir, _ = displace_run
+    base = io.load(outdir / "base.glb")
+    assert base.materials[0].displacement.shading == "engine"
+    for level in (1, 2):
+        ours = displaced(base.mesh, base.materials[0].displacement, level)[0]
+        written = io.load(outdir / f"lod{level}.glb").mesh
+        _, match = cKDTree(ours.v_pos.numpy()).query(written.v_pos.numpy())
+        v_nrm, t_nrm_idx = written.normals()
+        expected = ours.v_nrm[torch.from_numpy(match)[written.t_pos_idx]]
+        assert (v_nrm[t_nrm_idx] - expected).norm(dim=-1).max() < 1e-3
+        recomputed = angle_weighted_normals(written.v_pos, written.t_pos_idx)[written.t_pos_idx]
+        assert (recomputed - expected).norm(dim=-1).max() > 0.05  # not the displaced geometry's own
+
+
+def recomputed_outputs(outdir, folder):
+    """``outdir``'s ``base.glb``, ``displacement.png`` and ``lodK.glb`` in ``folder``, the
+    displacement's shading switched to ``"recomputed"`` (Blender's Displace modifier's)."""
+    import shutil
+
+    base = io.load(outdir / "base.glb")
+    material = base.materials[0]
+    base = dataclasses.replace(base, materials=[dataclasses.replace(
+        material, displacement=dataclasses.replace(material.displacement, shading="recomputed"))])
+    io.save(base, folder / "base.glb")
+    shutil.copy(outdir / "displacement.png", folder / "displacement.png")
+    for level in (0, 1, 2):
+        io.save(tessellated(base, level), folder / f"lod{level}.glb")
+    return folder
+
+
+@pytest.mark.skipif(not judge_available(), reason="the Blender round trip needs bpy (pip install -e '.[judge]')")
+def test_blender_rebuilds_every_level_from_the_base_and_the_maps_as_the_readme_says(displace_run, tmp_path):
+    """With recomputed shading, Blender's Displace modifier builds every level of ours."""
+    from lookalike.blender.displaced import blender_displaced
+
+    outdir = recomputed_outputs(displace_run[0], tmp_path)
     for level in (0, 1, 2):
         ours = io.load(outdir / f"lod{level}.glb").mesh.v_pos.double().numpy()
         theirs = blender_displaced(outdir, level)

@@ -14,7 +14,8 @@ from lookalike.settings import Config, parse_duration, setting_value
 
 SETTING_OF_OPTION = {"ratio": "ratio", "texture_size": "texture_size", "resolution": "resolution",
                      "time_budget": "time_budget", "init": "init", "seed": "seed", "alpha": "alpha_mode",
-                     "levels": "tessellation_levels", "reference": "renderer", "lighting": "lighting", "spp": "spp"}
+                     "levels": "tessellation_levels", "shading": "displacement_shading", "reference": "renderer",
+                     "lighting": "lighting", "spp": "spp"}
 """Options (by ``dest``) that set a setting, and its name."""
 
 

@@ -55,6 +55,8 @@ WARM_INITS = ("bake", "source")
 FIELD_SUFFIXES = (".py", ".glsl")
 """The inputs that are implicit surfaces (``lookalike.io.field_python``, ``lookalike.io.field_glsl``)."""
 ALPHA_EXPORTS = ("auto", "mask", "blend")
+SHADING_CONVENTIONS = ("engine", "recomputed")
+"""The values of ``LatentConfig.displacement_shading`` (``lookalike.asset.material.Displacement.shading``)."""
 POSITION_STEPS = ("uniform", "local")
 MIP_FOOTPRINTS = ("supersampled", "engine")
 """How texture lookups choose their mip level (``render.mip_footprint``)."""
@@ -139,6 +141,11 @@ class LatentConfig:
             the mips are the box filter of the texture, as an engine builds them from a PNG.
         tessellation_levels: for ``displace``, the levels of subdivision (each 1 -> 4 triangles)
             the base mesh and its maps must look right at; each step draws the next in turn.
+        displacement_shading: for ``displace``, ``"engine"`` (a vertex moves along the base's
+            interpolated normal, which also shades it, the normal map in the base's
+            interpolated frame: one normal map serves every level, as tessellating engines
+            draw it) or ``"recomputed"`` (along the subdivided mesh's own normal, shading
+            following the displaced geometry, as Blender's Displace modifier does).
     """
 
     triangles: int | None = None
@@ -153,6 +160,7 @@ class LatentConfig:
     mask_anneal: float = 1.0
     fitted_mips: bool = False
     tessellation_levels: tuple[int, ...] = (0, 1, 2, 3)
+    displacement_shading: str = "engine"
 
 
 @dataclass
@@ -429,6 +437,9 @@ class Config:
             (1 <= ren.layers <= MAX_LAYERS, f"render.layers must lie in [1, {MAX_LAYERS}], not {ren.layers}"),
             (ren.layers == 1 or not vw.relight,
              "views.relight keeps the nearest surface's G-buffer only: it needs render.layers = 1"),
+            (lat.displacement_shading in SHADING_CONVENTIONS,
+             f"latent.displacement_shading (--shading) must be one of {', '.join(SHADING_CONVENTIONS)}, not "
+             f"{lat.displacement_shading!r}"),
             (lat.alpha_mode in ALPHA_EXPORTS,
              f"latent.alpha_mode must be one of {', '.join(ALPHA_EXPORTS)}, not {lat.alpha_mode!r}"),
             (1 <= vw.batch_size <= MAX_VIEWS, f"views.batch_size must lie in [1, {MAX_VIEWS}], not {vw.batch_size}"),

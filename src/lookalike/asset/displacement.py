@@ -3,9 +3,13 @@ midpoints (``lookalike.asset.subdivide``), each fine vertex moved along its norm
 
     v' = v + scale * (h(v) - offset) * n(v),
 
-with ``n`` the angle-weighted normal of the undisplaced fine mesh
-(``lookalike.asset.normals.angle_weighted_normals``, Blender's: the same at a point whatever the
-level) and ``h`` the height map sampled bilinearly at the vertex's UVs. Every level reads the
+with ``h`` the height map sampled bilinearly at the vertex's UVs and ``n`` as the displacement's
+``shading`` convention says (``displacement_directions``): ``"engine"``, the base's vertex
+normals interpolated over each base triangle, ``n = normalize(sum_i b_i n_i)``, which are also
+the shading normals, so that the normal map reads in one frame at every level (a tessellator's
+domain shader); ``"recomputed"``, the angle-weighted normal of the undisplaced fine mesh
+(``lookalike.asset.normals.angle_weighted_normals``, Blender's), shading then following the
+displaced geometry. Either is the same at a point whatever the level. Every level reads the
 map itself: a vertex of a coarse level is a vertex of every finer one, at the same point and
 with the same normal, so the levels are nested (mips would mix neighbouring charts of the atlas,
 4 texels apart, from mip 2 on, and blur the finest level's heights).
@@ -29,7 +33,7 @@ import torch.nn.functional as F
 from .asset import Asset
 from .material import Displacement
 from .mesh import Mesh
-from .normals import angle_weighted_normals
+from .normals import angle_weighted_normals, safe_normalize
 from .subdivide import MeshSubdivision
 
 
@@ -116,20 +120,47 @@ def vertex_heights(fine: Mesh, pairs: tuple[torch.Tensor, torch.Tensor], counts:
     return heights / counts.clamp(min=1.0), sides
 
 
+def position_normals(mesh: Mesh) -> torch.Tensor:
+    """``[V, 3]`` one unit shading normal per position of ``mesh``: its normal slots'
+    (``Mesh.normals``) where each position has one, else the normalised sum of its corners'."""
+    v_nrm, t_nrm_idx = mesh.normals()
+    if t_nrm_idx is mesh.t_pos_idx:
+        return v_nrm
+    corners = v_nrm[t_nrm_idx].reshape(-1, 3)
+    return safe_normalize(torch.zeros_like(mesh.v_pos).index_add(0, mesh.t_pos_idx.reshape(-1), corners))
+
+
+def displacement_directions(mesh: Mesh, fine: Mesh, topology: Tessellation, level: int, shading: str) -> torch.Tensor:
+    """``[V_level, 3]`` unit directions along which the vertices of ``fine`` (``mesh``
+    subdivided ``level`` times by ``topology``) move: with ``shading`` ``"engine"`` the base's
+    ``position_normals`` subdivided linearly (a midpoint takes the mean of its edge's ends, so a
+    fine vertex holds ``sum_i b_i n_i`` of its base triangle) and normalised; with
+    ``"recomputed"`` the angle-weighted normals of ``fine``. Differentiable."""
+    if shading == "recomputed":
+        return angle_weighted_normals(fine.v_pos, fine.t_pos_idx)
+    normals = position_normals(mesh)
+    for step in topology.steps[:level]:
+        normals = step.positions(normals)
+    return safe_normalize(normals)
+
+
 def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) -> tuple[Mesh, torch.Tensor]:
     """``(fine mesh, seam_gaps [P])``: ``mesh`` subdivided ``level`` times (default
-    ``displacement.level``) and displaced (module docstring), its shading normals left to be
-    recomputed from the displaced positions (normal slots kept, authored values dropped); and
+    ``displacement.level``) and displaced (module docstring), its shading normals the
+    displacement directions (``"engine"``: one slot per position) or left to be recomputed from
+    the displaced positions (``"recomputed"``: normal slots kept, authored values dropped); and
     each (position, UV) pair's height minus its position's mean (zero off UV seams).
     Differentiable in positions, UVs and heights."""
     level = displacement.level if level is None else level
     topology = tessellation(mesh, level)
     fine = topology.subdivided(mesh, level)
-    normals = angle_weighted_normals(fine.v_pos, fine.t_pos_idx)
+    normals = displacement_directions(mesh, fine, topology, level, displacement.shading)
     heights, sides = vertex_heights(fine, topology.pairs[level], topology.counts[level], displacement.heights.data)
     v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
     gaps = sides - heights[topology.pairs[level][0]]
-    return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
+    if displacement.shading == "recomputed":
+        return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
+    return dataclasses.replace(fine, v_pos=v_pos, v_nrm=normals, t_nrm_idx=fine.t_pos_idx), gaps
 
 
 def seam_gaps(mesh: Mesh, displacement: Displacement) -> torch.Tensor:

@@ -73,12 +73,19 @@ class Displacement:
         scale: world units per unit of height.
         offset: the height that leaves a vertex in place.
         level: the tessellation level it is drawn at.
+        shading: ``"engine"``: a vertex moves along the base's interpolated normal, which is
+            also its shading normal (the normal map in the base's interpolated frame), as
+            hardware and Nanite tessellation draw it; ``"recomputed"``: it moves along the
+            subdivided mesh's own vertex normal and shading follows the displaced geometry,
+            as Blender's Displace modifier and Cycles' true displacement draw it
+            (``lookalike.settings.SHADING_CONVENTIONS``).
     """
 
     heights: Texture
     scale: float
     offset: float = 0.5
     level: int = 0
+    shading: str = "engine"
 
 
 @dataclass

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ConfigError
+from ..settings import SHADING_CONVENTIONS
 from ._options import add_fit_arguments, add_job_arguments, add_run_arguments, default_text, run_keywords
 
 HELP = "fit a base mesh with displacement and normal maps that looks like the input at every tessellation level"
@@ -27,6 +28,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the tessellation levels (each subdivides every triangle into 4) the result must look "
                              "right at " + default_text(DISPLACE.defaults, "tessellation_levels",
                                                         lambda levels: ",".join(map(str, levels))))
+    parser.add_argument("--shading", choices=SHADING_CONVENTIONS, default=None,
+                        help="engine: vertices move along the base's interpolated normals, which also shade them "
+                             "(tessellating engines: Unreal, Unity, DX11/Vulkan hull and domain shaders; lodK.glb "
+                             "carries those normals); recomputed: shading follows the displaced geometry (Blender's "
+                             "Displace modifier, Cycles' true displacement) "
+                             + default_text(DISPLACE.defaults, "displacement_shading", str))
     add_fit_arguments(parser, DISPLACE.defaults, init=False)
     add_run_arguments(parser)
 
@@ -35,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from ..jobs.displace import displace
 
     levels = None if args.levels is None else parse_tessellation_levels(args.levels)
-    result = displace(args.input, args.output, tessellation_levels=levels, **run_keywords(args))
+    result = displace(args.input, args.output, tessellation_levels=levels, displacement_shading=args.shading,
+                      **run_keywords(args))
     print(result.summary())
     return 130 if result.interrupted else 0

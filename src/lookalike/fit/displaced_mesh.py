@@ -26,6 +26,9 @@ from ..shading.pipeline import render_coverage
 from .textured_mesh import TexturedMesh
 from .texture_pyramid import TexturePyramid
 
+LEVEL_LOSS_EMA = 0.9
+"""beta of each level's loss average m_k (``DisplacedMesh.image_weight``)."""
+
 SEAM_TOLERANCE = 0.002
 """The gap between the heights of a seam's two sides (in the map's [0, 1] units) that costs as
 much as a quarter of the image loss at the start (``regularizer_scales``)."""
@@ -36,9 +39,11 @@ class DisplacedMesh(torch.nn.Module):
 
     Parameters: those of ``surface``, and ``heights``, a ``TexturePyramid`` of ``[S, S, 1]``
     heights in [0, 1], in group ``"displacement"``. Fixed: ``displacement_scale`` (world units
-    per unit of height, offset 1/2) and ``levels`` (the tessellation levels fitted);
+    per unit of height, offset 1/2), ``shading`` (the start's convention,
+    ``Displacement.shading``) and ``levels`` (the tessellation levels fitted);
     ``level_index`` picks the level the next render draws (saved, so
-    that a resumed run goes on with the same one).
+    that a resumed run goes on with the same one); ``level_losses`` are the levels' loss
+    averages that balance them (``image_weight``).
 
     Args:
         surface: the base mesh and its maps.
@@ -53,17 +58,32 @@ class DisplacedMesh(torch.nn.Module):
         self.surface = surface
         self.heights = TexturePyramid(start.heights.data.float(), texture_scales, 0.0, 1.0)
         self.displacement_scale = float(start.scale)
+        self.shading = start.shading
         self.levels = tuple(sorted(levels))
         self.level_index = 0
+        self.level_losses: list[float | None] = [None] * len(self.levels)
 
     def get_extra_state(self) -> dict:
-        return {"displacement_scale": self.displacement_scale, "levels": list(self.levels),
-                "level_index": self.level_index}
+        return {"displacement_scale": self.displacement_scale, "shading": self.shading, "levels": list(self.levels),
+                "level_index": self.level_index, "level_losses": list(self.level_losses)}
 
     def set_extra_state(self, state: dict) -> None:
         self.displacement_scale = state["displacement_scale"]
+        self.shading = state["shading"]
         self.levels = tuple(state["levels"])
         self.level_index = state["level_index"]
+        self.level_losses = list(state["level_losses"])
+
+    def image_weight(self, loss: float) -> float:
+        """The factor of the current level's image loss ``L_k``: ``mean_j m_j / m_k``, with
+        ``m_k = LEVEL_LOSS_EMA m_k + (1 - LEVEL_LOSS_EMA) L_k`` each level's loss average (the
+        levels seen so far), so that the step descends ``mean_j m_j log L_k``: every level
+        gains alike in dB, where plain losses let the coarse levels, whose errors are the
+        largest, pull the shared maps away from the fine ones."""
+        k, m = self.level_index, self.level_losses
+        m[k] = loss if m[k] is None else LEVEL_LOSS_EMA * m[k] + (1 - LEVEL_LOSS_EMA) * loss
+        known = [value for value in m if value is not None]
+        return sum(known) / len(known) / max(m[k], 1e-12)
 
     @property
     def level(self) -> int:
@@ -89,7 +109,7 @@ class DisplacedMesh(torch.nn.Module):
     def displacement(self, level: int | None = None) -> Displacement:
         """The ``Displacement`` drawn at ``level`` (default the current one); differentiable."""
         return Displacement(Texture(self.heights(), wrap="clamp"), self.displacement_scale, 0.5,
-                            level=self.level if level is None else level)
+                            level=self.level if level is None else level, shading=self.shading)
 
     def base_mesh(self) -> Mesh:
         """The base mesh in world coordinates with its atlas and normal slots; differentiable."""

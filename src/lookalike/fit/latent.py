@@ -57,6 +57,9 @@ class Latent(Protocol):
         run's steps done (``None`` while the run's length is unknown); called before each step."""
         ...
 
+    # Optional: ``image_weight(loss: float) -> float``, the factor of this step's image loss
+    # (``lookalike.fit.objective``), for a latent drawn in several forms in turn.
+
     def regularizers(self) -> dict[str, torch.Tensor]:
         """Scalar regulariser terms by name (differentiable)."""
         ...

@@ -4,7 +4,9 @@
 
 - L_image: the image loss (``lookalike.fit.losses``) between the latent's render and the
   reference's, both composited over the same random background colour per view (so that
-  coverage and alpha are compared along with colour), over the first ``batch_size`` views;
+  coverage and alpha are compared along with colour), over the first ``batch_size`` views,
+  times the latent's ``image_weight`` of it where it has one (a latent drawn in several forms
+  in turn balances them);
 - L_outline = mean |c - c_ref| over the batch's remaining views (outline views), c the latent's
   antialiased coverage alone and c_ref the reference's;
 - R_r: the latent's regularisers (the Laplacian for a mesh), with lambda_t^r following
@@ -94,6 +96,8 @@ class Objective:
         uniform in [0, 1], from ``rng``."""
         background = torch.from_numpy(rng.uniform(0.0, 1.0, size=(self.batch_size, 3)).astype(np.float32))
         image = self.image_loss(latent, batch, background)
+        if hasattr(latent, "image_weight"):
+            image = image * latent.image_weight(float(image.detach()))
         weights = self.weights(latent, float(image.detach()), step, total)
         terms = latent.regularizers()
         total_loss = image

@@ -49,6 +49,7 @@ import torch
 
 from ..asset import Animation, Asset, Channel, Material, Mesh, Node, PunctualLight, Skin, Texture
 from ..asset.material import Displacement, unlit_material
+from ..settings import SHADING_CONVENTIONS
 from ..asset.normals import weld_normals
 from ..asset.skinning import trs_matrix
 from ..errors import AssetError, ConfigError
@@ -445,8 +446,11 @@ class _MaterialReader:
             return None
         try:
             heights = self._texture(_texture_info(entry["texture"]), lambda px: px[..., :1])
+            shading = entry.get("shading", "recomputed")  # files from before the engine convention
+            if shading not in SHADING_CONVENTIONS:
+                raise ValueError(f"shading {shading!r} is not one of {', '.join(SHADING_CONVENTIONS)}")
             return Displacement(heights, float(entry["scale"]), float(entry.get("offset", 0.5)),
-                                int(entry.get("level", 0)))
+                                int(entry.get("level", 0)), shading)
         except (KeyError, TypeError, ValueError) as e:
             raise AssetError(self.data.path, f"material extras.displacement is malformed: {e}") from None
 

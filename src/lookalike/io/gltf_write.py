@@ -22,8 +22,8 @@ asset's point lights are ``KHR_lights_punctual`` lights on nodes of their own. E
 then holds. Occlusion is ``occlusionTexture`` (R): in the R channel of the metallic-roughness
 image (an ORM image) where both share size, UV set, transform and wrap mode, else an image of
 its own. A displacement map (``Material.displacement``) is a 16-bit PNG texture named in the
-material's ``extras.displacement`` with its scale, offset and levels (no glTF extension holds
-one). A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
+material's ``extras.displacement`` with its scale, offset, level and shading convention (no glTF
+extension holds one). A texture with mip levels of its own (``Texture.mips``: fitted, prefiltered) is also
 written as a KTX2 mip chain of exactly those levels (UASTC, ``io.ktx2``) through
 ``KHR_texture_basisu`` where the ``basisu`` encoder is found, the PNG staying the fallback for
 viewers without a transcoder (which then build box-filtered mips from it); with ``ktx2_only``,
@@ -327,7 +327,7 @@ def _displacement(builder: GlbBuilder, displacement: Displacement) -> dict:
     data = displacement.heights.data
     index = builder.texture(np.clip(data.detach().numpy()[..., :1], 0, 1), "clamp", (data, "displacement"), bits=16)
     return {"texture": {"index": index}, "scale": float(displacement.scale), "offset": float(displacement.offset),
-            "level": int(displacement.level)}
+            "level": int(displacement.level), "shading": displacement.shading}
 
 
 def _unit(x: np.ndarray) -> np.ndarray:

@@ -238,9 +238,11 @@ def _methods_table(data: RunRecord) -> str:
     return table
 
 
-LEVEL_COLUMNS = {"level": "Level", "triangles": "Triangles", "bytes": "Bytes", "psnr": "PSNR (dB) ↑",
-                 "flip": "FLIP ↓", "bake_triangles": "Classic bake: triangles", "bake_bytes": "bytes",
-                 "bake_psnr": "PSNR (dB) ↑", "bake_flip": "FLIP ↓"}
+LEVEL_COLUMNS = {"level": "Level", "triangles": "Triangles", "bytes": "Bytes", "gpu_bytes": "GPU bytes",
+                 "lod_gpu_bytes": "GPU bytes untessellated", "psnr": "PSNR (dB) ↑", "flip": "FLIP ↓",
+                 "start_psnr": "Classic displacement bake: PSNR (dB) ↑", "start_flip": "FLIP ↓",
+                 "bake_triangles": "Classic decimate + bake: triangles", "bake_bytes": "bytes",
+                 "bake_gpu_bytes": "GPU bytes", "bake_psnr": "PSNR (dB) ↑", "bake_flip": "FLIP ↓"}
 """The columns of a report's levels table (``RunRecord.levels``), in order."""
 
 
