@@ -161,8 +161,8 @@ def test_the_written_model_is_the_start_only_where_ours_does_not_beat_it():
     ours, start = clumps(seed=1), clumps(seed=2)
     scores = {id(ours): 20.0, id(start): 21.0}
 
-    class Views:
-        def psnr(self, asset, draw):
+    class Views:  # PSNR alone (FLIP's share 0)
+        def validation_score(self, asset, draw, flip_share):
             return scores[id(asset)]
 
     written = WrittenModel("blend", Views(), draw=None)
