@@ -67,8 +67,8 @@ def test_mask_runs_train_the_ramp_and_are_validated_as_written_at_their_own_cuto
     assert [(m.alpha_mode, m.alpha_cutoff, m.coverage_ramp) for m in written.materials] == [("MASK", 0.3, 0.0)]
     seen = []
 
-    class Views:
-        def psnr(self, model, draw):
+    class Views:  # PSNR alone (FLIP's share 0)
+        def validation_score(self, model, draw, flip_share):
             seen.append(model.materials[0].alpha_cutoff)
             return {0.5: 20.0, 0.3: 25.0}[model.materials[0].alpha_cutoff]
 
