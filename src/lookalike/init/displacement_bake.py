@@ -3,8 +3,9 @@ mesh to the input along each vertex's displacement direction, written into the a
 
 Every vertex of the base subdivided ``finest`` times (``lookalike.asset.displacement``) casts
 rays along ``+n`` and ``-n`` (``n`` the direction it is displaced along: the base's interpolated
-normal, or for recomputed shading the subdivided mesh's angle-weighted one), each reaching ``CAGE_FRACTION`` of the input's size, and takes the nearest surface seen
-from outside, as the classic bake does
+normal, or for recomputed shading the subdivided mesh's angle-weighted one), each reaching
+``CAGE_FRACTION`` of the input's size, and takes the nearest surface seen from outside, as the
+classic bake does
 (``lookalike.init.projection_bake.project_along_normals``); a vertex whose rays both miss keeps
 its place. The map's scale holds the distances up to their ``COVERED_QUANTILE`` with
 ``HEADROOM`` to spare on either side of the offset 1/2. Each texel of the atlas takes the
@@ -73,12 +74,11 @@ def bake_displacement(reference: Asset, base: Mesh, finest: int, size: int, shad
     level ``finest`` with the ``shading`` convention (``Displacement.shading``), its map
     ``size x size`` (module docstring)."""
     topology = tessellation(base, finest)
-    base = base.detach()
+    base = dataclasses.replace(base.detach(), v_pos=base.v_pos.detach().double())
     fine = topology.subdivided(base, finest)
     lo, hi = reference.mesh.bounds()
     cage = CAGE_FRACTION * float((hi - lo).double().norm())
-    double = dataclasses.replace(base, v_pos=base.v_pos.double())
-    directions = displacement_directions(double, topology.subdivided(double, finest), topology, finest, shading)
+    directions = displacement_directions(base, fine, topology, finest, shading)
     offsets = vertex_offsets(reference, fine, directions.numpy(), cage)
     radius = float(reference.mesh.bounding_sphere()[1])
     reach = float(np.quantile(np.abs(offsets), COVERED_QUANTILE)) if len(offsets) else 0.0
