@@ -15,7 +15,7 @@ smooth union stays below the plain one; ``LIPSCHITZ`` covers both.
 
 import torch
 
-bounds = ((-0.55, -0.12, -0.5), (0.55, 0.95, 0.5))
+bounds = ((-0.55, -0.2, -0.5), (0.55, 0.95, 0.5))
 
 LIPSCHITZ = 1.1
 """The field is the blend's value divided by this, a bound on its gradient's length."""
