@@ -331,18 +331,10 @@ unions reach near its surface."""
 
 def bounds_faces(lo: torch.Tensor, hi: torch.Tensor, steps: int) -> torch.Tensor:
     """``[6 steps², 3]`` points on a grid of ``steps × steps`` on each face of the box ``lo``-``hi``."""
-    u = torch.linspace(0.0, 1.0, steps)
-    uu, vv = (g.reshape(-1) for g in torch.meshgrid(u, u, indexing="ij"))
-    faces = []
-    for axis in range(3):
-        others = [a for a in range(3) if a != axis]
-        for side in (lo, hi):
-            p = torch.empty(uu.shape[0], 3)
-            p[:, axis] = side[axis]
-            p[:, others[0]] = lo[others[0]] + (hi[others[0]] - lo[others[0]]) * uu
-            p[:, others[1]] = lo[others[1]] + (hi[others[1]] - lo[others[1]]) * vv
-            faces.append(p)
-    return torch.cat(faces)
+    grid = torch.cartesian_prod(*[torch.linspace(0.0, 1.0, steps)] * 2)
+    side = [torch.full((grid.shape[0], 1), t) for t in (0.0, 1.0)]
+    return torch.cat([lo + (hi - lo) * torch.cat([grid[:, :axis], s, grid[:, axis:]], dim=1)
+                      for axis in range(3) for s in side])
 
 
 @pytest.mark.parametrize("name, file", FIELDS)
