@@ -571,13 +571,23 @@ def learning_rates(config: Config) -> tuple[float, float]:
             default.lr_textures if opt.lr_textures is None else opt.lr_textures)
 
 
+def bakes_lighting(config: Config) -> bool:
+    """Whether a path-traced reference's lighting has no part our rasterizer computes (``--unlit``,
+    or an environment map alone), so that the emission is the whole appearance and starts as the
+    classic bake of the lighting (``lookalike.jobs.path_traced.with_baked_lighting``)."""
+    reference = config.reference
+    return reference.path_traced and (reference.unlit or reference.lighting != "studio")
+
+
 def emissive_learning_rate(config: Config) -> float:
     """Adam's lr_0 of the emission map: ``optim.lr_emissive`` where set; where the reference is
-    path traced, ``COLD_START``'s texel rate, since the emission then starts black, far from the
-    light it must learn; else the texels' (``learning_rates``)."""
+    path traced under a light our rasterizer computes, ``COLD_START``'s texel rate, since the
+    emission then starts black, far from the light it must learn; else (the emission starts as
+    the input's own, or as the lighting baked, ``bakes_lighting``) the texels' (``learning_rates``)."""
     if config.optim.lr_emissive is not None:
         return config.optim.lr_emissive
-    return COLD_START.lr_textures if config.reference.path_traced else learning_rates(config)[1]
+    cold = config.reference.path_traced and not bakes_lighting(config)
+    return COLD_START.lr_textures if cold else learning_rates(config)[1]
 
 
 def outline_views(config: Config) -> int:

@@ -13,6 +13,7 @@ Regulariser (paper Sec. 6.3): the uniform Laplacian relative to the initial mesh
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import torch
 
@@ -48,9 +49,9 @@ class TexturedMesh(torch.nn.Module):
         kd_mips, ks_mips, normal_mips: with ``fitted_mips``, ``FittedMips`` of the three (their
             mip levels as variables of their own, ``lookalike.fit.fitted_mips``), else ``None``.
         emissive: ``TexturePyramid`` of ``[S, S, 3]`` linear emission divided by
-            ``emissive_scale`` (the start's brightest texel, at least 1), in its own group
-            ``"emissive"``, where the start emits (else ``None``): Adam's steps are then relative
-            to the map's range, which may exceed 1. It is clamped at 0 from below only.
+            ``emissive_scale`` (``emission_scale``: the start's bright texels, at least 1), in its
+            own group ``"emissive"``, where the start emits (else ``None``): Adam's steps are then
+            relative to the map's range, which may exceed 1. It is clamped at 0 from below only.
     A channel given as a ``[1, 1, C]`` texture stays one constant (an untextured input's base
     colour: shading must not be painted into it).
     The ambient occlusion map ``occlusion`` ``[S, S, 1]`` (or ``None``) is a fixed buffer: the
@@ -131,7 +132,7 @@ class TexturedMesh(torch.nn.Module):
         self.start_ramp = coverage_ramp
         self.coverage_ramp = coverage_ramp
         self.layers_used = LayerCount()
-        self.emissive_scale = 1.0 if emissive is None else max(float(emissive.detach().max()), 1.0)
+        self.emissive_scale = 1.0 if emissive is None else emission_scale(emissive)
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
         self.register_buffer("occlusion", None if occlusion is None else occlusion.float().clone())
@@ -349,6 +350,20 @@ def constant_channels(asset: Asset, tolerance: float = 1e-4) -> frozenset[str]:
     if constant([m.ks.data for m in asset.materials]):
         channels.add("ks")
     return frozenset(channels)
+
+
+EMISSION_SCALE_SHARE = 0.99
+"""``emission_scale`` reads the emission below which this share of the texels lie."""
+
+
+def emission_scale(emission: torch.Tensor) -> float:
+    """The unit of a trained emission map ``[S, S, 3]``: the brightest channel of the texel at
+    ``EMISSION_SCALE_SHARE`` of them in brightness, at least 1. Adam steps each texel by about
+    ``lr`` of this unit; a few glints far brighter than the rest (a sun in a baked lighting) must
+    not make the steps of every other texel as coarse."""
+    brightness = emission.detach().float().amax(dim=-1).reshape(-1)
+    rank = max(1, math.ceil(EMISSION_SCALE_SHARE * brightness.numel()))
+    return max(float(brightness.kthvalue(rank).values), 1.0)
 
 
 def _emission_and_occlusion(material: Material, size) -> dict:

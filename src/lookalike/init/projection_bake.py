@@ -266,8 +266,8 @@ def nearest_covered(rows: np.ndarray, cols: np.ndarray, size: int) -> tuple[np.n
     return nearest[0], nearest[1]
 
 
-def _texture(rows: np.ndarray, cols: np.ndarray, nearest: tuple[np.ndarray, np.ndarray],
-             values: np.ndarray) -> torch.Tensor:
+def texels_to_image(rows: np.ndarray, cols: np.ndarray, nearest: tuple[np.ndarray, np.ndarray],
+                    values: np.ndarray) -> torch.Tensor:
     """``[S, S, C]`` float32 texture holding ``values [K, C]`` at the covered texels
     ``(rows [K], cols [K])`` and each uncovered texel the value of its ``nearest`` covered one."""
     size = nearest[0].shape[0]
@@ -335,7 +335,7 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     filtered = dict(zip(channels, means))
     filtered["normal"] = to_unit_normal(filtered["normal"])
     nearest = nearest_covered(rows, cols, texture_size)
-    textures = {name: Texture(_texture(rows, cols, nearest, value)) for name, value in filtered.items()}
+    textures = {name: Texture(texels_to_image(rows, cols, nearest, value)) for name, value in filtered.items()}
     material = Material(name="baked", kd=textures["kd"], ks=textures["ks"], normal=textures["normal"],
                         emissive=textures.get("emissive"), occlusion=textures.get("occlusion"),
                         **merged_modes(reference.materials))

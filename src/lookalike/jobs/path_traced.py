@@ -6,14 +6,18 @@ the output folder, and a start that can learn the light a rasterizer cannot comp
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from ..asset import Asset, PunctualLight, Texture
 from ..asset.material import unlit_material
 from ..errors import ConfigError
 from ..fit.reference import PathTracedReference
+from ..init.lighting_bake import SAMPLE_BUDGET, bake_lighting
+from ..io.atomic import save_array_atomic
 from ..io.environment_map import read_environment_map
 from ..settings import Config
 from ..shading.fixed_lighting import FixedLighting, environment_lighting, studio_lighting
@@ -60,6 +64,25 @@ def with_emission(start: Asset) -> Asset:
                                                                 wrap=material.kd.wrap))
                  for material in start.materials]
     return dataclasses.replace(start, materials=materials)
+
+
+def with_baked_lighting(start: Asset, reference: PathTracedReference) -> Asset:
+    """``start`` whose materials emit the light ``reference`` path traces, baked onto its atlas
+    (``lookalike.init.lighting_bake``) at the size of their base colour: the start of a fit whose
+    lighting has no part a rasterizer computes (an environment map, or ``--unlit``), where the
+    emission is the whole appearance. Kept beside the reference's views (``CACHE_FOLDER``) under
+    a hash of the reference and the start, so a resumed run reads it back."""
+    size = int(start.materials[0].kd.data.shape[0])
+    digest = hashlib.sha256(f"{reference.key}:{start.fingerprint()}:{size}:{SAMPLE_BUDGET}".encode()).hexdigest()[:32]
+    path = None if reference.cache is None else reference.cache / f"lighting-{digest}.npy"
+    if path is not None and path.is_file():
+        emission = Texture(torch.from_numpy(np.load(path)))
+    else:
+        emission = bake_lighting(reference.asset, start.mesh, reference.scene, size, seed=reference.seed)
+        if path is not None:
+            save_array_atomic(path, emission.data.numpy())
+    return dataclasses.replace(start, materials=[dataclasses.replace(m, emissive=dataclasses.replace(
+        emission, wrap=m.kd.wrap)) for m in start.materials])
 
 
 def lit_as_fitted(model: Asset, light: PointLight, unlit: bool) -> Asset:

@@ -23,7 +23,7 @@ from ..report.record import RunRecord
 from ..settings import Config
 from ..shading.camera import Camera
 from ..shading.light import PointLight
-from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_emission
+from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, with_baked_lighting, with_emission
 
 FIELD_MARGIN = 1.0 / 64
 """An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
@@ -48,7 +48,8 @@ class RunReference:
         self.renderer = renderer
 
     def latent_start(self, start: Asset) -> Asset:
-        """The model the latent starts as, given the run's ``start``."""
+        """The model the latent starts as (and the start the written model is compared with),
+        given the run's ``start``."""
         return start
 
     def baseline_draw(self, draw: AssetRenderer) -> tuple[AssetRenderer, str]:
@@ -56,8 +57,9 @@ class RunReference:
         their labels."""
         return draw, ""
 
-    def extra_baselines(self, asset: Asset) -> list[tuple[str, str, Asset]]:
-        """``(key, label, model)`` scored beside the baselines every run has."""
+    def extra_baselines(self, asset: Asset, start: Asset) -> list[tuple[str, str, Asset]]:
+        """``(key, label, model)`` scored beside the baselines every run has, given the input
+        ``asset`` and the ``latent_start``."""
         return []
 
     def written(self, model: Asset) -> Asset:
@@ -84,8 +86,10 @@ class PathTracedInput(RunReference):
     """An asset path traced under fixed lighting (``PathTracedReference``). The latent learns
     the light our rasterizer does not compute into an emission map; the model is written lit
     by the lighting's analytic part, or unlit. Where that analytic part lights nothing (an
-    environment map, or ``--unlit``), our rasterizer would draw the baselines black: they are
-    path traced under the same lighting instead, as an offline renderer shows them."""
+    environment map, or ``--unlit``), the emission is the whole appearance: it starts as the
+    classic bake of the lighting (``with_baked_lighting``), which is scored as a baseline of its
+    own, and our rasterizer would draw the other baselines black: they are path traced under the
+    same lighting instead, as an offline renderer shows them."""
 
     label = "Reference (path traced)"
     draws_input = False
@@ -97,7 +101,7 @@ class PathTracedInput(RunReference):
         self._traced: tuple[Asset, PathTracedReference] | None = None
 
     def latent_start(self, start: Asset) -> Asset:
-        return with_emission(start)
+        return with_emission(start) if self.lit else with_baked_lighting(start, self.renderer)
 
     def draw_traced(self, model: Asset, camera: Camera, light: PointLight, pose: Poses | None = None) -> torch.Tensor:
         """``model`` path traced as the reference is (no cache: a baseline is drawn once)."""
@@ -110,8 +114,10 @@ class PathTracedInput(RunReference):
     def baseline_draw(self, draw: AssetRenderer) -> tuple[AssetRenderer, str]:
         return (draw, "") if self.lit else (self.draw_traced, " (path traced)")
 
-    def extra_baselines(self, asset: Asset) -> list[tuple[str, str, Asset]]:
-        return [("input_rasterized", "Input, rasterized", asset)] if self.lit else []
+    def extra_baselines(self, asset: Asset, start: Asset) -> list[tuple[str, str, Asset]]:
+        if self.lit:
+            return [("input_rasterized", "Input, rasterized", asset)]
+        return [("lighting_baked", "Classic bake of the lighting", self.written(start))]
 
     def written(self, model: Asset) -> Asset:
         return lit_as_fitted(model, self.renderer.fixed_light, self.cfg.reference.unlit)
@@ -128,7 +134,9 @@ class PathTracedInput(RunReference):
             record.notes.append(
                 "the baselines are path traced under the reference's lighting: it has no part a rasterizer computes "
                 f"({'--unlit' if self.cfg.reference.unlit else 'an environment map'}), so ours, drawn unlit, is "
-                "compared with what an offline renderer shows of them (the input rasterized is not scored)")
+                "compared with what an offline renderer shows of them (the input rasterized is not scored); ours "
+                "starts from the classic bake of the lighting (the light leaving the input path traced at each "
+                "texel, averaged over the directions it is seen from), scored beside them as it is drawn")
 
 
 def run_reference(asset: Asset, cfg: Config, moving: bool) -> RunReference:

@@ -298,8 +298,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                                             partial(draw, layers=MAX_LAYERS if uses_alpha(asset) else 1))
     with s.stage("the start"):
         take_best_start(guess, validation, draw)
-        start = training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal)
-        latent = s.app.latent(asset, reference.latent_start(start), cfg, moving)
+        start = reference.latent_start(training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal))
+        latent = s.app.latent(asset, start, cfg, moving)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)],
                            flip_share=validation_flip_share(cfg))
@@ -340,7 +340,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     baselines = {methods[0].key: guess.baseline, **({"baked": guess.baked} if guess.baked is not None else {})}
     if s.app.start_label is not None:
         baselines["start"] = start_written
-    baselines.update({key: model for key, _, model in guess.comparisons})
+    baselines.update({key: model for key, _, model in [*guess.comparisons, *reference.extra_baselines(asset, start_written)]})
     return RunResult(outdir=s.outdir, model=s.outdir / MODEL_NAME, report=s.outdir / REPORT_NAME, metrics=metrics,
                      interrupted=interrupted, baselines=baselines, command=s.app.command)
 
@@ -476,7 +476,7 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
     scoring = "drawing" if drawn else "scoring"  # only our own draw's stages estimate the outputs' time
     with s.stage(f"{scoring} plain decimation"):
         methods = [heldout.score(key, label + drawn, guess.baseline, baseline_draw, None)]
-    for key, label, model in reference.extra_baselines(asset):
+    for key, label, model in reference.extra_baselines(asset, start):
         with s.stage(f"scoring {label}"):
             methods.append(heldout.score(key, label, model, draw, None))
     for key, label, model in guess.comparisons:
