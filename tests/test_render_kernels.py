@@ -71,7 +71,7 @@ def test_constant_triangle_coefficients_match_the_differentiable_ones(dtype):
     for b in range(3):
         shown[b, tri_id[b][tri_id[b] > 0] - 1] = True
     assert 0 < shown.sum() < shown.size
-    some = constant_triangle_coefficients(pos, tri, tri_id)      # only the rows pixels look up
+    some = constant_triangle_coefficients(pos, tri, torch.from_numpy(tri_id))      # only the rows pixels look up
     torch.testing.assert_close(some[torch.from_numpy(shown)], slow[torch.from_numpy(shown)])
     assert not some[torch.from_numpy(~shown)].any()
     rast_slow, db_slow = dr.rasterize(None, pos.clone().requires_grad_(True), tri, (18, 22))
