@@ -66,19 +66,30 @@ def _bilinear_taps(table_base, u, v, h, w, boundary):
 
 @njit(cache=CACHE, inline="always")
 def _level(uv_da, bias, p, has_da, has_bias, h0, w0, top):
-    """``(L, raw, lam)``: the clamped level, the unclamped one and ``lambda_max``."""
+    """``(L, raw, lam)`` of pixel ``p`` (``footprint_level`` of its row of ``uv_da`` and ``bias``,
+    each read where present)."""
+    du_dx, du_dy, dv_dx, dv_dy = 0.0, 0.0, 0.0, 0.0
+    if has_da:
+        du_dx, du_dy, dv_dx, dv_dy = uv_da[p, 0], uv_da[p, 1], uv_da[p, 2], uv_da[p, 3]
+    return footprint_level(du_dx, du_dy, dv_dx, dv_dy, bias[p] if has_bias else 0.0, has_da, has_bias, h0, w0, top)
+
+
+@njit(cache=CACHE, inline="always")
+def footprint_level(du_dx, du_dy, dv_dx, dv_dy, bias, has_da, has_bias, h0, w0, top):
+    """``(L, raw, lam)``: the clamped level, the unclamped one and ``lambda_max`` of a footprint
+    ``(du/dX, du/dY, dv/dX, dv/dY)`` (used where ``has_da``) plus ``bias`` (where ``has_bias``)."""
     raw = 0.0
     lam = 0.0
     if has_da:
-        dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
-        dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
+        dsx, dsy = du_dx * w0, du_dy * w0
+        dtx, dty = dv_dx * h0, dv_dy * h0
         a = dsx * dsx + dsy * dsy
         c = dtx * dtx + dty * dty
         b = dsx * dtx + dsy * dty
         lam = 0.5 * (a + c) + math.sqrt(max(0.25 * (a - c) * (a - c) + b * b, _TINY))
         raw = 0.5 * math.log2(max(lam, _TINY))
     if has_bias:
-        raw += bias[p]
+        raw += bias
     level = raw if raw > 0.0 else 0.0  # also maps NaN to 0
     return level if level < top else float(top), raw, lam
 
@@ -130,8 +141,16 @@ def _bilinear_backward(table, base, h, w, u, v, boundary, weight, grad_out, p, g
 @njit(cache=CACHE)
 def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
     """``grad_uv_da[p] = g_raw * d(0.5 log2 lambda_max)/d uv_da``."""
-    dsx, dsy = uv_da[p, 0] * w0, uv_da[p, 1] * w0
-    dtx, dty = uv_da[p, 2] * h0, uv_da[p, 3] * h0
+    grad_uv_da[p, 0], grad_uv_da[p, 1], grad_uv_da[p, 2], grad_uv_da[p, 3] = footprint_level_gradient(
+        uv_da[p, 0], uv_da[p, 1], uv_da[p, 2], uv_da[p, 3], h0, w0, lam, g_raw)
+
+
+@njit(cache=CACHE, inline="always")
+def footprint_level_gradient(du_dx, du_dy, dv_dx, dv_dy, h0, w0, lam, g_raw):
+    """``g_raw * d(0.5 log2 lambda_max) / d(du/dX, du/dY, dv/dX, dv/dY)`` of a footprint whose
+    ``lambda_max`` is ``lam``, as four values."""
+    dsx, dsy = du_dx * w0, du_dy * w0
+    dtx, dty = dv_dx * h0, dv_dy * h0
     a = dsx * dsx + dsy * dsy
     c = dtx * dtx + dty * dty
     b = dsx * dtx + dsy * dty
@@ -143,10 +162,8 @@ def _level_backward(uv_da, p, h0, w0, lam, g_raw, grad_uv_da):
         g_a += g_lam * 0.25 * (a - c) / r
         g_c -= g_lam * 0.25 * (a - c) / r
         g_b = g_lam * b / r
-    grad_uv_da[p, 0] = (2 * g_a * dsx + g_b * dtx) * w0
-    grad_uv_da[p, 1] = (2 * g_a * dsy + g_b * dty) * w0
-    grad_uv_da[p, 2] = (2 * g_c * dtx + g_b * dsx) * h0
-    grad_uv_da[p, 3] = (2 * g_c * dty + g_b * dsy) * h0
+    return ((2 * g_a * dsx + g_b * dtx) * w0, (2 * g_a * dsy + g_b * dty) * w0,
+            (2 * g_c * dtx + g_b * dsx) * h0, (2 * g_c * dty + g_b * dsy) * h0)
 
 
 @njit(cache=CACHE, inline="always")

@@ -32,6 +32,8 @@ so every core stays busy.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numba import njit, prange
@@ -113,10 +115,10 @@ def _pixel_range(xmin, xmax, ymin, ymax, width, height):
     """Inclusive pixel-index box ``(x0, x1, y0, y1)`` of the pixels whose centre (pixel
     coordinate ``ix``) lies in ``[xmin, xmax] x [ymin, ymax]``, clipped to the image."""
     return (
-        max(0, int(np.ceil(max(xmin, -1.0)))),
-        min(width - 1, int(np.floor(min(xmax, float(width))))),
-        max(0, int(np.ceil(max(ymin, -1.0)))),
-        min(height - 1, int(np.floor(min(ymax, float(height))))),
+        max(0, int(math.ceil(max(xmin, -1.0)))),
+        min(width - 1, int(math.floor(min(xmax, float(width))))),
+        max(0, int(math.ceil(max(ymin, -1.0)))),
+        min(height - 1, int(math.floor(min(ymax, float(height))))),
     )
 
 

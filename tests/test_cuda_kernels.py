@@ -1,0 +1,274 @@
+"""Every CUDA kernel of the renderer against its plain-torch twin, forward and backward, on small
+inputs: on the GPU where torch sees one, else in Numba's CUDA simulator, which runs each GPU
+thread as a Python thread on CPU tensors (``lookalike.devices.cuda_kernels_for_cpu_tensors``
+makes the ops take their CUDA forms for them).
+
+How the simulator is chosen: Numba reads ``NUMBA_ENABLE_CUDASIM`` once, when ``numba.cuda`` is
+first imported, and that process keeps the target it got. So this module, when collected on a
+machine without a GPU, imports ``numba.cuda`` with the variable set for that import alone
+(``_cuda_target``), and leaves the environment as it found it, so that no other test's child
+process inherits it. The simulator staying loaded does not change the other tests: the library
+imports ``numba.cuda`` only for tensors on a GPU (or under the tests' switch), and ``"auto"``
+asks torch first, which sees no GPU either way. Where ``numba.cuda`` was already imported for a
+real GPU that torch does not see, the module is skipped.
+
+The simulator runs the kernels' Python, not their GPU compilation: the last test compiles every
+kernel launched here to PTX for the argument types it was launched with (NVVM from the ``cuda``
+extra's wheels; skipped without them), so a kernel that only Python accepts fails here too.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import torch
+
+
+def _simulated(cuda) -> bool:
+    """Whether ``cuda`` (``numba.cuda``) is Numba's simulator."""
+    return cuda.jit.__module__.startswith("numba.cuda.simulator")
+
+
+def _cuda_target():
+    """``numba.cuda``: the GPU where torch sees one, else the simulator (see the docstring)."""
+    before = os.environ.get("NUMBA_ENABLE_CUDASIM")
+    if not torch.cuda.is_available():
+        os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
+    try:
+        from numba import cuda
+    except ImportError as e:
+        pytest.skip(f"numba-cuda is not installed: {e}", allow_module_level=True)
+    finally:
+        if before is None:
+            os.environ.pop("NUMBA_ENABLE_CUDASIM", None)
+        else:
+            os.environ["NUMBA_ENABLE_CUDASIM"] = before
+    if not torch.cuda.is_available() and not _simulated(cuda):
+        pytest.skip("numba.cuda was imported for a GPU that torch does not see", allow_module_level=True)
+    return cuda
+
+
+cuda = _cuda_target()
+
+import lookalike.render as dr  # noqa: E402
+from lookalike.devices import cuda_kernels_for_cpu_tensors  # noqa: E402
+from lookalike.render.barycentrics import barycentrics_python, pixel_ndc  # noqa: E402
+from lookalike.render.interpolate import interpolate_python  # noqa: E402
+from lookalike.render.mipmap import texture_construct_mip, texture_pyramid  # noqa: E402
+from lookalike.render.rasterize import rasterize_layers  # noqa: E402
+from lookalike.render.texture import texture_python  # noqa: E402
+from lookalike.render.visibility_python import visibility_python, visible_layers_python  # noqa: E402
+from lookalike.render.window import Window  # noqa: E402
+
+DEVICE = torch.device("cuda" if torch.cuda.is_available() else "cpu")
+"""Where the CUDA kernels' inputs live: the GPU, or the CPU for the simulator."""
+
+LAUNCHED: dict[tuple[str, str, tuple], None] = {}
+"""``(module, kernel, argument types)`` of every simulated launch, for ``test_every_launched_kernel_compiles``."""
+
+
+@pytest.fixture(autouse=True)
+def record_launches(monkeypatch):
+    """In the simulator, note each kernel launch's module, name and Numba argument types."""
+    if not _simulated(cuda):
+        yield
+        return
+    import numba
+    from numba.cuda.simulator.kernel import FakeCUDAKernel
+
+    call = FakeCUDAKernel.__call__
+
+    def recording(self, *args):
+        if not self._device:
+            LAUNCHED[(self.fn.__module__, self.fn.__name__, tuple(numba.typeof(a) for a in args))] = None
+        return call(self, *args)
+
+    monkeypatch.setattr(FakeCUDAKernel, "__call__", recording)
+    yield
+
+
+def on_cuda(op, *tensors, gradients_to=None, **keywords):
+    """``op(*tensors, **keywords)`` through the CUDA kernels, its tensors on ``DEVICE``; outputs
+    back on the CPU. With ``gradients_to`` (CPU tensors among ``tensors``), also the gradients
+    of a random weighting of the outputs to them (``weighted_sum_gradients``), the backward
+    kernels too run through the CUDA forms: ``(outputs, gradients)``."""
+    moved = [t.to(DEVICE) if isinstance(t, torch.Tensor) else t for t in tensors]
+    with cuda_kernels_for_cpu_tensors():
+        out = op(*moved, **keywords)
+        out = tuple(o.cpu() for o in out) if isinstance(out, tuple) else out.cpu()
+        if gradients_to is None:
+            return out
+        return out, weighted_sum_gradients(out if isinstance(out, tuple) else [out], gradients_to)
+
+
+def random_scene(n_views=2, n_verts=14, n_tris=12, seed=0):
+    """Clip-space positions ``[B, V, 4]`` (some crossing the near plane) and triangles ``[T, 3]``."""
+    generator = torch.Generator().manual_seed(seed)
+    pos = torch.rand(n_views, n_verts, 4, generator=generator, dtype=torch.float64) * 2.4 - 1.2
+    pos[..., 3] = 1.0 + 0.3 * torch.rand(n_views, n_verts, generator=generator, dtype=torch.float64)
+    pos[..., 2] *= 0.8
+    pos[0, 0, 3] = -0.2  # a vertex behind the eye: the clipped box path
+    tri = torch.stack([torch.randperm(n_verts, generator=generator)[:3] for _ in range(n_tris)])
+    tri[-1] = tri[1]  # a triangle drawn twice: its second copy has no depth of its own
+    return pos.float(), tri
+
+
+def weighted_sum_gradients(outputs, inputs, seed=1):
+    """Gradients of a random weighting of ``outputs`` (so every output element matters)."""
+    generator = torch.Generator().manual_seed(seed)
+    loss = sum((o * torch.randn(o.shape, generator=generator, dtype=o.dtype).to(o.device)).sum() for o in outputs)
+    return torch.autograd.grad(loss, inputs, allow_unused=True, materialize_grads=True)
+
+
+def test_visible_layers_match_the_peeling_twin_across_tiles():
+    pos, tri = random_scene()
+    resolution = (34, 36)  # four 32-pixel tiles: binning is exercised
+    ranges = torch.tensor([[0, 12], [3, 9]])
+    ids, depth = on_cuda(lambda p, t: rasterize_layers(p, t, resolution, ranges, 3), pos[0], tri)
+    twin_ids, twin_depth = visible_layers_python(pos[0].expand(2, -1, -1), tri, resolution, 3, ranges)
+    assert (twin_ids > 0).sum() > 400
+    assert torch.equal(ids, twin_ids)
+    torch.testing.assert_close(depth, twin_depth)
+
+
+def test_visibility_within_a_window_and_beyond_a_depth_matches_the_twin():
+    pos, tri = random_scene(seed=3)
+    floor = torch.full((2, 12, 16), -0.2)
+    window = Window(2, 3, 8, 10, 12, 16)
+    ids, depth = on_cuda(lambda p, t, f: rasterize_layers(p, t, (12, 16), None, 1, f, window), pos, tri, floor)
+    twin_ids, twin_depth = visibility_python(pos, tri, (12, 16), None, floor, window)
+    assert (twin_ids > 0).sum() > 20
+    assert torch.equal(ids[0], twin_ids)
+    torch.testing.assert_close(depth[0], twin_depth)
+
+
+@pytest.mark.parametrize("differentiable", [True, False])
+def test_rasterize_matches_the_barycentrics_twin(differentiable):
+    pos, tri = random_scene(seed=2)
+    pos = pos.double().requires_grad_(differentiable)
+    with torch.no_grad():
+        rast, _ = dr.rasterize(None, pos, tri, (12, 16))
+    flat = torch.nonzero(rast[..., 3].reshape(-1)).squeeze(1)
+    assert flat.numel() > 40
+
+    def covered(p, t):
+        rast, rast_db = dr.rasterize(None, p, t, (12, 16))
+        return rast.reshape(-1, 4)[flat.to(p.device), :2], rast_db.reshape(-1, 4)[flat.to(p.device)]
+
+    with torch.set_grad_enabled(differentiable):
+        ours = on_cuda(covered, pos, tri, gradients_to=[pos] if differentiable else None)
+    tri_idx = rast[..., 3].reshape(-1)[flat].long() - 1
+    uv, db = barycentrics_python(pos, tri, flat // (12 * 16), tri_idx, pixel_ndc(flat, 12, 16, torch.float64), (12, 16))
+    (values, gradients) = ours if differentiable else (ours, None)
+    torch.testing.assert_close(values[0], uv)
+    torch.testing.assert_close(values[1], db)
+    if differentiable:
+        torch.testing.assert_close(gradients, weighted_sum_gradients([uv, db], pos))
+
+
+@pytest.mark.parametrize("per_view", [False, True])
+def test_interpolate_matches_the_twin(per_view):
+    pos, tri = random_scene(seed=4)
+    rast, rast_db = dr.rasterize(None, pos.double(), tri, (10, 12))
+    generator = torch.Generator().manual_seed(5)
+    attr = torch.rand(2 if per_view else 1, pos.shape[1], 3, generator=generator, dtype=torch.float64)
+    inputs = [attr.requires_grad_(True), rast.requires_grad_(True), rast_db.requires_grad_(True)]
+    ours, gradients = on_cuda(lambda a, r, d, t: dr.interpolate(a, r, t, d, diff_attrs=[0, 2]), *inputs, tri,
+                              gradients_to=inputs)
+    twin = interpolate_python(attr, rast, tri, rast_db, diff_attrs=[0, 2])
+    for a, b in zip(ours, twin):
+        torch.testing.assert_close(a, b)
+    torch.testing.assert_close(gradients, weighted_sum_gradients(twin, inputs))
+
+
+def test_interpolate_at_listed_pixels_matches_the_twin():
+    pos, tri = random_scene(seed=6)
+    rast, _ = dr.rasterize(None, pos.double(), tri, (10, 12))
+    attr = torch.rand(1, pos.shape[1], 2, dtype=torch.float64, requires_grad=True)
+    pixels = torch.nonzero(rast[..., 3].reshape(-1)).squeeze(1)[::2]
+    ours, gradients = on_cuda(lambda a, r, t, p: dr.interpolate_at(a, r, t, p)[0], attr, rast, tri, pixels,
+                              gradients_to=[attr])
+    twin = interpolate_python(attr, rast, tri)[0].reshape(-1, 2)[pixels]
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [attr]))
+
+
+LOOKUPS = [("nearest", "wrap", False), ("nearest", "zero", True), ("linear", "clamp", False), ("linear", "zero", True),
+           ("linear-mipmap-nearest", "wrap", False), ("linear-mipmap-linear", "wrap", False),
+           ("linear-mipmap-linear", "zero", True)]
+
+
+@pytest.mark.parametrize("filter_mode, boundary_mode, per_view", LOOKUPS)
+def test_texture_matches_the_twin(filter_mode, boundary_mode, per_view):
+    generator = torch.Generator().manual_seed(7)
+    tex = torch.rand(2 if per_view else 1, 6, 5, 3, generator=generator, dtype=torch.float64)
+    uv = torch.rand(2, 4, 5, 2, generator=generator, dtype=torch.float64) * 1.4 - 0.2
+    uv_da = torch.randn(2, 4, 5, 4, generator=generator, dtype=torch.float64) * 0.3
+    bias = torch.randn(2, 4, 5, generator=generator, dtype=torch.float64) * 0.5
+    mipmapped = "mipmap" in filter_mode
+    inputs = [tex.requires_grad_(True), uv.requires_grad_(True)] + (
+        [uv_da.requires_grad_(True), bias.requires_grad_(True)] if mipmapped else [])
+    keywords = {"filter_mode": filter_mode, "boundary_mode": boundary_mode}
+
+    differentiable = inputs if filter_mode != "nearest" else inputs[:1]
+    ours, gradients = on_cuda(lambda *a: dr.texture(a[0], a[1], *a[2:], **keywords), *inputs,
+                              gradients_to=differentiable)
+    twin = texture_python(*inputs, **keywords)
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], differentiable))
+
+
+def test_mip_pyramid_matches_the_twin():
+    tex = torch.rand(2, 7, 5, 2, dtype=torch.float64, requires_grad=True)  # odd sides: the general spans
+    table, gradients = on_cuda(lambda t: texture_pyramid(t).table, tex, gradients_to=[tex])
+    twin = torch.cat([tex.reshape(-1, 2)] + [level.reshape(-1, 2) for level in texture_construct_mip(tex)])
+    torch.testing.assert_close(table, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [tex]))
+
+
+_COMPILE = textwrap.dedent("""
+    import importlib, pickle, sys, types
+    from numba import cuda
+    import numba.cuda.dispatcher
+    # device functions take the current GPU's compute capability; without a GPU, Hopper's
+    numba.cuda.dispatcher.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
+    try:
+        from numba.cuda.cudadrv import nvvm
+        nvvm.NVVM()
+    except Exception as e:
+        print(f"no NVVM: {e}")
+        sys.exit(77)
+    failed = []
+    for module, name, signature in pickle.load(open(sys.argv[1], "rb")):
+        kernel = getattr(importlib.import_module(module), name)
+        try:
+            cuda.compile_ptx(kernel.py_func, signature, cc=(9, 0))
+        except Exception as e:
+            failed.append(f"{module}.{name}{signature}: {type(e).__name__}: {str(e)[-1500:]}")
+    print(chr(10).join(failed) or "compiled")
+    sys.exit(1 if failed else 0)
+""")
+
+
+def test_every_launched_kernel_compiles_for_the_gpu(tmp_path):
+    """Every kernel the tests above launched in the simulator compiles to PTX for its argument
+    types (on a GPU, the tests compiled them for real)."""
+    if not _simulated(cuda):
+        pytest.skip("on a GPU the tests above compiled every kernel they ran")
+    if not LAUNCHED:
+        pytest.skip("no kernel was launched: run the whole module")
+    modules = {module for module, _, _ in LAUNCHED}
+    assert {f"lookalike.render.{name}_cuda" for name in ("visibility", "barycentrics", "interpolate", "texture",
+                                                          "mip")} <= modules
+    (tmp_path / "launched.pkl").write_bytes(pickle.dumps(list(LAUNCHED)))
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    done = subprocess.run([sys.executable, "-c", _COMPILE, str(tmp_path / "launched.pkl")], env=env,
+                          capture_output=True, text=True, timeout=600)
+    if done.returncode == 77:
+        pytest.skip(f"cannot compile for the GPU here ({done.stdout.strip()}): pip install -e \".[cuda]\"")
+    assert done.returncode == 0, (done.stdout + done.stderr)[-6000:]
