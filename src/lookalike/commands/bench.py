@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
                              "Chromium, see the README)")
     parser.add_argument("--device", choices=DEVICES, default=None,
-                        help="quality and render: where the tensors live and the kernels run (default: auto, the GPU "
+                        help="quality: where the tensors live and the kernels run (default: auto, the GPU "
                              "where torch sees one and numba-cuda is installed)")
     parser.add_argument("--reuse", action="store_true",
                         help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         if parameter not in inspect.signature(module.run).parameters:
             raise ConfigError(f"{flag}: bench {args.name} does not take it (it is for the benchmarks that run the "
-                              "assets, and --device for quality and render)")
+                              "assets, and --device for quality)")
         kwargs[parameter] = value
     result = module.run(**kwargs)
     if args.json:

@@ -22,6 +22,15 @@ def _pixel_ndc(job, height, width, window):
     return b, iy, ix, px, py
 
 
+@cuda.jit(device=True)
+def _barycentrics(coef, b, t, px, py):
+    """``(S, u, v)`` of triangle ``t`` of view ``b`` at NDC ``(px, py)``: ``S = s.p``, ``u = c_0.p
+    / S``, ``v = c_1.p / S`` (``coef`` as :func:`.barycentrics_kernels.barycentrics_forward`'s)."""
+    s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
+    return s, (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s, \
+        (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
+
+
 @cuda.jit
 def barycentrics_forward(coef, tri_id, depth, window, rast, rast_db):
     """Thread per pixel: :func:`.barycentrics_kernels.barycentrics_forward`."""
@@ -37,9 +46,7 @@ def barycentrics_forward(coef, tri_id, depth, window, rast, rast_db):
             rast[b, iy, ix, k] = 0.0
             rast_db[b, iy, ix, k] = 0.0
         return
-    s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
-    u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
-    v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
+    s, u, v = _barycentrics(coef, b, t, px, py)
     rast[b, iy, ix, 0] = u
     rast[b, iy, ix, 1] = v
     rast[b, iy, ix, 2] = depth[b, iy, ix]
@@ -63,9 +70,7 @@ def barycentrics_backward(coef, tri_id, window, grad_rast, grad_db, use_db, grad
     t = tri_id[b, iy, ix] - 1
     if t < 0:
         return
-    s = coef[b, t, 6] * px + coef[b, t, 7] * py + coef[b, t, 8]
-    u = (coef[b, t, 0] * px + coef[b, t, 1] * py + coef[b, t, 2]) / s
-    v = (coef[b, t, 3] * px + coef[b, t, 4] * py + coef[b, t, 5]) / s
+    s, u, v = _barycentrics(coef, b, t, px, py)
     g_u = grad_rast[b, iy, ix, 0]
     g_v = grad_rast[b, iy, ix, 1]
     g_s = 0.0
