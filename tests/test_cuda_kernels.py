@@ -244,20 +244,29 @@ _COMPILE = textwrap.dedent("""
         print(f"no NVVM: {e}")
         sys.exit(77)
     failed = []
+    scattering = set(sys.argv[2:])
     for module, name, signature in pickle.load(open(sys.argv[1], "rb")):
         kernel = getattr(importlib.import_module(module), name)
         try:
-            cuda.compile_ptx(kernel.py_func, signature, cc=(9, 0))
+            ptx, _ = cuda.compile_ptx(kernel.py_func, signature, cc=(9, 0))
         except Exception as e:
             failed.append(f"{module}.{name}{signature}: {type(e).__name__}: {str(e)[-1500:]}")
+            continue
+        if f"{module}.{name}" in scattering and "atom.global.add" not in ptx:
+            failed.append(f"{module}.{name}{signature}: scatters without an atomic add")
     print(chr(10).join(failed) or "compiled")
     sys.exit(1 if failed else 0)
 """)
 
 
+SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
+"""The kernels whose threads add into shared elements (``kernel_scatter.scatter_add``): their
+PTX must add atomically."""
+
+
 def test_every_launched_kernel_compiles_for_the_gpu(tmp_path):
     """Every kernel the tests above launched in the simulator compiles to PTX for its argument
-    types (on a GPU, the tests compiled them for real)."""
+    types (on a GPU, the tests compiled them for real), those that scatter with atomic adds."""
     if not _simulated(cuda):
         pytest.skip("on a GPU the tests above compiled every kernel they ran")
     if not LAUNCHED:
@@ -267,7 +276,7 @@ def test_every_launched_kernel_compiles_for_the_gpu(tmp_path):
                                                           "mip")} <= modules
     (tmp_path / "launched.pkl").write_bytes(pickle.dumps(list(LAUNCHED)))
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
-    done = subprocess.run([sys.executable, "-c", _COMPILE, str(tmp_path / "launched.pkl")], env=env,
+    done = subprocess.run([sys.executable, "-c", _COMPILE, str(tmp_path / "launched.pkl"), *SCATTERING], env=env,
                           capture_output=True, text=True, timeout=600)
     if done.returncode == 77:
         pytest.skip(f"cannot compile for the GPU here ({done.stdout.strip()}): pip install -e \".[cuda]\"")

@@ -5,7 +5,8 @@ A run names its device once (``render.device``: ``"auto"``, ``"cuda"`` or ``"cpu
 GPU and numba-cuda (the ``[cuda]`` extra) imports, else the CPU. From there on the tensors carry
 the device and every compiled kernel follows its inputs: an op whose tensors are on the GPU runs
 the kernel's CUDA form (``*_cuda.py`` beside its Numba CPU form ``*_kernels.py``), with the same
-structure, one GPU thread where the CPU form has one ``prange`` iteration.
+structure, one GPU thread where the CPU form has one ``prange`` iteration, and the same code:
+both forms call one per-element body, which ``device_function`` compiles for the GPU.
 
 The CUDA kernels take torch's tensors as they are, without a copy, through
 ``__cuda_array_interface__`` (``kernel_array``), and run on torch's current stream (``launch``),
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
+import types
 from collections.abc import Iterator
 
 from .errors import DeviceError
@@ -31,6 +33,7 @@ THREADS_PER_BLOCK = 128
 kernels with many registers still fit several to a multiprocessor."""
 
 _cuda_kernels_for_cpu_tensors = False
+_device_functions: dict = {}
 
 
 def numba_cuda():
@@ -41,6 +44,34 @@ def numba_cuda():
     except ImportError as e:
         raise DeviceError(f"numba-cuda is not installed ({e}); pip install -e \".[cuda]\" adds it") from None
     return cuda
+
+
+def device_function(function):
+    """The CUDA device function of the Numba CPU function ``function`` (an ``@njit`` one): its
+    Python compiled for the GPU, every Numba CPU function it calls replaced by its device
+    function too (made the same way, once each), and ``kernel_scatter.scatter_add`` by its
+    atomic form.
+
+    So one per-element body serves both forms of a kernel: the CPU kernel calls it in its
+    ``prange`` loop, the CUDA kernel in each thread. In the simulator the device function runs
+    the body's Python, so its callees must be simulated device functions too (the simulator's
+    arrays reach no CPU function)."""
+    if not _device_functions:
+        from . import kernel_scatter, kernel_scatter_cuda
+
+        _device_functions[kernel_scatter.scatter_add] = kernel_scatter_cuda.scatter_add
+    form = _device_functions.get(function)
+    if form is None:
+        from numba.core.registry import CPUDispatcher
+
+        body = function.py_func
+        callees = {name: device_function(value) for name in body.__code__.co_names
+                   if isinstance(value := body.__globals__.get(name), CPUDispatcher)}
+        if callees:
+            body = types.FunctionType(body.__code__, {**body.__globals__, **callees}, body.__name__,
+                                      body.__defaults__, body.__closure__)
+        form = _device_functions[function] = numba_cuda().jit(device=True)(body)
+    return form
 
 
 def cuda_problem() -> str | None:

@@ -17,9 +17,15 @@ import numpy as np
 import torch
 from numba import cuda, float32, float64
 
-from ..devices import launch
-from .visibility import TILE, _edge_and_depth_planes, _triangle_bbox
+from ..devices import device_function, launch
+from . import visibility
+from .visibility import TILE
 from .window import Window
+
+
+_triangle_bbox = device_function(visibility._triangle_bbox)
+_edge_and_depth_planes = device_function(visibility._edge_and_depth_planes)
+_keep_fragment = device_function(visibility.keep_fragment)
 
 
 @cuda.jit
@@ -97,39 +103,23 @@ def _draw_pixels(planes, bbox, bin_start, bin_tris, tiles_x, n_tiles, min_depth,
     """Thread ``(b, iy, ix)``: the triangles of the pixel's tile bin in ascending order, each kept
     among the pixel's ``L`` nearest fragments of distinct depth where its edge functions are
     ``>= 0`` (not all zero) and its float32 depth ``d`` has ``min_depth < d``, ``-1 <= d <= 1``
-    (``visibility._draw_triangle``'s test and insertion): ``depth [B, H, W, L]`` (``+inf``:
-    none) and ``tri_id [B, H, W, L]`` (``t + 1``, 0: none)."""
-    n_views, height, width, layers = depth.shape
+    (``visibility.keep_fragment``, the CPU form's test and insertion): ``depth [B, H, W, L]``
+    (``+inf``: none) and ``tri_id [B, H, W, L]`` (``t + 1``, 0: none)."""
+    n_views, height, width, _ = depth.shape
     job = cuda.grid(1)
     if job >= n_views * height * width:
         return
     b, iy, ix = job // (height * width), (job // width) % height, job % width
     j = b * n_tiles + (iy // TILE) * tiles_x + ix // TILE
-    fx, fy = float32(ix), float32(iy)
     for n in range(bin_start[j], bin_start[j + 1]):
         t = bin_tris[n]
         if ix < bbox[b, t, 0] or ix > bbox[b, t, 1] or iy < bbox[b, t, 2] or iy > bbox[b, t, 3]:
             continue
-        a0 = planes[b, t, 0] * ix + (planes[b, t, 1] * iy + planes[b, t, 2])
-        a1 = planes[b, t, 3] * ix + (planes[b, t, 4] * iy + planes[b, t, 5])
-        a2 = planes[b, t, 6] * ix + (planes[b, t, 7] * iy + planes[b, t, 8])
-        if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
-            continue
-        d = float32(planes[b, t, 9]) * fx + float32(planes[b, t, 10]) * fy + float32(planes[b, t, 11])
-        if d < float32(-1.0) or d > float32(1.0) or d <= min_depth[b, iy, ix]:
-            continue
-        if not d < depth[b, iy, ix, layers - 1]:
-            continue
-        slot = 0
-        while depth[b, iy, ix, slot] < d:
-            slot += 1
-        if depth[b, iy, ix, slot] == d:
-            continue
-        for k in range(layers - 1, slot, -1):
-            depth[b, iy, ix, k] = depth[b, iy, ix, k - 1]
-            tri_id[b, iy, ix, k] = tri_id[b, iy, ix, k - 1]
-        depth[b, iy, ix, slot] = d
-        tri_id[b, iy, ix, slot] = t + 1
+        _keep_fragment(planes[b, t, 0] * ix + (planes[b, t, 1] * iy + planes[b, t, 2]),
+                       planes[b, t, 3] * ix + (planes[b, t, 4] * iy + planes[b, t, 5]),
+                       planes[b, t, 6] * ix + (planes[b, t, 7] * iy + planes[b, t, 8]),
+                       float32(planes[b, t, 9]), float32(planes[b, t, 10]), float32(planes[b, t, 11]), b, iy, ix, t,
+                       min_depth, tri_id, depth)
 
 
 def visible_layers(pos: torch.Tensor, tri: torch.Tensor, tri_range: torch.Tensor, height: int, width: int,
