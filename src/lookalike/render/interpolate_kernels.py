@@ -118,8 +118,8 @@ def interpolate_backward(attr, tri, rast, rast_db, diff, pixels, every, pixels_p
     for chunk in prange(n_chunks):
         target = grad_attr if chunk == 0 else private[chunk - 1]
         for i in range(chunk * n // n_chunks, (chunk + 1) * n // n_chunks):
-            interpolate_backward_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da,
-                                       target, grad_rast, grad_db, i)
+            interpolate_backward_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out,
+                                       grad_da, target, grad_rast, grad_db, i)
     for vertex in prange(grad_attr.shape[1]):
         for k in range(n_chunks - 1):
             for b in range(grad_attr.shape[0]):

@@ -3,9 +3,9 @@
 The plain-torch twin is :func:`.texture.texture_python` (built on :mod:`.sampling`);
 tests compare values and gradients.  Each pass is a loop over pixels around a per-pixel body
 (``texture_forward_pixel``, ``texture_backward_pixel``) that the CUDA forms
-(:mod:`.texture_cuda`) run too, one thread per pixel, so the two forms cannot drift apart.  The mip pyramid is one flat ``table [N, C]`` (see
-:class:`.sampling.Pyramid`): level ``l`` of view ``k`` starts at row
-``offsets[l] + k heights[l] widths[l]``.
+(:mod:`.texture_cuda`) run too, one thread per pixel, so the two forms cannot drift apart.
+The mip pyramid is one flat ``table [N, C]`` (see :class:`.sampling.Pyramid`): level ``l`` of
+view ``k`` starts at row ``offsets[l] + k heights[l] widths[l]``.
 
 Filter modes: ``NEAREST``, ``LINEAR`` (level 0), ``MIP_NEAREST`` (bilinear in level
 ``floor(L + 1/2)``), ``MIP_LINEAR`` (bilinear in ``l0 = min(floor(L), top - 1)`` and
