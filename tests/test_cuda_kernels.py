@@ -3,11 +3,13 @@ inputs: on the GPU where torch sees one, else in Numba's CUDA simulator, which r
 thread as a Python thread on CPU tensors (``lookalike.devices.cuda_kernels_for_cpu_tensors``
 makes the ops take their CUDA forms for them).
 
-How the simulator is chosen: Numba reads ``NUMBA_ENABLE_CUDASIM`` once, when ``numba.cuda`` is
-first imported, and that process keeps the target it got. So this module, when collected on a
-machine without a GPU, imports ``numba.cuda`` with the variable set for that import alone
-(``_cuda_target``), and leaves the environment as it found it, so that no other test's child
-process inherits it. The simulator staying loaded does not change the other tests: the library
+How the simulator is chosen: ``numba.cuda``, when first imported, takes its target from
+Numba's configuration (``NUMBA_ENABLE_CUDASIM``, read when Numba is imported and again on
+``reload_config``), and that process keeps the target it got. So this module, when collected on
+a machine without a GPU, imports ``numba.cuda`` with the variable set, and the configuration
+reloaded, for that import alone (``_cuda_target``: Numba is imported already, by the conftest
+and the modules collected before), and leaves both as it found them, so that no other test's
+child process inherits the variable. The simulator staying loaded does not change the other tests: the library
 imports ``numba.cuda`` only for tensors on a GPU (or under the tests' switch), and ``"auto"``
 asks torch first, which sees no GPU either way. Where ``numba.cuda`` was already imported for a
 real GPU that torch does not see, the module is skipped.
@@ -36,9 +38,12 @@ def _simulated(cuda) -> bool:
 
 def _cuda_target():
     """``numba.cuda``: the GPU where torch sees one, else the simulator (see the docstring)."""
+    from numba.core import config
+
     before = os.environ.get("NUMBA_ENABLE_CUDASIM")
     if not torch.cuda.is_available():
         os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
+        config.reload_config()
     try:
         from numba import cuda
     except ImportError as e:
@@ -48,6 +53,7 @@ def _cuda_target():
             os.environ.pop("NUMBA_ENABLE_CUDASIM", None)
         else:
             os.environ["NUMBA_ENABLE_CUDASIM"] = before
+        config.reload_config()
     if not torch.cuda.is_available() and not _simulated(cuda):
         pytest.skip("numba.cuda was imported for a GPU that torch does not see", allow_module_level=True)
     return cuda
