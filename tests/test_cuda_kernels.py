@@ -70,6 +70,9 @@ from lookalike.render.rasterize import rasterize_layers  # noqa: E402
 from lookalike.render.texture import texture_python  # noqa: E402
 from lookalike.render.visibility_python import visibility_python, visible_layers_python  # noqa: E402
 from lookalike.render.window import Window  # noqa: E402
+from lookalike.shading.light import PointLight  # noqa: E402
+from lookalike.shading.normal_map import shading_normal, shading_normal_python  # noqa: E402
+from lookalike.shading.point_lighting import lit_radiance, lit_radiance_python  # noqa: E402
 
 DEVICE = torch.device("cuda" if torch.cuda.is_available() else "cpu")
 """Where the CUDA kernels' inputs live: the GPU, or the CPU for the simulator."""
@@ -237,6 +240,59 @@ def test_mip_pyramid_matches_the_twin():
     torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [tex]))
 
 
+def unit_vectors(generator, count, around=None, spread=1.0):
+    """``[count, 3]`` float64 unit vectors, random or (``around``) near the given ones."""
+    x = torch.randn(count, 3, generator=generator, dtype=torch.float64) * spread
+    x = x if around is None else around + x
+    return x / x.norm(dim=-1, keepdim=True)
+
+
+def test_shading_normals_match_the_twin():
+    generator = torch.Generator().manual_seed(8)
+    count = 96
+    normal = unit_vectors(generator, count) * (0.5 + torch.rand(count, 1, generator=generator, dtype=torch.float64))
+    tangent = torch.cat([torch.randn(count, 3, generator=generator, dtype=torch.float64),
+                         torch.where(torch.rand(count, 1, generator=generator) < 0.5, -1.0, 1.0).double()], 1)
+    tangent_space = unit_vectors(generator, count, torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64), 0.6)
+    geometric = unit_vectors(generator, count, normal, 0.4)
+    view_dir = unit_vectors(generator, count)
+    mapped = torch.rand(count, generator=generator) < 0.5
+    facing = torch.where((geometric * view_dir).sum(-1) >= 0, 1.0, -1.0).double()
+    leaves = [t.requires_grad_(True) for t in (normal, tangent, tangent_space, geometric, view_dir)]
+    ours, gradients = on_cuda(lambda n, t, s, g, v, m, f: shading_normal(n, t, s, m, g, v, f), *leaves, mapped, facing,
+                              gradients_to=leaves)
+    twin = shading_normal_python(normal, tangent, tangent_space, mapped, geometric, view_dir, facing)
+    assert (facing < 0).any() and mapped.any() and (~mapped).any()
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], leaves))
+
+
+@pytest.mark.parametrize("views", [1, 2])
+def test_point_lighting_matches_the_twin(views):
+    generator = torch.Generator().manual_seed(9)
+    count = 96
+    normal = unit_vectors(generator, count)
+    view_dir = unit_vectors(generator, count, normal, 0.7)
+    kd, ks = (torch.rand(count, 3, generator=generator, dtype=torch.float64) for _ in range(2))
+    ks[:10, 1] = 0.01  # below the least roughness: the clamp
+    position = torch.randn(count, 3, generator=generator, dtype=torch.float64)
+    geometric = unit_vectors(generator, count, normal, 0.3)
+    view = torch.randint(0, views, (count,), generator=generator)
+    light_position = 3 * torch.randn(views, 3, generator=generator, dtype=torch.float64)
+    intensity = 10 * torch.rand(views, 3, generator=generator, dtype=torch.float64)
+    horizon = torch.arange(views) % 2 == 0
+    leaves = [t.requires_grad_(True) for t in (kd, ks, normal, view_dir, position, light_position, intensity)]
+
+    def lit(op, kd, ks, normal, view_dir, position, light_position, intensity, geometric, view, horizon):
+        return op(kd, ks, normal, view_dir, position, geometric, view, PointLight(light_position, intensity, horizon))
+
+    ours, gradients = on_cuda(lambda *a: lit(lit_radiance, *a), *leaves, geometric, view, horizon, gradients_to=leaves)
+    twin = lit(lit_radiance_python, *leaves, geometric, view, horizon)
+    assert (twin == 0).all(-1).any() and (twin > 0).any(-1).sum() > 30  # dark points and lit ones
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], leaves))
+
+
 _COMPILE = textwrap.dedent("""
     import importlib, pickle, sys, types
     from numba import cuda
@@ -265,6 +321,10 @@ _COMPILE = textwrap.dedent("""
 """)
 
 
+CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate", "render.texture", "render.mip",
+                "shading.normal_map", "shading.point_lighting"]
+"""The modules of CUDA kernels, each of which the tests above launch."""
+
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
 """The kernels whose threads add into shared elements (``kernel_scatter.scatter_add``): their
 PTX must add atomically."""
@@ -278,8 +338,7 @@ def test_every_launched_kernel_compiles_for_the_gpu(tmp_path):
     if not LAUNCHED:
         pytest.skip("no kernel was launched: run the whole module")
     modules = {module for module, _, _ in LAUNCHED}
-    assert {f"lookalike.render.{name}_cuda" for name in ("visibility", "barycentrics", "interpolate", "texture",
-                                                          "mip")} <= modules
+    assert {f"lookalike.{name}_cuda" for name in CUDA_MODULES} <= modules
     (tmp_path / "launched.pkl").write_bytes(pickle.dumps(list(LAUNCHED)))
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
     done = subprocess.run([sys.executable, "-c", _COMPILE, str(tmp_path / "launched.pkl"), *SCATTERING], env=env,
