@@ -66,6 +66,8 @@ from lookalike.devices import cuda_kernels_for_cpu_tensors  # noqa: E402
 from lookalike.render.barycentrics import barycentrics_python, pixel_ndc  # noqa: E402
 from lookalike.render.interpolate import interpolate_python  # noqa: E402
 from lookalike.render.mipmap import texture_construct_mip, texture_pyramid  # noqa: E402
+from lookalike.render.msaa import (covered_sample_index, covered_sample_index_python, pick_samples,  # noqa: E402
+                                   pick_samples_python, upsample_over, upsample_over_python)
 from lookalike.render.rasterize import rasterize_layers  # noqa: E402
 from lookalike.render.texture import texture_python  # noqa: E402
 from lookalike.render.visibility_python import visibility_python, visible_layers_python  # noqa: E402
@@ -240,6 +242,29 @@ def test_mip_pyramid_matches_the_twin():
     torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [tex]))
 
 
+def test_msaa_matches_the_twins():
+    factor, generator = 2, torch.Generator().manual_seed(10)
+    ids = torch.randint(1, 9, (2, 8, 10), generator=generator).float()
+    ids *= torch.rand(ids.shape, generator=generator) < 0.5
+    ids[:, -2:, -2:] = 0  # a block with no covered sample
+    u = torch.rand(2, 4, 5, generator=generator)
+    index = on_cuda(lambda i, r: covered_sample_index(i, r, factor), ids, u)
+    assert torch.equal(index, covered_sample_index_python(ids, u, factor))
+    accum = torch.rand(2, 8, 10, 4, generator=generator, dtype=torch.float64).requires_grad_(True)
+    colour = torch.rand(2, 4, 5, 4, generator=generator, dtype=torch.float64).requires_grad_(True)
+
+    def composite(over, pick, a, c, i, k):
+        image = over(a, c, i, factor)
+        return image, pick(image, k)
+
+    ours, gradients = on_cuda(lambda *a: composite(upsample_over, pick_samples, *a), accum, colour, ids, index,
+                              gradients_to=[accum, colour])
+    twin = composite(upsample_over_python, pick_samples_python, accum, colour, ids, index)
+    for a, b in zip(ours, twin):
+        torch.testing.assert_close(a, b)
+    torch.testing.assert_close(gradients, weighted_sum_gradients(twin, [accum, colour]))
+
+
 def unit_vectors(generator, count, around=None, spread=1.0):
     """``[count, 3]`` float64 unit vectors, random or (``around``) near the given ones."""
     x = torch.randn(count, 3, generator=generator, dtype=torch.float64) * spread
@@ -322,7 +347,7 @@ _COMPILE = textwrap.dedent("""
 
 
 CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate", "render.texture", "render.mip",
-                "shading.normal_map", "shading.point_lighting"]
+                "render.msaa", "shading.normal_map", "shading.point_lighting"]
 """The modules of CUDA kernels, each of which the tests above launch."""
 
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
