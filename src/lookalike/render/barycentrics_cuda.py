@@ -12,17 +12,13 @@ from numba import cuda
 
 from ..devices import device_function
 from . import barycentrics_kernels as kernels
+from .pixels import unravel_pixel
 
 _forward_pixel = device_function(kernels.barycentrics_pixel)
 _backward_pixel = device_function(kernels.barycentrics_backward_pixel)
 _coefficients = device_function(kernels.triangle_coefficients_one)
 _shown = device_function(kernels.shown_triangle)
-
-
-@cuda.jit(device=True)
-def _pixel(job, height, width):
-    """``(b, iy, ix)``: view, row and column of flat pixel ``job`` of ``[B, H, W]`` images."""
-    return job // (height * width), (job // width) % height, job % width
+_pixel = device_function(unravel_pixel)
 
 
 @cuda.jit

@@ -128,8 +128,8 @@ class _UpsampleOver(torch.autograd.Function):
             launch(msaa_cuda.upsample_over_backward, colour.shape[0] * colour.shape[1] * colour.shape[2], accum, colour,
                    ids, ctx.factor, grad_out, grad_accum, grad_colour)
         else:
-            msaa_kernels.upsample_over_backward(accum.numpy(), colour.numpy(), ids.numpy(), ctx.factor, grad_out.numpy(),
-                                                grad_accum.numpy(), grad_colour.numpy())
+            msaa_kernels.upsample_over_backward(accum.numpy(), colour.numpy(), ids.numpy(), ctx.factor,
+                                                grad_out.numpy(), grad_accum.numpy(), grad_colour.numpy())
         return grad_accum, grad_colour, None, None
 
 

@@ -12,17 +12,13 @@ from numba import cuda
 
 from ..devices import device_function
 from . import msaa_kernels as kernels
+from .pixels import unravel_pixel
 
+_pixel = device_function(unravel_pixel)
 _covered_sample = device_function(kernels.covered_sample_pixel)
 _scatter_row = device_function(kernels.scatter_row)
 _over = device_function(kernels.upsample_over_pixel)
 _over_backward = device_function(kernels.upsample_over_backward_pixel)
-
-
-@cuda.jit(device=True)
-def _pixel(job, height, width):
-    """``(b, y, x)``: view, row and column of flat pixel ``job`` of ``[B, H, W]`` images."""
-    return job // (height * width), (job // width) % height, job % width
 
 
 @cuda.jit
