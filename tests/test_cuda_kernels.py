@@ -29,6 +29,7 @@ import textwrap
 
 import pytest
 import torch
+from mesh_factory import bumpy_sphere_clip
 
 
 def _simulated(cuda) -> bool:
@@ -62,7 +63,10 @@ def _cuda_target():
 cuda = _cuda_target()
 
 import lookalike.render as dr  # noqa: E402
+from lookalike.render.antialias import (neighbour_pairs_python, outline_walk_python,  # noqa: E402
+                                        silhouette_edges_python)
 from lookalike.devices import cuda_kernels_for_cpu_tensors  # noqa: E402
+from lookalike.render.antialias_kernels import outline_crossings  # noqa: E402
 from lookalike.render.barycentrics import barycentrics_python, pixel_ndc  # noqa: E402
 from lookalike.render.interpolate import interpolate_python  # noqa: E402
 from lookalike.render.mipmap import texture_construct_mip, texture_pyramid  # noqa: E402
@@ -242,6 +246,39 @@ def test_mip_pyramid_matches_the_twin():
     torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [tex]))
 
 
+@pytest.mark.parametrize("windowed", [False, True])
+def test_outline_search_matches_the_twins_and_antialias_its_cpu_form(windowed):
+    from lookalike.render import antialias_cuda
+
+    pos, tri = bumpy_sphere_clip(seed=11)
+    height, width = 20, 24
+    rast, _ = dr.rasterize(None, pos, tri, (height, width))
+    window = Window(3, 4, 14, 17, height, width) if windowed else None
+    part = window.crop(rast).contiguous() if windowed else rast
+    topology = dr.antialias_construct_topology_hash(tri)
+    with cuda_kernels_for_cpu_tensors():
+        ours = antialias_cuda.outline_crossings(part.to(DEVICE), pos[..., [0, 1, 3]].contiguous().to(DEVICE), tri,
+                                                topology.neighbour, topology.opposite, window)
+    front, other, start_tri, horizontal = neighbour_pairs_python(part[..., 3].long(), part[..., 2])
+    silhouette = silhouette_edges_python(pos, tri, topology.opposite)
+    edge_tri, edge = outline_walk_python(pos, tri, topology.neighbour, silhouette, front, other, start_tri,
+                                         part.shape[1], part.shape[2], window)
+    hit = edge >= 0
+    assert hit.sum() > 20 and (edge_tri[hit] != start_tri[hit]).any()  # outlines, some beyond the first triangle
+    twin = (front[hit], other[hit], horizontal[hit], edge_tri[hit], edge[hit])
+    assert sorted(zip(*(a.tolist() for a in ours))) == sorted(zip(*(a.tolist() for a in twin)))
+    cpu = outline_crossings(part.numpy(), pos[..., [0, 1, 3]].contiguous().numpy(), tri.numpy(),
+                            topology.neighbour.numpy(), topology.opposite.numpy(), window)
+    assert all(torch.equal(a.cpu(), torch.from_numpy(b)) for a, b in zip(ours, cpu))  # in the same order
+    colour = torch.rand(*part.shape[:3], 3, dtype=torch.float64, generator=torch.Generator().manual_seed(12))
+    leaves = [colour.requires_grad_(True), pos.requires_grad_(True)]
+    blended, gradients = on_cuda(lambda c, p, r, t: dr.antialias(c, r, p, t, topology, window=window), *leaves, part,
+                                 tri, gradients_to=leaves)
+    cpu = dr.antialias(colour, part, pos, tri, topology, window=window)
+    torch.testing.assert_close(blended, cpu)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([cpu], leaves))
+
+
 def test_msaa_matches_the_twins():
     factor, generator = 2, torch.Generator().manual_seed(10)
     ids = torch.randint(1, 9, (2, 8, 10), generator=generator).float()
@@ -347,7 +384,7 @@ _COMPILE = textwrap.dedent("""
 
 
 CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate", "render.texture", "render.mip",
-                "render.msaa", "shading.normal_map", "shading.point_lighting"]
+                "render.msaa", "render.antialias", "shading.normal_map", "shading.point_lighting"]
 """The modules of CUDA kernels, each of which the tests above launch."""
 
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
