@@ -21,6 +21,7 @@ extra's wheels; skipped without them), so a kernel that only Python accepts fail
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import subprocess
@@ -75,6 +76,7 @@ from lookalike.render.msaa import (covered_sample_index, covered_sample_index_py
 from lookalike.render.rasterize import rasterize_layers  # noqa: E402
 from lookalike.render.texture import texture_python  # noqa: E402
 from lookalike.render.visibility_python import visibility_python, visible_layers_python  # noqa: E402
+from lookalike.fit.texture_pyramid import compose, compose_python, level_sizes  # noqa: E402
 from lookalike.render.window import Window  # noqa: E402
 from lookalike.shading.light import PointLight  # noqa: E402
 from lookalike.shading.normal_map import shading_normal, shading_normal_python  # noqa: E402
@@ -302,6 +304,23 @@ def test_msaa_matches_the_twins():
     torch.testing.assert_close(gradients, weighted_sum_gradients(twin, [accum, colour]))
 
 
+@pytest.mark.parametrize("size", [(10, 7), (16, 12)])  # odd sides, and plain halvings
+def test_texture_pyramid_sum_matches_the_twin(size):
+    generator = torch.Generator().manual_seed(13)
+    sizes = level_sizes(*size, 3)
+    levels = [4 * torch.randn(h, w, 3, generator=generator) for h, w in sizes]
+    low, high = torch.tensor([0.0, -0.5, -math.inf]), 0.8
+    scales = (0.25, 0.5, 1.0)[: len(sizes)]
+    ours_levels = [level.clone().requires_grad_(True) for level in levels]
+    twin_levels = [level.clone().requires_grad_(True) for level in levels]
+    ours, gradients = on_cuda(lambda *ls: compose(list(ls), scales, low, high), *ours_levels, gradients_to=ours_levels)
+    twin = compose_python(twin_levels, scales, low, high)
+    assert ours.max() == 0.8 and ours[..., 2].min() < -0.5  # the bounds were active
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(ours_levels[0].detach(), twin_levels[0].detach())  # the same excess taken off
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], twin_levels))
+
+
 def unit_vectors(generator, count, around=None, spread=1.0):
     """``[count, 3]`` float64 unit vectors, random or (``around``) near the given ones."""
     x = torch.randn(count, 3, generator=generator, dtype=torch.float64) * spread
@@ -384,7 +403,7 @@ _COMPILE = textwrap.dedent("""
 
 
 CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate", "render.texture", "render.mip",
-                "render.msaa", "render.antialias", "shading.normal_map", "shading.point_lighting"]
+                "render.msaa", "render.antialias", "shading.normal_map", "shading.point_lighting", "fit.pyramid"]
 """The modules of CUDA kernels, each of which the tests above launch."""
 
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
