@@ -76,6 +76,7 @@ from lookalike.render.msaa import (covered_sample_index, covered_sample_index_py
 from lookalike.render.rasterize import rasterize_layers  # noqa: E402
 from lookalike.render.texture import texture_python  # noqa: E402
 from lookalike.render.visibility_python import visibility_python, visible_layers_python  # noqa: E402
+from lookalike.fit.slope_normals import slopes_to_normal, slopes_to_normal_python  # noqa: E402
 from lookalike.fit.texture_pyramid import compose, compose_python, level_sizes  # noqa: E402
 from lookalike.render.window import Window  # noqa: E402
 from lookalike.shading.light import PointLight  # noqa: E402
@@ -321,6 +322,15 @@ def test_texture_pyramid_sum_matches_the_twin(size):
     torch.testing.assert_close(gradients, weighted_sum_gradients([twin], twin_levels))
 
 
+def test_slope_normals_match_the_twin():
+    slopes = (2 * torch.randn(5, 7, 2, generator=torch.Generator().manual_seed(14), dtype=torch.float64))
+    slopes.requires_grad_(True)
+    ours, gradients = on_cuda(slopes_to_normal, slopes, gradients_to=[slopes])
+    twin = slopes_to_normal_python(slopes)
+    torch.testing.assert_close(ours, twin)
+    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], [slopes]))
+
+
 def unit_vectors(generator, count, around=None, spread=1.0):
     """``[count, 3]`` float64 unit vectors, random or (``around``) near the given ones."""
     x = torch.randn(count, 3, generator=generator, dtype=torch.float64) * spread
@@ -403,7 +413,8 @@ _COMPILE = textwrap.dedent("""
 
 
 CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate", "render.texture", "render.mip",
-                "render.msaa", "render.antialias", "shading.normal_map", "shading.point_lighting", "fit.pyramid"]
+                "render.msaa", "render.antialias", "shading.normal_map", "shading.point_lighting", "fit.pyramid",
+                "fit.slope_normals"]
 """The modules of CUDA kernels, each of which the tests above launch."""
 
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
