@@ -31,7 +31,7 @@ def covered_sample_index(ids: torch.Tensor, u: torch.Tensor, factor: int) -> tor
     """
     _check_blocks(ids.shape, u.shape, factor)
     out = torch.empty(u.shape, dtype=torch.int64, device=u.device)
-    ids, u = ids.detach().contiguous(), u.detach().contiguous()
+    ids, u = ids.detach(), u.detach().contiguous()
     if uses_cuda_kernels(u):
         from . import msaa_cuda
 
@@ -104,7 +104,7 @@ class _UpsampleOver(torch.autograd.Function):
     def forward(ctx, accum, colour, ids, factor):
         dtype = torch.promote_types(accum.dtype, colour.dtype)
         accum, colour = accum.detach().to(dtype).contiguous(), colour.detach().to(dtype).contiguous()
-        ids = ids.detach().contiguous()
+        ids = ids.detach()
         out = torch.empty_like(accum)
         if uses_cuda_kernels(accum):
             from . import msaa_cuda
