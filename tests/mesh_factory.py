@@ -1,4 +1,4 @@
-"""Test meshes: an icosphere (a closed, welded mesh of any size)."""
+"""Test meshes: an icosphere (a closed, welded mesh of any size), and a bumpy one in clip space."""
 
 from __future__ import annotations
 
@@ -55,3 +55,18 @@ def icosphere(subdivisions: int = 3, center=(0.0, 0.0, 0.0), radius: float = 1.0
         v, f = _subdivide(v, f)
     v = v * radius + np.asarray(center, dtype=np.float64)
     return Mesh(v_pos=torch.as_tensor(v, dtype=torch.float32), t_pos_idx=torch.as_tensor(f, dtype=torch.int64))
+
+
+def bumpy_sphere_clip(n_views: int = 2, level: int = 2, seed: int = 0):
+    """A jittered icosphere (a closed mesh whose outline folds) seen through random
+    perspective cameras: ``(pos [B, V, 4] float64, tri [T, 3] int64)``."""
+    generator = torch.Generator().manual_seed(seed)
+    sphere = icosphere(level)
+    bumps = 1 + 0.15 * torch.rand(sphere.v_pos.shape[0], 1, generator=generator, dtype=torch.float64)
+    verts = sphere.v_pos.double() * bumps
+    pos = []
+    for _ in range(n_views):
+        rotation, _ = torch.linalg.qr(torch.randn(3, 3, generator=generator, dtype=torch.float64))
+        eye = verts @ rotation.T + torch.tensor([0.0, 0.0, -3.5], dtype=torch.float64)
+        pos.append(torch.stack([1.6 * eye[:, 0], 1.6 * eye[:, 1], -eye[:, 2] * 0.5 - 1.0, -eye[:, 2]], -1))
+    return torch.stack(pos), sphere.t_pos_idx.long()

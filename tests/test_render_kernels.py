@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 import torch
-from mesh_factory import icosphere
+from mesh_factory import bumpy_sphere_clip
 
 import lookalike.render as dr
 from lookalike.render.antialias import (
@@ -71,7 +71,7 @@ def test_constant_triangle_coefficients_match_the_differentiable_ones(dtype):
     for b in range(3):
         shown[b, tri_id[b][tri_id[b] > 0] - 1] = True
     assert 0 < shown.sum() < shown.size
-    some = constant_triangle_coefficients(pos, tri, tri_id)      # only the rows pixels look up
+    some = constant_triangle_coefficients(pos, tri, torch.from_numpy(tri_id))      # only the rows pixels look up
     torch.testing.assert_close(some[torch.from_numpy(shown)], slow[torch.from_numpy(shown)])
     assert not some[torch.from_numpy(~shown)].any()
     rast_slow, db_slow = dr.rasterize(None, pos.clone().requires_grad_(True), tri, (18, 22))
@@ -162,21 +162,6 @@ def test_a_prebuilt_pyramid_serves_lookups_as_a_pyramid_built_per_call():
     torch.testing.assert_close(gradients([shared], inputs), gradients([per_call], inputs))
     with pytest.raises(ValueError, match="pyramid"):
         dr.texture(tex[..., :2], uv, uv_da, mip=pyramid)
-
-
-def bumpy_sphere_clip(n_views: int = 2, level: int = 2, seed: int = 0):
-    """A jittered icosphere (a closed mesh whose outline folds) seen through random
-    perspective cameras: ``(pos [B, V, 4] float64, tri [T, 3] int64)``."""
-    generator = torch.Generator().manual_seed(seed)
-    sphere = icosphere(level)
-    bumps = 1 + 0.15 * torch.rand(sphere.v_pos.shape[0], 1, generator=generator, dtype=torch.float64)
-    verts = sphere.v_pos.double() * bumps
-    pos = []
-    for _ in range(n_views):
-        rotation, _ = torch.linalg.qr(torch.randn(3, 3, generator=generator, dtype=torch.float64))
-        eye = verts @ rotation.T + torch.tensor([0.0, 0.0, -3.5], dtype=torch.float64)
-        pos.append(torch.stack([1.6 * eye[:, 0], 1.6 * eye[:, 1], -eye[:, 2] * 0.5 - 1.0, -eye[:, 2]], -1))
-    return torch.stack(pos), sphere.t_pos_idx.long()
 
 
 @pytest.mark.parametrize(("dtype", "open_border"), [(torch.float64, False), (torch.float32, False),

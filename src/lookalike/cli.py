@@ -10,7 +10,8 @@ import signal
 import sys
 
 from .commands import command_modules
-from .errors import LookalikeError, UserCodeError
+from .devices import device_failure
+from .errors import DeviceError, LookalikeError, UserCodeError
 from .version import __version__
 
 
@@ -71,8 +72,8 @@ def _log_one_line_warnings(command: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command; its exit status: 0 done, 2 the user's input or an OS error on a path
-    (one line on stderr naming it), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
+    """Run the command; its exit status: 0 done, 2 the user's input, an OS error on a path or a
+    failing GPU (one line on stderr naming it), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
     after saving what the command saves when stopped)."""
     from . import heap, kernel_cache  # the program's process settings, before Numba is first imported
 
@@ -92,6 +93,12 @@ def main(argv: list[str] | None = None) -> int:
         except OSError as e:
             where = f"{e.filename}: " if e.filename else ""
             print(f"lookalike {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+            return 2
+        except Exception as e:
+            failure = device_failure(e)
+            if failure is None:
+                raise
+            print(f"lookalike {args.command}: error: {DeviceError(failure)}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
             print(f"lookalike {args.command}: {'stopped' if stop.terminated else 'interrupted'}", file=sys.stderr)

@@ -76,3 +76,19 @@ class OutputsIncomplete(LookalikeError):
 
     def __reduce__(self):
         return type(self), (self.outdir, self.missing, self.cause)
+
+
+class DeviceError(LookalikeError):
+    """The chosen device cannot run: CUDA was asked for where torch sees no GPU or numba-cuda
+    is not installed, or the GPU failed (out of memory, a driver error).
+
+    ``DeviceError("torch sees no CUDA GPU")`` reads ``"CUDA: torch sees no CUDA GPU (--device
+    cpu runs on the CPU)"``.
+    """
+
+    def __init__(self, problem: str):
+        self.problem = problem
+        super().__init__(f"CUDA: {problem} (--device cpu runs on the CPU)")
+
+    def __reduce__(self):
+        return type(self), (self.problem,)

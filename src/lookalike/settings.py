@@ -62,6 +62,8 @@ MIP_FOOTPRINTS = ("supersampled", "engine")
 """How texture lookups choose their mip level (``render.mip_footprint``)."""
 RENDERERS = ("ours", "mitsuba")
 """The reference renderers ``reference.renderer`` names."""
+DEVICES = ("auto", "cuda", "cpu")
+"""The devices ``render.device`` names (``lookalike.devices.resolve_device``)."""
 
 
 @dataclass
@@ -190,6 +192,10 @@ class RenderConfig:
             pixel box's filter, as supersampling renderers (Cycles, the reference) filter; or
             ``"engine"``, the GPU's level at the pixel's derivatives, as real-time engines draw
             (each level of ``lookalike lod``, whose mips are fitted for them).
+        device: where the tensors live and the kernels run (``lookalike.devices``): ``"cuda"``
+            (the GPU, with the ``[cuda]`` extra), ``"cpu"``, or ``"auto"``, the GPU where torch
+            sees one and numba-cuda is installed, else the CPU. The same seed gives the same
+            bytes on the same device; the CPU and the GPU agree to float tolerance.
     """
 
     resolution: int = 512
@@ -198,6 +204,7 @@ class RenderConfig:
     horizon_share: float = 0.5
     layers: int = 1
     mip_footprint: str = "supersampled"
+    device: str = "auto"
 
     @property
     def reference_layers(self) -> int:
@@ -483,6 +490,8 @@ class Config:
             (0 <= lat.mask_anneal <= 1, f"latent.mask_anneal must lie in [0, 1], not {lat.mask_anneal}"),
             (ren.mip_footprint in MIP_FOOTPRINTS,
              f"render.mip_footprint must be one of {', '.join(MIP_FOOTPRINTS)}, not {ren.mip_footprint!r}"),
+            (ren.device in DEVICES,
+             f"render.device (--device) must be one of {', '.join(DEVICES)}, not {ren.device!r}"),
             (ref.renderer in RENDERERS,
              f"reference.renderer (--reference) must be one of {', '.join(RENDERERS)}, not {ref.renderer!r}"),
             (1 <= ref.spp <= MAX_PATH_SPP, f"reference.spp (--spp) must lie in [1, {MAX_PATH_SPP}], not {ref.spp}"),

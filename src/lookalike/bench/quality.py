@@ -88,6 +88,7 @@ def table_row(case: BenchAsset, metrics: dict) -> dict:
         "minutes": metrics["seconds"]["total"] / 60,
         "seconds_per_iteration": metrics["seconds"]["per_iteration"],
         "iterations": metrics["iterations"],
+        "device": metrics.get("device", "cpu"),
         **{f"psnr_{k}": heldout[k]["psnr"] for k in methods},
         **{f"flip_{k}": heldout[k]["flip"] for k in methods},
     }
@@ -110,14 +111,14 @@ def check_assets_dir(assets_dir: str | Path) -> Path:
 
 
 def simplify_case(case: BenchAsset, assets_dir: Path, outdir: Path, time_budget: float, init: str | None = None,
-                  iterations: int | None = None, init_mesh: Path | None = None):
+                  iterations: int | None = None, init_mesh: Path | None = None, device: str | None = None):
     """``simplify`` of one benchmark case with default settings (and ``init``, a fixed
-    ``iterations`` count instead of the time budget, and a starting mesh ``init_mesh`` where
-    given) into ``outdir``; returns its ``RunResult``."""
+    ``iterations`` count instead of the time budget, a starting mesh ``init_mesh`` and the
+    ``render.device`` ``device`` where given) into ``outdir``; returns its ``RunResult``."""
     from ..jobs.simplify import simplify
 
     return simplify(assets_dir / case.path, outdir, triangles=case.triangles, time_budget=time_budget, init=init,
-                    iterations=iterations, init_mesh=init_mesh, force=True, progress=False,
+                    iterations=iterations, init_mesh=init_mesh, device=device, force=True, progress=False,
                     material_override=scan_material() if case.scan else None)
 
 
@@ -129,7 +130,7 @@ def output_root(out: str | Path | None, scratch: str) -> Path:
 
 def run(repeats: int | None = None, out: str | Path | None = None, time_budget: float = TIME_BUDGET_S,
         assets: tuple[BenchAsset, ...] = ASSETS, assets_dir: str | Path = SHARED_ASSETS, judge: str | None = None,
-        reuse: bool = False) -> dict:
+        reuse: bool = False, device: str | None = None) -> dict:
     """Simplify every benchmark asset once and collect its held-out scores.
 
     Args:
@@ -142,6 +143,7 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
             ``judge`` extra).
         reuse: take the runs already in ``out/<asset>`` (those with a ``metrics.json``) instead
             of simplifying again; needs ``out``.
+        device: the runs' ``render.device`` (``None``: the default, ``"auto"``).
 
     Returns:
         ``{"time_budget_s", "bar": {...}, "runs": [row, ...], "all_meet_bar"}``; a row holds the
@@ -158,14 +160,14 @@ def run(repeats: int | None = None, out: str | Path | None = None, time_budget: 
     with tempfile.TemporaryDirectory(prefix="lookalike-bench-") as scratch:
         root = output_root(out, scratch)
         rows = case_rows(assets, assets_dir, root, time_budget, reuse, table_row,
-                         judged_row if judge is not None else None)
+                         judged_row if judge is not None else None, device)
         return summary(rows, time_budget, None if root == Path(scratch) else root, judged=judge is not None)
 
 
 def case_rows(assets: tuple[BenchAsset, ...], assets_dir: Path, root: Path, time_budget: float, reuse: bool,
-              row_of, judge_of=None) -> list[dict]:
+              row_of, judge_of=None, device: str | None = None) -> list[dict]:
     """One row per case: its run in ``root/<name>`` (the one already there where ``reuse`` and
-    it has a ``metrics.json``, else ``simplify_case``), ``row_of(case, metrics)``, and where
+    it has a ``metrics.json``, else ``simplify_case`` on ``device``), ``row_of(case, metrics)``, and where
     ``judge_of`` is given its ``"judge"``, ``judge_of(case, assets_dir, run_dir, baselines)``
     (``baselines`` the run's, ``None`` for a reused run)."""
     rows = []
@@ -174,7 +176,7 @@ def case_rows(assets: tuple[BenchAsset, ...], assets_dir: Path, root: Path, time
         if reuse and (run_dir / "metrics.json").is_file():
             metrics, baselines = json.loads((run_dir / "metrics.json").read_text()), None
         else:
-            result = simplify_case(case, assets_dir, run_dir, time_budget)
+            result = simplify_case(case, assets_dir, run_dir, time_budget, device=device)
             stop_if_interrupted(result)
             metrics, baselines = result.metrics, getattr(result, "baselines", None)
         row = row_of(case, metrics)

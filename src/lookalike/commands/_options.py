@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from ..limits import MAX_RESOLUTION, MAX_TEXTURE_SIZE, MAX_WORKERS
-from ..settings import INITS, RENDERERS, Config, parse_duration, setting_value
+from ..settings import DEVICES, INITS, RENDERERS, Config, parse_duration, setting_value
 
 
 def default_text(defaults: Config, key: str, shown=None) -> str:
@@ -88,9 +88,16 @@ def add_reference_arguments(parser: argparse.ArgumentParser, defaults: Config) -
                         "unlit (KHR_materials_unlit), its whole look in its colour, for viewers that add no light")
 
 
+def add_device_argument(parser: argparse.ArgumentParser) -> None:
+    """``--device``: where the tensors live and the kernels run (``render.device``)."""
+    parser.add_argument("--device", choices=DEVICES, help="where the tensors live and the kernels run: the GPU "
+                        "(needs pip install -e \".[cuda]\"), the CPU, or (auto) the GPU where torch sees one and "
+                        "numba-cuda is installed (default: auto)")
+
+
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--resume``, ``--force``, ``--threads`` and ``--profile``: how one run of a job goes
-    (``lookalike.jobs.run.RunOptions``)."""
+    """``--resume``, ``--force``, ``--threads``, ``--profile`` (how one run of a job goes:
+    ``lookalike.jobs.run.RunOptions``) and ``--device``."""
     parser.add_argument("--resume", action="store_true", help="continue the interrupted run in OUTDIR")
     parser.add_argument("--force", action="store_true", help="overwrite an existing OUTDIR")
     parser.add_argument("--threads", type=int, metavar="N", help="threads for torch, Numba and Embree, pinned, at "
@@ -99,6 +106,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", action="store_true", help="record where the time goes: wall and CPU seconds of "
                         "each phase (load, decimation, bake, views, forward, backward, ...) in metrics.json, "
                         "\"profile\"")
+    add_device_argument(parser)
 
 
 def settings_keywords(args: argparse.Namespace) -> dict:
@@ -118,7 +126,7 @@ def settings_keywords(args: argparse.Namespace) -> dict:
 
 def run_keywords(args: argparse.Namespace) -> dict:
     """The keywords of ``lookalike.jobs.run.run`` that the options above set: the settings
-    (``settings_keywords``) and the run options (``add_run_arguments``)."""
+    (``settings_keywords``, and ``--device``) and the run options (``add_run_arguments``)."""
     options = {"resume": args.resume, "force": args.force, "progress": not args.quiet, "profile": args.profile,
-               "threads": args.threads}
+               "threads": args.threads, "device": args.device}
     return {**settings_keywords(args), **options}

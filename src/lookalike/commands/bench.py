@@ -15,6 +15,7 @@ from ..bench.decimate import ASSETS as DECIMATE_ASSETS
 from ..bench.pathtraced import ASSETS as PATHTRACED_ASSETS
 from ..bench.skinned import ASSETS as SKINNED_ASSETS
 from ..errors import ConfigError
+from ..settings import DEVICES
 
 HELP = "run a benchmark and print its figures"
 
@@ -40,6 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "Cycles (shadows on and off) and run Blender's own decimate + bake; needs pip install -e "
                              "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
                              "Chromium, see the README)")
+    parser.add_argument("--device", choices=DEVICES, default=None,
+                        help="quality: where the tensors live and the kernels run (default: auto, the GPU "
+                             "where torch sees one and numba-cuda is installed)")
     parser.add_argument("--reuse", action="store_true",
                         help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
                              "judge earlier runs); lod: keep the levels already fitted in --out and score them again")
@@ -53,12 +57,13 @@ def run(args: argparse.Namespace) -> int:
     cases = getattr(module, "ASSETS", ASSETS)
     asset_options = {"--asset": ("assets", select_assets(args.asset, cases) if args.asset else None),
                      "--assets-dir": ("assets_dir", args.assets_dir), "--judge": ("judge", args.judge),
-                     "--reuse": ("reuse", True if args.reuse else None)}
+                     "--reuse": ("reuse", True if args.reuse else None), "--device": ("device", args.device)}
     for flag, (parameter, value) in asset_options.items():
         if value is None:
             continue
         if parameter not in inspect.signature(module.run).parameters:
-            raise ConfigError(f"{flag}: bench {args.name} does not run the benchmark assets")
+            raise ConfigError(f"{flag}: bench {args.name} does not take it (it is for the benchmarks that run the "
+                              "assets, and --device for quality)")
         kwargs[parameter] = value
     result = module.run(**kwargs)
     if args.json:

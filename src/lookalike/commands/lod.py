@@ -39,7 +39,8 @@ def run(args: argparse.Namespace) -> int:
                                                                          LEVEL.defaults.latent.ratio)
     settings = {key: value for key, value in (("renderer", args.reference), ("lighting", args.lighting),
                                                ("spp", args.spp), ("unlit", args.unlit or None),
-                                               ("compress", args.compress or None)) if value is not None}
+                                               ("compress", args.compress or None), ("device", args.device))
+                if value is not None}
     rows = lod(asset, args.output, levels, config=args.config, time_budget=parse_duration(args.time_budget),
                resume=args.resume, force=args.force, progress=not args.quiet, profile=args.profile,
                threads=args.threads, **settings)

@@ -7,8 +7,10 @@ output size: along an axis of ``n_in`` input and ``n_out`` output texels, output
 n_in - 1)`` with weights ``1 - f`` and ``f = src - i0``; the 2D weights are the products of
 the row and column ones.  Images are ``[h, w, C]`` arrays (the levels' own layout, no
 permutation to ``[1, C, h, w]``).  Both directions are separable passes whose inner loops run
-over whole rows of ``w C`` contiguous values (vectorised).  The plain-torch twin is
-:func:`.texture_pyramid.upsample` (``F.interpolate``); tests compare values and gradients.
+over whole rows of ``w C`` contiguous values (vectorised), each row a body (``widen_row``,
+``add_row``, ``adjoint_row``) that the CUDA forms (:mod:`.pyramid_cuda`) run too, one thread
+per row.  The plain-torch twin is :func:`.texture_pyramid.upsample` (``F.interpolate``); tests
+compare values and gradients.
 """
 
 from __future__ import annotations
@@ -75,10 +77,7 @@ def upsample_add(coarse, fine, scale, low, high, out):
     span = width * channels
     wide = np.empty((rows, span), coarse.dtype)  # the coarse rows upsampled along x
     for r in prange(rows):
-        for x in range(width):
-            p, q, wx = c0[x], c1[x], fc[x]
-            for ch in range(channels):
-                wide[r, x * channels + ch] = (1 - wx) * coarse[r, p, ch] + wx * coarse[r, q, ch]
+        widen_row(coarse, c0, c1, fc, wide, r)
     lows = np.empty(span, out.dtype)
     highs = np.empty(span, out.dtype)
     for k in range(span):
@@ -89,13 +88,34 @@ def upsample_add(coarse, fine, scale, low, high, out):
     weight = out.dtype.type(scale)
     inverse = out.dtype.type(1.0 / scale)
     for y in prange(height):
-        a, b, wy = r0[y], r1[y], fr[y]
-        for k in range(span):
-            value = weight * fine_rows[y, k] + (1 - wy) * wide[a, k] + wy * wide[b, k]
-            bounded = min(max(value, lows[k]), highs[k])
-            out_rows[y, k] = bounded
-            if bounded != value:
-                fine_rows[y, k] += (bounded - value) * inverse
+        add_row(wide, r0, r1, fr, fine_rows, weight, inverse, lows, highs, out_rows, y)
+
+
+@njit(cache=CACHE, inline="always")
+def widen_row(coarse, c0, c1, fc, wide, r):
+    """Row ``r`` of ``wide [h, W C]``, row ``r`` of ``coarse [h, w, C]`` upsampled along x with the
+    taps ``(c0, c1, fc)`` of ``axis_taps`` (in :func:`upsample_add`, both its CPU and its CUDA
+    form)."""
+    channels = coarse.shape[2]
+    for x in range(c0.shape[0]):
+        p, q, wx = c0[x], c1[x], fc[x]
+        for ch in range(channels):
+            wide[r, x * channels + ch] = (1 - wx) * coarse[r, p, ch] + wx * coarse[r, q, ch]
+
+
+@njit(cache=CACHE, inline="always")
+def add_row(wide, r0, r1, fr, fine_rows, weight, inverse, lows, highs, out_rows, y):
+    """Row ``y`` of ``out_rows [H, W C]`` in :func:`upsample_add` (both its CPU and its CUDA form):
+    ``weight * fine_rows[y]`` plus the rows of ``wide`` upsampled along y (taps ``(r0, r1,
+    fr)``), clamped to ``[lows, highs] [W C]``, the clamp's move times ``inverse`` added to
+    ``fine_rows[y]``."""
+    a, b, wy = r0[y], r1[y], fr[y]
+    for k in range(out_rows.shape[1]):
+        value = weight * fine_rows[y, k] + (1 - wy) * wide[a, k] + wy * wide[b, k]
+        bounded = min(max(value, lows[k]), highs[k])
+        out_rows[y, k] = bounded
+        if bounded != value:
+            fine_rows[y, k] += (bounded - value) * inverse
 
 
 @njit(cache=CACHE, parallel=True)
@@ -112,15 +132,25 @@ def upsample_adjoint(grad, height, width):
     fine_rows = grad.reshape(fine_h, span)
     out = np.empty((height, width, channels), grad.dtype)
     for y in prange(height):
-        row = np.zeros(span, grad.dtype)
-        for t in range(row_start[y], row_start[y + 1]):
-            source, w = row_output[t], row_weight[t]
-            for k in range(span):
-                row[k] += w * fine_rows[source, k]
-        for x in range(width):
-            for ch in range(channels):
-                total = grad.dtype.type(0.0)
-                for t in range(col_start[x], col_start[x + 1]):
-                    total += col_weight[t] * row[col_output[t] * channels + ch]
-                out[y, x, ch] = total
+        adjoint_row(fine_rows, row_start, row_output, row_weight, col_start, col_output, col_weight,
+                    np.zeros(span, grad.dtype), out, y)
     return out
+
+
+@njit(cache=CACHE, inline="always")
+def adjoint_row(fine_rows, row_start, row_output, row_weight, col_start, col_output, col_weight, row, out, y):
+    """Row ``y`` of ``out [h, w, C]`` in :func:`upsample_adjoint` (both its CPU and its CUDA
+    form): into ``row [W C]`` (zeroed) the fine rows of ``fine_rows [H, W C]`` that read coarse
+    row ``y`` (``readers`` of the rows), then ``out[y]`` from ``row``'s columns (``readers`` of
+    the columns)."""
+    channels = out.shape[2]
+    for t in range(row_start[y], row_start[y + 1]):
+        source, w = row_output[t], row_weight[t]
+        for k in range(row.shape[0]):
+            row[k] += w * fine_rows[source, k]
+    for x in range(out.shape[1]):
+        for ch in range(channels):
+            total = out.dtype.type(0.0)
+            for t in range(col_start[x], col_start[x + 1]):
+                total += col_weight[t] * row[col_output[t] * channels + ch]
+            out[y, x, ch] = total

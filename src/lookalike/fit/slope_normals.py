@@ -4,17 +4,16 @@ a valid normal facing outwards and the trained map needs no renormalising projec
 ``slopes_to_normal`` (compiled, hand-written backward, run once per optimisation step on the
 whole map, because torch's concatenation, norm and division each make a full pass over the map
 both ways) has the plain-torch twin ``slopes_to_normal_python``; tests compare values and
-gradients.
+gradients. The kernels are :mod:`.slope_normals_kernels` (and :mod:`.slope_normals_cuda` for
+tensors on the GPU).
 """
 
 from __future__ import annotations
 
-import math
-
 import torch
-from numba import njit, prange
 
-from ..kernel_cache import CACHE
+from ..devices import launch, uses_cuda_kernels
+from . import slope_normals_kernels as kernels
 
 
 def normal_to_slopes(normal: torch.Tensor) -> torch.Tensor:
@@ -39,7 +38,12 @@ class _SlopesToNormal(torch.autograd.Function):
     def forward(ctx, slopes):
         flat = slopes.detach().contiguous().reshape(-1, 2)
         normal = flat.new_empty(flat.shape[0], 3)
-        _forward(flat.numpy(), normal.numpy())
+        if uses_cuda_kernels(flat):
+            from . import slope_normals_cuda
+
+            launch(slope_normals_cuda.slopes_to_normal, flat.shape[0], flat, normal)
+        else:
+            kernels.slopes_to_normal(flat.numpy(), normal.numpy())
         ctx.save_for_backward(normal)
         return normal.reshape(*slopes.shape[:-1], 3)
 
@@ -47,27 +51,11 @@ class _SlopesToNormal(torch.autograd.Function):
     def backward(ctx, grad):
         (normal,) = ctx.saved_tensors
         out = normal.new_empty(normal.shape[0], 2)
-        _backward(normal.numpy(), grad.to(normal.dtype).contiguous().reshape(-1, 3).numpy(), out.numpy())
+        flat = grad.to(normal.dtype).contiguous().reshape(-1, 3)
+        if uses_cuda_kernels(normal):
+            from . import slope_normals_cuda
+
+            launch(slope_normals_cuda.slopes_to_normal_backward, normal.shape[0], normal, flat, out)
+        else:
+            kernels.slopes_to_normal_backward(normal.numpy(), flat.numpy(), out.numpy())
         return out.reshape(*grad.shape[:-1], 2)
-
-
-@njit(cache=CACHE, parallel=True)
-def _forward(slopes, normal):
-    """``normal [N, 3]`` of ``slopes [N, 2]``."""
-    for i in prange(slopes.shape[0]):
-        x, y = slopes[i, 0], slopes[i, 1]
-        inverse = 1.0 / math.sqrt(x * x + y * y + 1.0)
-        normal[i, 0] = x * inverse
-        normal[i, 1] = y * inverse
-        normal[i, 2] = inverse
-
-
-@njit(cache=CACHE, parallel=True)
-def _backward(normal, grad, out):
-    """``out [N, 2]``: gradients to the slopes of ``grad [N, 3]`` at ``normal [N, 3]``
-    (``1 / r = n_z``)."""
-    for i in prange(normal.shape[0]):
-        nx, ny, nz = normal[i, 0], normal[i, 1], normal[i, 2]
-        along = nx * grad[i, 0] + ny * grad[i, 1] + nz * grad[i, 2]
-        out[i, 0] = (grad[i, 0] - nx * along) * nz
-        out[i, 1] = (grad[i, 1] - ny * along) * nz

@@ -17,8 +17,9 @@ by ``s_k lr``: the scales are per-level learning rates.
 The texture starts exactly as given: ``P_0 = T_0 / s_0`` and the coarser levels at zero.
 
 The sum and its backward (``g_{P_k} = s_k up^T(... up^T(g_T))``) are compiled
-(:mod:`.pyramid_kernels`) on the levels' own ``[h, w, C]`` layout; :func:`compose_python` is
-the ``F.interpolate`` twin the tests compare them with.
+(:mod:`.pyramid_kernels`; :mod:`.pyramid_cuda` for levels on the GPU) on the levels' own ``[h,
+w, C]`` layout; :func:`compose_python` is the ``F.interpolate`` twin the tests compare them
+with.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import math
 import torch
 import torch.nn.functional as F
 
+from ..devices import uses_cuda_kernels
 from . import pyramid_kernels as kernels
 
 
@@ -92,7 +94,13 @@ class _Compose(torch.autograd.Function):
         for k in range(len(arrays) - 2, -1, -1):
             finer = torch.empty_like(arrays[k])
             bounds = (low, high) if k == 0 else (-no_bound, no_bound)
-            kernels.upsample_add(total.numpy(), arrays[k].numpy(), scales[k], *(b.numpy() for b in bounds), finer.numpy())
+            if uses_cuda_kernels(finer):
+                from . import pyramid_cuda
+
+                pyramid_cuda.upsample_add(total, arrays[k], scales[k], *bounds, finer)
+            else:
+                kernels.upsample_add(total.numpy(), arrays[k].numpy(), scales[k], *(b.numpy() for b in bounds),
+                                     finer.numpy())
             total = finer
         ctx.scales, ctx.sizes = scales, [tuple(level.shape[:2]) for level in levels]
         return total
@@ -102,7 +110,12 @@ class _Compose(torch.autograd.Function):
         grads = [ctx.scales[0] * grad]
         spread = grad.contiguous()
         for (height, width), scale in zip(ctx.sizes[1:], ctx.scales[1:]):
-            spread = torch.from_numpy(kernels.upsample_adjoint(spread.numpy(), height, width))
+            if uses_cuda_kernels(spread):
+                from . import pyramid_cuda
+
+                spread = pyramid_cuda.upsample_adjoint(spread, height, width)
+            else:
+                spread = torch.from_numpy(kernels.upsample_adjoint(spread.numpy(), height, width))
             grads.append(scale * spread)
         return (None, None, None, *grads)
 

@@ -37,7 +37,8 @@ import numpy as np
 
 from .. import io
 from ..asset import Asset, Material
-from ..errors import ConfigError
+from ..devices import device_label, resolve_device
+from ..errors import ConfigError, DeviceError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.from_settings import lookup_footprint, loop_settings, objective
 from ..fit.latent import Latent
@@ -281,9 +282,21 @@ def run(app: Application, input: str | Path | Asset, outdir: str | Path | None =
         return _run(session, config, settings)
 
 
+def run_device(name: str):
+    """The ``torch.device`` a run computes on, for its setting ``render.device``, resolved once.
+    A run's references, latents and shading build their tensors on the CPU so far (only the
+    render ops follow their tensors to the GPU): ``"auto"`` is the CPU, and ``"cuda"`` a
+    ``DeviceError`` that says so."""
+    if name == "cuda":
+        raise DeviceError("a run builds its references and latents on the CPU so far (the render ops and "
+                          "bench render run on the GPU)")
+    return resolve_device("cpu")
+
+
 def _run(s: _Session, config, settings: dict) -> RunResult:
     """``run`` once its output folder is checked: the phases in turn."""
     cfg, budget = settings_of_run(s, config, settings)
+    device = run_device(cfg.render.device)
     if cfg.io.compress:
         check_compression_tools()
     with s.stage("load and initial guess"):
@@ -328,6 +341,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
     motion = moving_picture(s, cfg, reference.renderer, export, heldout) if moving else None
     record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
+    record.device = device_label(device)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
     record.validation_metric = written.metric
     record.reference_coverage, record.start_distance = coverage, guess.start_distance

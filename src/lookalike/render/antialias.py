@@ -2,7 +2,8 @@
 vertex positions gradients from coverage.
 
 The search for the pixel pairs an outline runs between and the silhouette edge it crosses is
-compiled (:mod:`.antialias_kernels`; no gradient flows through it), with the plain-torch twins
+compiled (:mod:`.antialias_kernels`, :mod:`.antialias_cuda` for tensors on the GPU; no gradient
+flows through it), with the plain-torch twins
 :func:`neighbour_pairs_python` and :func:`outline_walk_python`; the blend is torch, so
 autograd differentiates it."""
 
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 
 import torch
 
+from ..devices import uses_cuda_kernels
 from .antialias_kernels import MAX_WALK, outline_crossings
 from .barycentrics import edge_coefficients, pixel_ndc, triangle_vertices_xyw
 from .inputs import check_rast_ids, check_triangles
@@ -241,17 +243,17 @@ def outline_blend(
     if pos_gradient_boost != 1.0:
         views = _ScaleGradient.apply(views, pos_gradient_boost)
 
-    crossings = outline_crossings(
-        rast.detach().contiguous().numpy(),
-        views.detach()[..., [0, 1, 3]].double().contiguous().numpy(),
-        tri.numpy(),
-        topology.neighbour.numpy(),
-        topology.opposite.numpy(),
-        window,
-    )
-    front, other, horizontal, edge_tri, edge = (torch.from_numpy(a) for a in crossings)
-    verts = triangle_vertices_xyw(views, tri, front // (height * width), edge_tri)  # [M, 3, 3]
-    c = edge_coefficients(*verts.unbind(1))[torch.arange(edge.shape[0]), edge]  # the found edge's, [M, 3]
+    arrays = (rast.detach().contiguous(), views.detach()[..., [0, 1, 3]].double().contiguous(), tri,
+              topology.neighbour, topology.opposite)
+    if uses_cuda_kernels(rast):
+        from . import antialias_cuda
+
+        crossings = antialias_cuda.outline_crossings(*arrays, window)
+    else:
+        crossings = (torch.from_numpy(a) for a in outline_crossings(*(a.numpy() for a in arrays), window))
+    front, other, horizontal, edge_tri, edge = crossings
+    verts = triangle_vertices_xyw(views, tri.to(front.device), front // (height * width), edge_tri)  # [M, 3, 3]
+    c = edge_coefficients(*verts.unbind(1))[torch.arange(edge.shape[0], device=edge.device), edge]  # the edge's, [M, 3]
     # an edge is handled by the pairs running across it: horizontal pairs for edges closer
     # to vertical (normal (c.x / W, c.y / H) in pixel units mostly along x), vertical otherwise
     frame = Window.whole(height, width) if window is None else window

@@ -2,7 +2,9 @@
 silhouette edge it runs along.
 
 Twin of :func:`.antialias.neighbour_pairs_python` followed by
-:func:`.antialias.outline_walk_python` (plain torch); tests compare them.
+:func:`.antialias.outline_walk_python` (plain torch); tests compare them. Each pass runs a
+per-row (per-pair) body that the CUDA forms (:mod:`.antialias_cuda`) run too, one thread per row
+(pair).
 """
 
 from __future__ import annotations
@@ -33,38 +35,53 @@ def _front_side(rast, b, ya, xa, yb, xb):
 
 @njit(cache=CACHE, parallel=True)
 def _count_pairs(rast, counts):
-    n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
-    for row in prange(n_views * height):
-        b, y = row // height, row % height
-        n = 0
-        for x in range(width):
-            if x + 1 < width and _front_side(rast, b, y, x, y, x + 1) != 0:
-                n += 1
-            if y + 1 < height and _front_side(rast, b, y, x, y + 1, x) != 0:
-                n += 1
-        counts[row] = n
+    for row in prange(rast.shape[0] * rast.shape[1]):
+        count_row_pairs(rast, counts, row)
+
+
+@njit(cache=CACHE, inline="always")
+def count_row_pairs(rast, counts, row):
+    """Row ``row`` (of the ``B H`` rows of ``rast [B, H, W, 4]``) of :func:`_count_pairs` (both
+    its CPU and its CUDA form): ``counts[row]``, the pairs its pixels start (with the pixel to
+    the right and the one below)."""
+    height, width = rast.shape[1], rast.shape[2]
+    b, y = row // height, row % height
+    n = 0
+    for x in range(width):
+        if x + 1 < width and _front_side(rast, b, y, x, y, x + 1) != 0:
+            n += 1
+        if y + 1 < height and _front_side(rast, b, y, x, y + 1, x) != 0:
+            n += 1
+    counts[row] = n
 
 
 @njit(cache=CACHE, parallel=True)
 def _fill_pairs(rast, starts, front, other, horizontal):
-    n_views, height, width = rast.shape[0], rast.shape[1], rast.shape[2]
-    for row in prange(n_views * height):
-        b, y = row // height, row % height
-        k = starts[row]
-        base = row * width
-        for x in range(width):
-            for is_horizontal in (True, False):
-                yb, xb = (y, x + 1) if is_horizontal else (y + 1, x)
-                if yb >= height or xb >= width:
-                    continue
-                side = _front_side(rast, b, y, x, yb, xb)
-                if side == 0:
-                    continue
-                pa, pb = base + x, (b * height + yb) * width + xb
-                front[k] = pa if side > 0 else pb
-                other[k] = pb if side > 0 else pa
-                horizontal[k] = is_horizontal
-                k += 1
+    for row in prange(rast.shape[0] * rast.shape[1]):
+        fill_row_pairs(rast, starts, front, other, horizontal, row)
+
+
+@njit(cache=CACHE, inline="always")
+def fill_row_pairs(rast, starts, front, other, horizontal, row):
+    """Row ``row`` of :func:`_fill_pairs` (both its CPU and its CUDA form): the pairs it starts,
+    at ``starts[row] ..`` of ``front``, ``other`` and ``horizontal``."""
+    height, width = rast.shape[1], rast.shape[2]
+    b, y = row // height, row % height
+    k = starts[row]
+    base = row * width
+    for x in range(width):
+        for is_horizontal in (True, False):
+            yb, xb = (y, x + 1) if is_horizontal else (y + 1, x)
+            if yb >= height or xb >= width:
+                continue
+            side = _front_side(rast, b, y, x, yb, xb)
+            if side == 0:
+                continue
+            pa, pb = base + x, (b * height + yb) * width + xb
+            front[k] = pa if side > 0 else pb
+            other[k] = pb if side > 0 else pa
+            horizontal[k] = is_horizontal
+            k += 1
 
 
 @njit(cache=CACHE, inline="always")
@@ -91,34 +108,44 @@ def _walk(xyw, tri, neighbour, opposite, front, other, start_tri, height, width,
     columns ``left ..`` of a frame of that size, whose pixel centres the segments join."""
     top, left, frame_height, frame_width = window
     for m in prange(front.shape[0]):
-        hit_tri[m] = -1
-        hit_edge[m] = -1
-        b = front[m] // (height * width)
-        fx = (2.0 * (left + front[m] % width) + 1.0) / frame_width - 1.0
-        fy = (2.0 * (top + (front[m] // width) % height) + 1.0) / frame_height - 1.0
-        ox = (2.0 * (left + other[m] % width) + 1.0) / frame_width - 1.0
-        oy = (2.0 * (top + (other[m] // width) % height) + 1.0) / frame_height - 1.0
-        t, entry, s_in = start_tri[m], -1, 0.0
-        for _ in range(MAX_WALK):
-            best_s, best_k = math.inf, -1
-            for k in range(3):
-                if k == entry:
-                    continue
-                s = _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy)
-                if s > s_in and s < best_s:
-                    best_s, best_k = s, k
-            if best_k < 0 or best_s > 1.0:
-                break  # the segment ends inside t: no outline between the pixels
-            if _is_silhouette(xyw[b], tri, opposite, t, best_k):
-                hit_tri[m], hit_edge[m] = t, best_k
+        walk_pair(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, top, left, frame_height,
+                  frame_width, hit_tri, hit_edge, m)
+
+
+@njit(cache=CACHE, inline="always")
+def walk_pair(xyw, tri, neighbour, opposite, front, other, start_tri, height, width, top, left, frame_height,
+              frame_width, hit_tri, hit_edge, m):
+    """Pair ``m`` of :func:`_walk` (both its CPU and its CUDA form): ``hit_tri[m]`` and
+    ``hit_edge[m]``, the silhouette edge its segment crosses (-1 where none); ``(top, left,
+    frame_height, frame_width)`` is ``_walk``'s ``window``."""
+    hit_tri[m] = -1
+    hit_edge[m] = -1
+    b = front[m] // (height * width)
+    fx = (2.0 * (left + front[m] % width) + 1.0) / frame_width - 1.0
+    fy = (2.0 * (top + (front[m] // width) % height) + 1.0) / frame_height - 1.0
+    ox = (2.0 * (left + other[m] % width) + 1.0) / frame_width - 1.0
+    oy = (2.0 * (top + (other[m] // width) % height) + 1.0) / frame_height - 1.0
+    t, entry, s_in = start_tri[m], -1, 0.0
+    for _ in range(MAX_WALK):
+        best_s, best_k = math.inf, -1
+        for k in range(3):
+            if k == entry:
+                continue
+            s = _line_crossing(xyw, tri, b, t, k, fx, fy, ox, oy)
+            if s > s_in and s < best_s:
+                best_s, best_k = s, k
+        if best_k < 0 or best_s > 1.0:
+            break  # the segment ends inside t: no outline between the pixels
+        if _is_silhouette(xyw[b], tri, opposite, t, best_k):
+            hit_tri[m], hit_edge[m] = t, best_k
+            break
+        shared_a, shared_b = tri[t, (best_k + 1) % 3], tri[t, (best_k + 2) % 3]
+        t = neighbour[t, best_k]  # interior edge: the walk goes on in the neighbour
+        for k in range(3):
+            if tri[t, k] != shared_a and tri[t, k] != shared_b:
+                entry = k  # the neighbour's far vertex: the shared edge is opposite it
                 break
-            shared_a, shared_b = tri[t, (best_k + 1) % 3], tri[t, (best_k + 2) % 3]
-            t = neighbour[t, best_k]  # interior edge: the walk goes on in the neighbour
-            for k in range(3):
-                if tri[t, k] != shared_a and tri[t, k] != shared_b:
-                    entry = k  # the neighbour's far vertex: the shared edge is opposite it
-                    break
-            s_in = best_s
+        s_in = best_s
 
 
 def outline_crossings(

@@ -22,9 +22,9 @@ it with.
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 
+from ..devices import launch, uses_cuda_kernels
 from . import barycentrics_kernels
 from .window import Window
 
@@ -94,7 +94,7 @@ def barycentrics_python(
     if not with_db:
         return uv, None
     s_xy = c[..., :2].sum(1)  # [N, 2]: S_x, S_y
-    scale = torch.tensor([2.0 / width, 2.0 / height], dtype=pos.dtype)
+    scale = torch.tensor([2.0 / width, 2.0 / height], dtype=pos.dtype, device=pos.device)
     # d b_i / d(X, Y) for i = 0, 1: [N, 2 (i), 2 (X, Y)]
     db = (c[:, :2, :2] - uv[..., None] * s_xy[:, None, :]) * (inv_s[:, None, None] * scale)
     return uv, db.reshape(-1, 4)
@@ -110,39 +110,54 @@ def triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
     return torch.cat([c[:, :, 0], c[:, :, 1], c.sum(2)], -1)
 
 
-def constant_triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor, tri_id: np.ndarray | None = None) -> torch.Tensor:
+def constant_triangle_coefficients(pos: torch.Tensor, tri: torch.Tensor, tri_id: torch.Tensor | None = None) -> torch.Tensor:
     """:func:`triangle_coefficients` of positions that take no gradient (a reference's), by a
-    compiled loop (``barycentrics_kernels.triangle_coefficients_forward``): the torch version's
-    ``[B, T, 3, 3]`` gathers were a fifth of a 4-million-triangle render. With ``tri_id
-    [B, H, W]`` (triangle + 1 per pixel), only the rows of triangles that a pixel shows are
-    computed, the others are zero: a 4-million-triangle reference shows under a million at
-    1024 x 1024 samples."""
+    compiled loop (``barycentrics_kernels.triangle_coefficients_forward``, or its CUDA form):
+    the torch version's ``[B, T, 3, 3]`` gathers were a fifth of a 4-million-triangle render.
+    With ``tri_id [B, H, W]`` int32 (triangle + 1 per pixel), only the rows of triangles that
+    a pixel shows are computed, the others are zero: a 4-million-triangle reference shows under
+    a million at 1024 x 1024 samples."""
     xyw = pos.detach()[..., [0, 1, 3]].contiguous()
+    n_views, n_tris = xyw.shape[0], tri.shape[0]
+    tri = tri.contiguous()
     if tri_id is None:
-        shown = np.ones((xyw.shape[0], tri.shape[0]), dtype=np.bool_)
-        coef = xyw.new_empty(xyw.shape[0], tri.shape[0], 9)
+        shown = torch.ones(n_views, n_tris, dtype=torch.bool, device=xyw.device)
+        coef = xyw.new_empty(n_views, n_tris, 9)
     else:
-        shown = np.zeros((xyw.shape[0], tri.shape[0]), dtype=np.bool_)
-        barycentrics_kernels.shown_triangles(tri_id, shown)
-        coef = xyw.new_zeros(xyw.shape[0], tri.shape[0], 9)
-    barycentrics_kernels.triangle_coefficients_forward(xyw.numpy(), tri.contiguous().numpy(), shown, coef.numpy())
+        shown = torch.zeros(n_views, n_tris, dtype=torch.bool, device=xyw.device)
+        coef = xyw.new_zeros(n_views, n_tris, 9)
+    if uses_cuda_kernels(xyw):
+        from . import barycentrics_cuda
+
+        if tri_id is not None:
+            launch(barycentrics_cuda.shown_triangles, tri_id.numel(), tri_id, shown)
+        launch(barycentrics_cuda.triangle_coefficients_forward, n_views * n_tris, xyw, tri, shown, coef)
+        return coef
+    if tri_id is not None:
+        barycentrics_kernels.shown_triangles(tri_id.numpy(), shown.numpy())
+    barycentrics_kernels.triangle_coefficients_forward(xyw.numpy(), tri.numpy(), shown.numpy(), coef.numpy())
     return coef
 
 
 class _PixelBarycentrics(torch.autograd.Function):
-    """``(coef [B,T,9], tri_id [B,H,W] int32 numpy, depth [B,H,W] float32 numpy, window
-    (top, left, frame_height, frame_width), use_db)`` -> ``(rast, rast_db)``; gradients reach
-    ``coef`` only."""
+    """``(coef [B,T,9], tri_id [B,H,W] int32, depth [B,H,W] float32, window (top, left,
+    frame_height, frame_width), use_db)`` -> ``(rast, rast_db)``; gradients reach ``coef``
+    only. The compiled kernels, or their CUDA forms for tensors on the GPU."""
 
     @staticmethod
     def forward(ctx, coef, tri_id, depth, window, use_db):
         n_views, height, width = tri_id.shape
         rast = coef.new_empty(n_views, height, width, 4)
         rast_db = coef.new_empty(n_views, height, width, 4)
-        coef_np = coef.detach().contiguous().numpy()
-        barycentrics_kernels.barycentrics_forward(coef_np, tri_id, depth, window, rast.numpy(), rast_db.numpy())
-        ctx.save_for_backward(coef)
-        ctx.tri_id = tri_id
+        coef_c = coef.detach().contiguous()
+        if uses_cuda_kernels(coef):
+            from . import barycentrics_cuda
+
+            launch(barycentrics_cuda.barycentrics_forward, tri_id.numel(), coef_c, tri_id, depth, window, rast, rast_db)
+        else:
+            barycentrics_kernels.barycentrics_forward(coef_c.numpy(), tri_id.numpy(), depth.numpy(), window,
+                                                      rast.numpy(), rast_db.numpy())
+        ctx.save_for_backward(coef, tri_id)
         ctx.window = window
         ctx.use_db = use_db
         if not use_db:
@@ -151,21 +166,26 @@ class _PixelBarycentrics(torch.autograd.Function):
 
     @staticmethod
     def backward(ctx, grad_rast, grad_db):
-        (coef,) = ctx.saved_tensors
+        coef, tri_id = ctx.saved_tensors
         grad_coef = torch.zeros_like(coef)
-        shape = (*ctx.tri_id.shape, 4)
+        shape = (*tri_id.shape, 4)
         grad_rast = coef.new_zeros(shape) if grad_rast is None else grad_rast.contiguous()
         use_db = ctx.use_db and grad_db is not None
         grad_db = grad_rast if not use_db else grad_db.contiguous()
-        barycentrics_kernels.barycentrics_backward(
-            coef.detach().contiguous().numpy(), ctx.tri_id, ctx.window, grad_rast.numpy(), grad_db.numpy(), use_db,
-            grad_coef.numpy()
-        )
+        coef_c = coef.detach().contiguous()
+        if uses_cuda_kernels(coef):
+            from . import barycentrics_cuda
+
+            launch(barycentrics_cuda.barycentrics_backward, tri_id.numel(), coef_c, tri_id, ctx.window, grad_rast,
+                   grad_db, use_db, grad_coef)
+        else:
+            barycentrics_kernels.barycentrics_backward(coef_c.numpy(), tri_id.numpy(), ctx.window, grad_rast.numpy(),
+                                                       grad_db.numpy(), use_db, grad_coef.numpy())
         return grad_coef, None, None, None, None
 
 
 def pixel_barycentrics(
-    pos: torch.Tensor, tri: torch.Tensor, tri_id: np.ndarray, depth: np.ndarray, with_db_gradient: bool = True,
+    pos: torch.Tensor, tri: torch.Tensor, tri_id: torch.Tensor, depth: torch.Tensor, with_db_gradient: bool = True,
     window: Window | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """``rast [B,H,W,4] = (u, v, z/w, id)`` and ``rast_db [B,H,W,4]`` of whole images, or of
@@ -173,10 +193,10 @@ def pixel_barycentrics(
     derivatives then the frame's).
 
     Args:
-        pos: ``[B, V, 4]`` clip-space positions (CPU; gradients flow to ``x, y, w``).
+        pos: ``[B, V, 4]`` clip-space positions (gradients flow to ``x, y, w``).
         tri: ``[T, 3]`` int64.
-        tri_id: ``[B, H, W]`` int32 numpy, triangle index + 1 (0 = background).
-        depth: ``[B, H, W]`` float32 numpy, copied into ``rast[..., 2]`` (no gradient).
+        tri_id: ``[B, H, W]`` int32, contiguous, triangle index + 1 (0 = background).
+        depth: ``[B, H, W]`` float32, contiguous, copied into ``rast[..., 2]`` (no gradient).
         with_db_gradient: let gradients of ``rast_db`` flow back.
     """
     differentiable = torch.is_grad_enabled() and pos.requires_grad

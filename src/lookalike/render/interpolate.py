@@ -7,6 +7,7 @@ from __future__ import annotations
 import numba
 import torch
 
+from ..devices import launch, uses_cuda_kernels
 from . import interpolate_kernels
 from .inputs import check_rast_ids, check_triangles
 from .pixels import covered_pixels, scatter_to_image
@@ -15,7 +16,8 @@ from .pixels import covered_pixels, scatter_to_image
 class _Interpolate(torch.autograd.Function):
     """``(attr [Ba,V,C], rast [B,H,W,4], rast_db or None, tri [T,3] int64, channels [D] int64,
     pixels [N] int64 or None)`` -> ``(out [N, C], out_da [N, 2D])`` at the listed pixels (every
-    pixel, ``N = B H W``, for None) with the compiled kernels."""
+    pixel, ``N = B H W``, for None) with the compiled kernels, or their CUDA forms for tensors on
+    the GPU."""
 
     @staticmethod
     def forward(ctx, attr, rast, rast_db, tri, channels, pixels):
@@ -28,10 +30,14 @@ class _Interpolate(torch.autograd.Function):
         count = n_views * height * width if every else pixels.shape[0]
         out = attr.new_empty(count, attr.shape[2])
         out_da = attr.new_empty(count, 2 * channels.shape[0])
-        interpolate_kernels.interpolate_forward(
-            attr.numpy(), tri.numpy(), rast.reshape(-1, 4).numpy(), db.reshape(-1, 4).numpy(), channels.numpy(),
-            pixels.numpy(), every, height * width, out.numpy(), out_da.numpy(),
-        )
+        arrays = (attr, tri, rast.reshape(-1, 4), db.reshape(-1, 4), channels, pixels)
+        if uses_cuda_kernels(attr):
+            from . import interpolate_cuda
+
+            launch(interpolate_cuda.interpolate_forward, count, *arrays, every, height * width, out, out_da)
+        else:
+            interpolate_kernels.interpolate_forward(*(a.numpy() for a in arrays), every, height * width, out.numpy(),
+                                                    out_da.numpy())
         ctx.save_for_backward(attr, rast, db, tri, channels, pixels)
         ctx.has_db, ctx.every = rast_db is not None, every
         return out, out_da
@@ -46,12 +52,18 @@ class _Interpolate(torch.autograd.Function):
         grad_attr = torch.zeros_like(attr)
         grad_rast = torch.zeros_like(rast)
         grad_db = torch.zeros_like(rast) if ctx.has_db else rast.new_empty(0, 4)
-        interpolate_kernels.interpolate_backward(
-            attr.numpy(), tri.numpy(), rast.reshape(-1, 4).numpy(), db.reshape(-1, 4).numpy(), channels.numpy(),
-            pixels.numpy(), ctx.every, rast.shape[1] * rast.shape[2],
-            grad_out.to(attr.dtype).contiguous().numpy(), grad_da.to(attr.dtype).contiguous().numpy(),
-            grad_attr.numpy(), grad_rast.reshape(-1, 4).numpy(), grad_db.reshape(-1, 4).numpy(), numba.get_num_threads(),
-        )
+        arrays = (attr, tri, rast.reshape(-1, 4), db.reshape(-1, 4), channels, pixels)
+        grads = (grad_out.to(attr.dtype).contiguous(), grad_da.to(attr.dtype).contiguous(), grad_attr,
+                 grad_rast.reshape(-1, 4), grad_db.reshape(-1, 4))
+        if uses_cuda_kernels(attr):
+            from . import interpolate_cuda
+
+            launch(interpolate_cuda.interpolate_backward, count, *arrays, ctx.every, rast.shape[1] * rast.shape[2],
+                   *grads)
+        else:
+            interpolate_kernels.interpolate_backward(*(a.numpy() for a in arrays), ctx.every,
+                                                     rast.shape[1] * rast.shape[2], *(g.numpy() for g in grads),
+                                                     numba.get_num_threads())
         return grad_attr, grad_rast, grad_db if ctx.has_db else None, None, None, None
 
 
@@ -115,7 +127,8 @@ def interpolate_at(
             if low < 0 or high >= rast.shape[0] * rast.shape[1] * rast.shape[2]:
                 raise ValueError(f"pixels index outside the {tuple(rast.shape[:3])} images")
     return _Interpolate.apply(
-        attr, rast, rast_db if channels else None, tri.contiguous(), torch.tensor(channels, dtype=torch.int64), pixels
+        attr, rast, rast_db if channels else None, tri.contiguous(),
+        torch.tensor(channels, dtype=torch.int64, device=attr.device), pixels
     )
 
 

@@ -4,7 +4,9 @@ The plain-torch twin is :func:`.interpolate.interpolate_python`; tests compare v
 gradients. The loops run over a list of pixels (flat indices into ``[B, H, W]``) or over every
 pixel of the images; both passes are split into ``n_chunks`` contiguous runs of the list in
 parallel (``prange``), the backward one with a private attribute-gradient table per run, summed
-in run order (deterministic for a given thread count).
+in run order (deterministic for a given thread count). Each list entry is a body
+(``interpolate_entry``, ``interpolate_backward_entry``) that the CUDA forms
+(:mod:`.interpolate_cuda`) run too, one thread per entry.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..kernel_cache import CACHE
+from ..kernel_scatter import scatter_add
 
 
 @njit(cache=CACHE, inline="always")
@@ -28,74 +31,78 @@ def interpolate_forward(attr, tri, rast, rast_db, diff, pixels, every, pixels_pe
     at the pixels ``pixels [N]`` (flat indices into ``[B, H, W]``; every pixel, ``N = B H W``,
     when ``every``). ``attr [Ba, V, C]`` (``Ba`` is 1 or B), ``tri [T, 3]`` int64, ``rast``,
     ``rast_db [B H W, 4]`` (``rast_db`` unused when ``D = 0``); pixels showing no triangle get 0."""
-    per_view = attr.shape[0] > 1  # else one attribute set shared by every view
-    n_channels = attr.shape[2]
     for i in prange(out.shape[0]):
-        p = _pixel(pixels, every, i)
-        t = int(rast[p, 3]) - 1
-        if t < 0:
-            out[i, :] = 0.0
-            out_da[i, :] = 0.0
-            continue
-        ab = p // pixels_per_view if per_view else 0
-        u, v = rast[p, 0], rast[p, 1]
-        i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
-        for ch in range(n_channels):
-            a2 = attr[ab, i2, ch]
-            out[i, ch] = a2 + u * (attr[ab, i0, ch] - a2) + v * (attr[ab, i1, ch] - a2)
-        for k in range(diff.shape[0]):
-            ch = diff[k]
-            a2 = attr[ab, i2, ch]
-            da_du = attr[ab, i0, ch] - a2
-            da_dv = attr[ab, i1, ch] - a2
-            out_da[i, 2 * k] = da_du * rast_db[p, 0] + da_dv * rast_db[p, 2]
-            out_da[i, 2 * k + 1] = da_du * rast_db[p, 1] + da_dv * rast_db[p, 3]
+        interpolate_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, out, out_da, i)
 
 
-@njit(cache=CACHE)
-def _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da, target,
-                  grad_rast, grad_db, start, end):
-    """:func:`interpolate_backward` for list entries ``start .. end-1``, attribute gradients
-    into ``target [Ba, V, C]``."""
-    per_view = attr.shape[0] > 1
-    n_channels = attr.shape[2]
-    write_db = grad_db.shape[0] > 0
-    for i in range(start, end):
-        p = _pixel(pixels, every, i)
-        t = int(rast[p, 3]) - 1
-        if t < 0:
-            continue
-        ab = p // pixels_per_view if per_view else 0
-        u, v = rast[p, 0], rast[p, 1]
-        i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
-        g_u = 0.0
-        g_v = 0.0
-        for ch in range(n_channels):
-            g = grad_out[i, ch]
-            a2 = attr[ab, i2, ch]
-            g_u += g * (attr[ab, i0, ch] - a2)
-            g_v += g * (attr[ab, i1, ch] - a2)
-            target[ab, i0, ch] += g * u
-            target[ab, i1, ch] += g * v
-            target[ab, i2, ch] += g * (1.0 - u - v)
-        grad_rast[p, 0] += g_u
-        grad_rast[p, 1] += g_v
-        for k in range(diff.shape[0]):
-            ch = diff[k]
-            gx, gy = grad_da[i, 2 * k], grad_da[i, 2 * k + 1]
-            a2 = attr[ab, i2, ch]
-            da_du = attr[ab, i0, ch] - a2
-            da_dv = attr[ab, i1, ch] - a2
-            if write_db:
-                grad_db[p, 0] += gx * da_du
-                grad_db[p, 1] += gy * da_du
-                grad_db[p, 2] += gx * da_dv
-                grad_db[p, 3] += gy * da_dv
-            g0 = gx * rast_db[p, 0] + gy * rast_db[p, 1]
-            g1 = gx * rast_db[p, 2] + gy * rast_db[p, 3]
-            target[ab, i0, ch] += g0
-            target[ab, i1, ch] += g1
-            target[ab, i2, ch] -= g0 + g1
+@njit(cache=CACHE, inline="always")
+def interpolate_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, out, out_da, i):
+    """List entry ``i`` of :func:`interpolate_forward` (both its CPU and its CUDA form): rows
+    ``i`` of ``out`` and ``out_da``."""
+    p = _pixel(pixels, every, i)
+    t = int(rast[p, 3]) - 1
+    if t < 0:
+        for ch in range(out.shape[1]):
+            out[i, ch] = 0.0
+        for ch in range(out_da.shape[1]):
+            out_da[i, ch] = 0.0
+        return
+    ab = p // pixels_per_view if attr.shape[0] > 1 else 0  # else one attribute set shared by every view
+    u, v = rast[p, 0], rast[p, 1]
+    i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
+    for ch in range(attr.shape[2]):
+        a2 = attr[ab, i2, ch]
+        out[i, ch] = a2 + u * (attr[ab, i0, ch] - a2) + v * (attr[ab, i1, ch] - a2)
+    for k in range(diff.shape[0]):
+        ch = diff[k]
+        a2 = attr[ab, i2, ch]
+        da_du = attr[ab, i0, ch] - a2
+        da_dv = attr[ab, i1, ch] - a2
+        out_da[i, 2 * k] = da_du * rast_db[p, 0] + da_dv * rast_db[p, 2]
+        out_da[i, 2 * k + 1] = da_du * rast_db[p, 1] + da_dv * rast_db[p, 3]
+
+
+@njit(cache=CACHE, inline="always")
+def interpolate_backward_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da,
+                               grad_attr, grad_rast, grad_db, i):
+    """List entry ``i`` of :func:`interpolate_backward` (both its CPU and its CUDA form): its
+    attribute gradients added into ``grad_attr`` (``scatter_add``), its pixel's rows of
+    ``grad_rast`` and ``grad_db`` (a listed pixel's own) added to."""
+    p = _pixel(pixels, every, i)
+    t = int(rast[p, 3]) - 1
+    if t < 0:
+        return
+    ab = p // pixels_per_view if attr.shape[0] > 1 else 0
+    u, v = rast[p, 0], rast[p, 1]
+    i0, i1, i2 = tri[t, 0], tri[t, 1], tri[t, 2]
+    g_u = 0.0
+    g_v = 0.0
+    for ch in range(attr.shape[2]):
+        g = grad_out[i, ch]
+        a2 = attr[ab, i2, ch]
+        g_u += g * (attr[ab, i0, ch] - a2)
+        g_v += g * (attr[ab, i1, ch] - a2)
+        scatter_add(grad_attr, (ab, i0, ch), g * u)
+        scatter_add(grad_attr, (ab, i1, ch), g * v)
+        scatter_add(grad_attr, (ab, i2, ch), g * (1.0 - u - v))
+    grad_rast[p, 0] += g_u
+    grad_rast[p, 1] += g_v
+    for k in range(diff.shape[0]):
+        ch = diff[k]
+        gx, gy = grad_da[i, 2 * k], grad_da[i, 2 * k + 1]
+        a2 = attr[ab, i2, ch]
+        da_du = attr[ab, i0, ch] - a2
+        da_dv = attr[ab, i1, ch] - a2
+        if grad_db.shape[0] > 0:
+            grad_db[p, 0] += gx * da_du
+            grad_db[p, 1] += gy * da_du
+            grad_db[p, 2] += gx * da_dv
+            grad_db[p, 3] += gy * da_dv
+        g0 = gx * rast_db[p, 0] + gy * rast_db[p, 1]
+        g1 = gx * rast_db[p, 2] + gy * rast_db[p, 3]
+        scatter_add(grad_attr, (ab, i0, ch), g0)
+        scatter_add(grad_attr, (ab, i1, ch), g1)
+        scatter_add(grad_attr, (ab, i2, ch), -(g0 + g1))
 
 
 @njit(cache=CACHE, parallel=True)
@@ -109,13 +116,10 @@ def interpolate_backward(attr, tri, rast, rast_db, diff, pixels, every, pixels_p
     n = grad_out.shape[0]
     private = np.zeros((n_chunks - 1, grad_attr.shape[0], grad_attr.shape[1], grad_attr.shape[2]), grad_attr.dtype)
     for chunk in prange(n_chunks):
-        start, end = chunk * n // n_chunks, (chunk + 1) * n // n_chunks
-        if chunk == 0:
-            _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da, grad_attr,
-                          grad_rast, grad_db, start, end)
-        else:
-            _backward_run(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out, grad_da,
-                          private[chunk - 1], grad_rast, grad_db, start, end)
+        target = grad_attr if chunk == 0 else private[chunk - 1]
+        for i in range(chunk * n // n_chunks, (chunk + 1) * n // n_chunks):
+            interpolate_backward_entry(attr, tri, rast, rast_db, diff, pixels, every, pixels_per_view, grad_out,
+                                       grad_da, target, grad_rast, grad_db, i)
     for vertex in prange(grad_attr.shape[1]):
         for k in range(n_chunks - 1):
             for b in range(grad_attr.shape[0]):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
+from ..devices import launch, uses_cuda_kernels
 from . import mip_kernels
 from .sampling import Pyramid
 
@@ -63,7 +64,7 @@ def footprint_level(uv_da: torch.Tensor, height: int, width: int) -> torch.Tenso
 class _BuildPyramid(torch.autograd.Function):
     """``tex [B, H, W, C]`` -> flat table ``[N, C]`` of all levels (see :class:`Pyramid`),
     each level the area average of the previous; backward folds the gradients of the
-    coarser levels down to ``tex``."""
+    coarser levels down to ``tex``. The compiled kernels, or their CUDA forms on the GPU."""
 
     @staticmethod
     def forward(ctx, tex, sizes):
@@ -71,26 +72,34 @@ class _BuildPyramid(torch.autograd.Function):
         layout = Pyramid(None, sizes, n_views)
         table = tex.new_empty(int((layout.heights * layout.widths).sum()) * n_views, channels)
         table[: n_views * height * width] = tex.detach().reshape(-1, channels)
-        table_np = table.numpy()
         for level in range(1, len(sizes)):
-            mip_kernels.downsample(
-                table_np, int(layout.offsets[level - 1]), *sizes[level - 1], int(layout.offsets[level]), *sizes[level], n_views
-            )
+            _level_kernel("downsample", table, layout, sizes, level, n_views, n_views * sizes[level][0] * sizes[level][1])
         ctx.layout, ctx.sizes, ctx.tex_shape = layout, sizes, tex.shape
         return table
 
     @staticmethod
     def backward(ctx, grad_table):
         grad = grad_table.contiguous().clone()
-        grad_np = grad.numpy()
-        layout, sizes = ctx.layout, ctx.sizes
+        layout, sizes, n_views = ctx.layout, ctx.sizes, ctx.tex_shape[0]
         for level in range(len(sizes) - 1, 0, -1):
-            mip_kernels.downsample_adjoint(
-                grad_np, int(layout.offsets[level - 1]), *sizes[level - 1], int(layout.offsets[level]), *sizes[level],
-                ctx.tex_shape[0],
-            )
+            threads = n_views * sizes[level - 1][0] * sizes[level - 1][1]
+            _level_kernel("downsample_adjoint", grad, layout, sizes, level, n_views, threads)
         n_base = ctx.tex_shape[0] * ctx.tex_shape[1] * ctx.tex_shape[2]
         return grad[:n_base].reshape(ctx.tex_shape), None
+
+
+def _level_kernel(name: str, table: torch.Tensor, layout: Pyramid, sizes: list[tuple[int, int]], level: int,
+                  n_views: int, threads: int) -> None:
+    """Run the kernel ``name`` (``downsample`` or ``downsample_adjoint``) between levels
+    ``level - 1`` and ``level`` of ``table [N, C]``: :mod:`.mip_kernels`'s, or :mod:`.mip_cuda`'s
+    on ``threads`` GPU threads for a table on the GPU."""
+    args = (int(layout.offsets[level - 1]), *sizes[level - 1], int(layout.offsets[level]), *sizes[level], n_views)
+    if uses_cuda_kernels(table):
+        from . import mip_cuda
+
+        launch(getattr(mip_cuda, name), threads, table, *args)
+    else:
+        getattr(mip_kernels, name)(table.numpy(), *args)
 
 
 def texture_pyramid(tex: torch.Tensor, max_mip_level: int | None = None) -> Pyramid:

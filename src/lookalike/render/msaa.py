@@ -3,15 +3,16 @@
 :func:`covered_sample_index` picks the sample each pixel is shaded at (uniformly among its
 covered samples), :func:`pick_samples` reads those samples of an image, and
 :func:`upsample_over` composites the shaded pixels over the samples, each in one compiled pass
-(:mod:`.msaa_kernels`) instead of the dozen full-size torch operations (block reshapes, random
-priorities, argmax, gathers, scatters, repeats, concatenations, lerp) that do the same;
-``*_python`` are their plain-torch twins.
+(:mod:`.msaa_kernels`; :mod:`.msaa_cuda` for tensors on the GPU) instead of the dozen
+full-size torch operations (block reshapes, random priorities, argmax, gathers, scatters,
+repeats, concatenations, lerp) that do the same; ``*_python`` are their plain-torch twins.
 """
 
 from __future__ import annotations
 
 import torch
 
+from ..devices import launch, uses_cuda_kernels
 from . import msaa_kernels
 
 
@@ -29,8 +30,14 @@ def covered_sample_index(ids: torch.Tensor, u: torch.Tensor, factor: int) -> tor
         ``min(floor(u f^2), f^2 - 1)`` of the block.
     """
     _check_blocks(ids.shape, u.shape, factor)
-    out = torch.empty(u.shape, dtype=torch.int64)
-    msaa_kernels.covered_sample_index(ids.detach().numpy(), u.detach().contiguous().numpy(), factor, out.numpy())
+    out = torch.empty(u.shape, dtype=torch.int64, device=u.device)
+    ids, u = ids.detach(), u.detach().contiguous()
+    if uses_cuda_kernels(u):
+        from . import msaa_cuda
+
+        launch(msaa_cuda.covered_sample_index, u.numel(), ids, u, factor, out)
+    else:
+        msaa_kernels.covered_sample_index(ids.numpy(), u.numpy(), factor, out.numpy())
     return out
 
 
@@ -66,7 +73,13 @@ class _PickSamples(torch.autograd.Function):
     def backward(ctx, grad):
         index, = ctx.saved_tensors
         grad_image = grad.new_zeros(ctx.rows, grad.shape[1])
-        msaa_kernels.scatter_rows(grad.contiguous().numpy(), index.numpy(), grad_image.numpy())
+        grad = grad.contiguous()
+        if uses_cuda_kernels(grad):
+            from . import msaa_cuda
+
+            launch(msaa_cuda.scatter_rows, index.shape[0], grad, index, grad_image)
+        else:
+            msaa_kernels.scatter_rows(grad.numpy(), index.numpy(), grad_image.numpy())
         return grad_image, None
 
 
@@ -93,7 +106,13 @@ class _UpsampleOver(torch.autograd.Function):
         accum, colour = accum.detach().to(dtype).contiguous(), colour.detach().to(dtype).contiguous()
         ids = ids.detach()
         out = torch.empty_like(accum)
-        msaa_kernels.upsample_over_forward(accum.numpy(), colour.numpy(), ids.numpy(), factor, out.numpy())
+        if uses_cuda_kernels(accum):
+            from . import msaa_cuda
+
+            launch(msaa_cuda.upsample_over_forward, colour.shape[0] * colour.shape[1] * colour.shape[2], accum, colour,
+                   ids, factor, out)
+        else:
+            msaa_kernels.upsample_over_forward(accum.numpy(), colour.numpy(), ids.numpy(), factor, out.numpy())
         ctx.save_for_backward(accum, colour, ids)
         ctx.factor = factor
         return out
@@ -102,10 +121,15 @@ class _UpsampleOver(torch.autograd.Function):
     def backward(ctx, grad_out):
         accum, colour, ids = ctx.saved_tensors
         grad_accum, grad_colour = torch.empty_like(accum), torch.empty_like(colour)
-        msaa_kernels.upsample_over_backward(
-            accum.numpy(), colour.numpy(), ids.numpy(), ctx.factor, grad_out.to(accum.dtype).contiguous().numpy(),
-            grad_accum.numpy(), grad_colour.numpy(),
-        )
+        grad_out = grad_out.to(accum.dtype).contiguous()
+        if uses_cuda_kernels(accum):
+            from . import msaa_cuda
+
+            launch(msaa_cuda.upsample_over_backward, colour.shape[0] * colour.shape[1] * colour.shape[2], accum, colour,
+                   ids, ctx.factor, grad_out, grad_accum, grad_colour)
+        else:
+            msaa_kernels.upsample_over_backward(accum.numpy(), colour.numpy(), ids.numpy(), ctx.factor,
+                                                grad_out.numpy(), grad_accum.numpy(), grad_colour.numpy())
         return grad_accum, grad_colour, None, None
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 
 from .context import RasterizeContext
@@ -48,7 +47,7 @@ class DepthPeeler:
     ):
         self._args = (pos, tri, resolution, ranges, grad_db)
         self._layers = layers
-        self._found: tuple[np.ndarray, np.ndarray] | None = None
+        self._found: tuple[torch.Tensor, torch.Tensor] | None = None
         self._taken = 0
         self._min_depth: torch.Tensor | None = None
         self._window: Window | None = None
@@ -88,7 +87,6 @@ class DepthPeeler:
                 self._found = rasterize_layers(pos, tri, resolution, ranges, self._layers)
             tri_id, depth = self._found[0][self._taken], self._found[1][self._taken]
             rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id, depth, block)
-            depth = torch.from_numpy(depth)
         else:
             rast, rast_db, depth, window = rasterize_layer(*self._args, self._min_depth, self._window, block)
         # pixels with no fragment left keep depth +inf, so they find nothing further

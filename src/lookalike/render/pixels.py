@@ -1,9 +1,19 @@
 """Covered pixels of a ``rast`` image, and scattering per-pixel values back to images (used by
-the plain-torch twin :func:`.interpolate.interpolate_python`)."""
+the plain-torch twin :func:`.interpolate.interpolate_python`); a flat pixel index's view, row
+and column (the CUDA kernels' thread index)."""
 
 from __future__ import annotations
 
 import torch
+from numba import njit
+
+from ..kernel_cache import CACHE
+
+
+@njit(cache=CACHE, inline="always")
+def unravel_pixel(job, height, width):
+    """``(b, y, x)``: view, row and column of the flat pixel index ``job`` into ``[B, H, W]``."""
+    return job // (height * width), (job // width) % height, job % width
 
 
 def covered_pixels(rast: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -4,9 +4,9 @@ kernel (:mod:`.visibility`) finds each pixel's triangle, then the compiled baryc
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 
+from ..devices import uses_cuda_kernels
 from .barycentrics import pixel_barycentrics
 from .context import RasterizeContext
 from .inputs import check_triangles, per_view_positions
@@ -72,7 +72,7 @@ def rasterize_layer(
     of the frame's, computed there only; without, the whole frame's."""
     tri_id, depth = rasterize_layers(pos, tri, resolution, ranges, 1, min_depth, within)
     rast, rast_db, window = layer_images(pos, tri, ranges, grad_db, tri_id[0], depth[0], block)
-    return rast, rast_db, torch.from_numpy(depth[0]), window
+    return rast, rast_db, depth[0], window
 
 
 def rasterize_layers(
@@ -83,17 +83,23 @@ def rasterize_layers(
     layers: int,
     min_depth: torch.Tensor | None = None,
     within: Window | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[torch.Tensor, torch.Tensor]:
     """The triangle ids and depths of the ``layers`` nearest layers of every pixel deeper than
     ``min_depth`` (within ``within``; see ``rasterize_layer``), found in one pass
-    (:func:`.visibility.visible_layers`): ``(tri_id [L,B,H,W] int32, depth [L,B,H,W]
-    float32)``, layer ``k`` bit for bit what the ``k``-th pass of depth peeling finds.
-    ``layer_images`` turns one into ``rast`` and ``rast_db``."""
+    (:func:`.visibility.visible_layers`, or its CUDA form where ``pos`` is on the GPU):
+    ``(tri_id [L,B,H,W] int32, depth [L,B,H,W] float32)`` on ``pos``'s device, layer ``k`` bit
+    for bit what the ``k``-th pass of depth peeling finds. ``layer_images`` turns one into
+    ``rast`` and ``rast_db``."""
     height, width = _checked_size(resolution, pos)
     views, tri_range = per_view_positions(pos, tri, ranges)
     tri = check_triangles(tri, views.shape[1])
-    return visible_layers(views.detach().float().cpu().numpy(), tri.cpu().numpy(), tri_range.numpy(), height, width,
-                          layers, None if min_depth is None else min_depth.cpu().numpy(), within)
+    if uses_cuda_kernels(pos):
+        from . import visibility_cuda
+
+        return visibility_cuda.visible_layers(views, tri, tri_range, height, width, layers, min_depth, within)
+    tri_id, depth = visible_layers(views.detach().float().numpy(), tri.numpy(), tri_range.numpy(), height, width,
+                                   layers, None if min_depth is None else min_depth.numpy(), within)
+    return torch.from_numpy(tri_id), torch.from_numpy(depth)
 
 
 def layer_images(
@@ -101,23 +107,23 @@ def layer_images(
     tri: torch.Tensor,
     ranges: torch.Tensor | None,
     grad_db: bool,
-    tri_id: np.ndarray,
-    depth: np.ndarray,
+    tri_id: torch.Tensor,
+    depth: torch.Tensor,
     block: int | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, Window | None]:
     """``(rast, rast_db, window)`` of the layer whose visible triangles are ``tri_id [B,H,W]``
-    at ``depth [B,H,W]`` (arguments as ``rasterize_layer``'s): the whole frame's without
+    int32 at ``depth [B,H,W]`` float32 (on ``pos``'s device; arguments as ``rasterize_layer``'s): the whole frame's without
     ``block``; with it, ``covered_window(ids, block)`` and that window of the frame's images
     (``None``, with ``[B, 0, 0, 4]`` images, where nothing is covered)."""
     views, _ = per_view_positions(pos, tri, ranges)
     tri = check_triangles(tri, views.shape[1])
     height, width = tri_id.shape[1:]
-    window = Window.whole(height, width) if block is None else covered_window(torch.from_numpy(tri_id), block)
+    window = Window.whole(height, width) if block is None else covered_window(tri_id, block)
     if window is None:
         empty = views.new_zeros(views.shape[0], 0, 0, 4)
         return empty, empty.clone(), None
-    rast, rast_db = pixel_barycentrics(views, tri, np.ascontiguousarray(window.crop(tri_id)),
-                                       np.ascontiguousarray(window.crop(depth)), grad_db, window)
+    rast, rast_db = pixel_barycentrics(views, tri, window.crop(tri_id).contiguous(), window.crop(depth).contiguous(),
+                                       grad_db, window)
     return rast, rast_db, window
 
 

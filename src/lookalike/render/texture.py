@@ -8,6 +8,7 @@ from __future__ import annotations
 import numba
 import torch
 
+from ..devices import launch, uses_cuda_kernels
 from . import texture_kernels as kernels
 from .mipmap import footprint_level, texture_construct_mip, texture_pyramid
 from .sampling import Pyramid, sample_bilinear, sample_nearest
@@ -22,8 +23,9 @@ BOUNDARY_MODES = {"wrap": kernels.WRAP, "clamp": kernels.CLAMP, "zero": kernels.
 
 
 class _Texture(torch.autograd.Function):
-    """Compiled lookups: ``(table [N,C], uv [P,2], uv_da [P,4]|None, bias [P]|None, pyramid,
-    per_view, pixels_per_view, mode, boundary)`` -> ``[P, C]``."""
+    """Compiled lookups (their CUDA forms for tensors on the GPU): ``(table [N,C], uv [P,2],
+    uv_da [P,4]|None, bias [P]|None, pyramid, per_view, pixels_per_view, mode, boundary)`` ->
+    ``[P, C]``."""
 
     @staticmethod
     def forward(ctx, table, uv, uv_da, bias, pyramid, per_view, pixels_per_view, mode, boundary):
@@ -34,9 +36,16 @@ class _Texture(torch.autograd.Function):
             (uv_da.detach().to(dtype) if uv_da is not None else uv.new_zeros(0, 4, dtype=dtype)).contiguous(),
             (bias.detach().to(dtype) if bias is not None else uv.new_zeros(0, dtype=dtype)).contiguous(),
         ]
-        geometry = (pyramid.heights.numpy(), pyramid.widths.numpy(), pyramid.offsets.numpy(), per_view, pixels_per_view)
+        sizes = tuple(t.to(table.device) for t in (pyramid.heights, pyramid.widths, pyramid.offsets))
+        geometry = (*sizes, per_view, pixels_per_view)
         out = arrays[0].new_zeros(uv.shape[0], table.shape[1])
-        kernels.texture_forward(arrays[0].numpy(), *geometry, *(a.numpy() for a in arrays[1:]), mode, boundary, out.numpy())
+        if uses_cuda_kernels(table):
+            from . import texture_cuda
+
+            launch(texture_cuda.texture_forward, uv.shape[0], arrays[0], *geometry, *arrays[1:], mode, boundary, out)
+        else:
+            kernels.texture_forward(arrays[0].numpy(), *(g.numpy() for g in sizes), per_view, pixels_per_view,
+                                    *(a.numpy() for a in arrays[1:]), mode, boundary, out.numpy())
         ctx.save_for_backward(*arrays)
         ctx.geometry, ctx.mode, ctx.boundary = geometry, mode, boundary
         ctx.present = (uv_da is not None, bias is not None)
@@ -46,10 +55,18 @@ class _Texture(torch.autograd.Function):
     def backward(ctx, grad_out):
         table, uv, uv_da, bias = ctx.saved_tensors
         grads = [torch.zeros_like(t) for t in (table, uv, uv_da, bias)]
-        kernels.texture_backward(
-            table.numpy(), *ctx.geometry, uv.numpy(), uv_da.numpy(), bias.numpy(), ctx.mode, ctx.boundary,
-            grad_out.to(table.dtype).contiguous().numpy(), *(g.numpy() for g in grads), numba.get_num_threads(),
-        )
+        grad_out = grad_out.to(table.dtype).contiguous()
+        if uses_cuda_kernels(table):
+            from . import texture_cuda
+
+            launch(texture_cuda.texture_backward, uv.shape[0], table, *ctx.geometry, uv, uv_da, bias, ctx.mode,
+                   ctx.boundary, grad_out, *grads)
+        else:
+            sizes, flags = (g.numpy() for g in ctx.geometry[:3]), ctx.geometry[3:]
+            kernels.texture_backward(
+                table.numpy(), *sizes, *flags, uv.numpy(), uv_da.numpy(), bias.numpy(), ctx.mode, ctx.boundary,
+                grad_out.numpy(), *(g.numpy() for g in grads), numba.get_num_threads(),
+            )
         grad_table, grad_uv, grad_uv_da, grad_bias = grads
         return (
             grad_table, grad_uv,

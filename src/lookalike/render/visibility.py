@@ -32,6 +32,8 @@ so every core stays busy.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numba import njit, prange
@@ -113,10 +115,10 @@ def _pixel_range(xmin, xmax, ymin, ymax, width, height):
     """Inclusive pixel-index box ``(x0, x1, y0, y1)`` of the pixels whose centre (pixel
     coordinate ``ix``) lies in ``[xmin, xmax] x [ymin, ymax]``, clipped to the image."""
     return (
-        max(0, int(np.ceil(max(xmin, -1.0)))),
-        min(width - 1, int(np.floor(min(xmax, float(width))))),
-        max(0, int(np.ceil(max(ymin, -1.0)))),
-        min(height - 1, int(np.floor(min(ymax, float(height))))),
+        max(0, int(math.ceil(max(xmin, -1.0)))),
+        min(width - 1, int(math.floor(min(xmax, float(width))))),
+        max(0, int(math.ceil(max(ymin, -1.0)))),
+        min(height - 1, int(math.floor(min(ymax, float(height))))),
     )
 
 
@@ -245,7 +247,6 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
     of 12."""
     if not _edge_and_depth_planes(pos, b, tri[t, 0], tri[t, 1], tri[t, 2], width, height, planes):
         return
-    layers = depth.shape[3]
     dA = np.float32(planes[9])
     dB = np.float32(planes[10])
     dC = np.float32(planes[11])
@@ -253,28 +254,35 @@ def _draw_triangle(pos, tri, b, t, x0, x1, y0, y1, width, height, planes, min_de
         e0 = planes[1] * iy + planes[2]
         e1 = planes[4] * iy + planes[5]
         e2 = planes[7] * iy + planes[8]
-        fy = np.float32(iy)
         for ix in range(x0, x1 + 1):
-            a0 = planes[0] * ix + e0
-            a1 = planes[3] * ix + e1
-            a2 = planes[6] * ix + e2
-            if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
-                continue
-            d = dA * np.float32(ix) + dB * fy + dC
-            if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
-                continue
-            if not d < depth[b, iy, ix, layers - 1]:
-                continue
-            slot = 0
-            while depth[b, iy, ix, slot] < d:
-                slot += 1
-            if depth[b, iy, ix, slot] == d:
-                continue
-            for k in range(layers - 1, slot, -1):
-                depth[b, iy, ix, k] = depth[b, iy, ix, k - 1]
-                tri_id[b, iy, ix, k] = tri_id[b, iy, ix, k - 1]
-            depth[b, iy, ix, slot] = d
-            tri_id[b, iy, ix, slot] = t + 1
+            keep_fragment(planes[0] * ix + e0, planes[3] * ix + e1, planes[6] * ix + e2, dA, dB, dC, b, iy, ix, t,
+                          min_depth, tri_id, depth)
+
+
+@njit(cache=CACHE, inline="always")
+def keep_fragment(a0, a1, a2, dA, dB, dC, b, iy, ix, t, min_depth, tri_id, depth):
+    """The fragment of triangle ``t`` at pixel ``(b, iy, ix)``, whose edge functions there are
+    ``a0, a1, a2`` and whose float32 depth plane is ``d = dA ix + dB iy + dC``, kept among the
+    pixel's nearest as ``_draw_triangle`` says (both the CPU's and the CUDA form's test and
+    insertion)."""
+    if a0 < 0.0 or a1 < 0.0 or a2 < 0.0 or a0 + a1 + a2 <= 0.0:
+        return
+    d = dA * np.float32(ix) + dB * np.float32(iy) + dC
+    if d < np.float32(-1.0) or d > np.float32(1.0) or d <= min_depth[b, iy, ix]:
+        return
+    layers = depth.shape[3]
+    if not d < depth[b, iy, ix, layers - 1]:
+        return
+    slot = 0
+    while depth[b, iy, ix, slot] < d:
+        slot += 1
+    if depth[b, iy, ix, slot] == d:
+        return
+    for k in range(layers - 1, slot, -1):
+        depth[b, iy, ix, k] = depth[b, iy, ix, k - 1]
+        tri_id[b, iy, ix, k] = tri_id[b, iy, ix, k - 1]
+    depth[b, iy, ix, slot] = d
+    tri_id[b, iy, ix, slot] = t + 1
 
 
 @njit(cache=CACHE, parallel=True)

@@ -370,7 +370,7 @@ def write_report(outdir: str | Path, data: RunRecord) -> Path:
     notes = "".join(f"<li>{_esc(n)}</li>" for n in data.notes)
     timings = [(stage, _minutes(seconds)) for stage, seconds in data.timings.items()]
     timings += [("total", _minutes(data.wall_time)), ("iterations", f"{data.iterations:,}"),
-                ("seconds per iteration", f"{data.seconds_per_iteration:.3f}")]
+                ("seconds per iteration", f"{data.seconds_per_iteration:.3f}"), ("device", data.device)]
     body = f"""
 <main>
 <header>

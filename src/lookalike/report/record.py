@@ -116,6 +116,8 @@ class RunRecord:
         seconds_per_iteration: mean seconds per optimisation step.
         timings: seconds per stage, e.g. ``{"reference views": 12.0, ...}``.
         config: the configuration used (nested dicts of plain values).
+        device: where the run computed (``lookalike.devices.device_label``: ``"cpu"``,
+            ``"cuda:0 (NVIDIA H200)"``).
         notes: remarks shown under the summary (e.g. "input had no UVs").
         profile: where the time went, by phase (``lookalike.phases.Profile.as_dict``), when
             the run was profiled; ``None`` otherwise.
@@ -161,6 +163,7 @@ class RunRecord:
     seconds_per_iteration: float
     timings: dict[str, float] = field(default_factory=dict)
     config: dict = field(default_factory=dict)
+    device: str = "cpu"
     notes: list[str] = field(default_factory=list)
     profile: dict | None = None
     view_labels: list[str] | None = None
@@ -204,6 +207,7 @@ class RunRecord:
             "rollbacks": self.rollbacks,
             "position_backoffs": self.position_backoffs,
             "interrupted": self.interrupted,
+            "device": self.device,
             "seconds": {"total": self.wall_time, "per_iteration": self.seconds_per_iteration, **self.timings},
             "final_loss": float(finite[-1]) if len(finite) else None,
             "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],

@@ -12,6 +12,7 @@ from __future__ import annotations
 import torch
 
 from ..asset.normals import safe_normalize
+from ..devices import launch, uses_cuda_kernels
 from . import normal_map_kernels
 
 BEND_THRESHOLD = 0.1
@@ -67,8 +68,13 @@ class _ShadingNormal(torch.autograd.Function):
         rest = [t.detach().to(normal.dtype).contiguous() for t in (geometric, view_dir, facing)]
         mapped = mapped.contiguous()
         out = torch.empty_like(arrays[0])
-        normal_map_kernels.shading_normal_forward(*(a.numpy() for a in arrays), mapped.numpy(),
-                                                  *(a.numpy() for a in rest), BEND_THRESHOLD, out.numpy())
+        if uses_cuda_kernels(normal):
+            from . import normal_map_cuda
+
+            launch(normal_map_cuda.shading_normal_forward, out.shape[0], *arrays, mapped, *rest, BEND_THRESHOLD, out)
+        else:
+            normal_map_kernels.shading_normal_forward(*(a.numpy() for a in arrays), mapped.numpy(),
+                                                      *(a.numpy() for a in rest), BEND_THRESHOLD, out.numpy())
         ctx.save_for_backward(*arrays, mapped, *rest)
         return out
 
@@ -76,9 +82,15 @@ class _ShadingNormal(torch.autograd.Function):
     def backward(ctx, grad_out):
         normal, tangent, tangent_space, mapped, geometric, view_dir, facing = ctx.saved_tensors
         grads = [torch.empty_like(t) for t in (normal, tangent, tangent_space, geometric, view_dir)]
-        normal_map_kernels.shading_normal_backward(
-            normal.numpy(), tangent.numpy(), tangent_space.numpy(), mapped.numpy(), geometric.numpy(), view_dir.numpy(),
-            facing.numpy(), BEND_THRESHOLD, grad_out.to(normal.dtype).contiguous().numpy(), *(g.numpy() for g in grads))
+        grad_out = grad_out.to(normal.dtype).contiguous()
+        if uses_cuda_kernels(normal):
+            from . import normal_map_cuda
+
+            launch(normal_map_cuda.shading_normal_backward, normal.shape[0], *ctx.saved_tensors, BEND_THRESHOLD,
+                   grad_out, *grads)
+        else:
+            normal_map_kernels.shading_normal_backward(*(t.numpy() for t in ctx.saved_tensors), BEND_THRESHOLD,
+                                                       grad_out.numpy(), *(g.numpy() for g in grads))
         grad_normal, grad_tangent, grad_tangent_space, grad_geometric, grad_view_dir = grads
         return grad_normal, grad_tangent, grad_tangent_space, None, grad_geometric, grad_view_dir, None
 
@@ -99,8 +111,8 @@ def shading_normal(normal: torch.Tensor, tangent: torch.Tensor, tangent_space: t
         facing: ``[N]`` +1 for front faces, -1 for back faces (no gradient).
 
     Differentiable in ``normal``, ``tangent``, ``tangent_space``, ``geometric`` and
-    ``view_dir``. Compiled (:mod:`.normal_map_kernels`), one pass per point each way; the twin
-    is :func:`shading_normal_python`.
+    ``view_dir``. Compiled (:mod:`.normal_map_kernels`; :mod:`.normal_map_cuda` for tensors on
+    the GPU), one pass per point each way; the twin is :func:`shading_normal_python`.
     """
     return _ShadingNormal.apply(normal, tangent, tangent_space, mapped, geometric, view_dir, facing)
 

@@ -14,6 +14,8 @@ The plain-torch twin is :func:`.normal_map.shading_normal_python` (``perturb_nor
 for the tangent ``(t, sign s)``, the tangent-space value ``(a, b, c)``, the geometric normal
 ``g``, the view direction ``v`` and the facing sign ``f``. Clamps pass gradients where their
 input lies inside the closed range, as ``torch.clamp`` does. Arithmetic is float64 per point.
+Each pass runs a per-point body (``shading_normal_point``, ``shading_normal_backward_point``)
+that the CUDA forms (:mod:`.normal_map_cuda`) run too, one thread per point.
 """
 
 from __future__ import annotations
@@ -74,16 +76,22 @@ def shading_normal_forward(normal, tangent, tangent_space, mapped, geometric, vi
     ``tangent [N, 4]``, ``tangent_space [N, 3]`` (read where ``mapped [N]`` bool), ``facing [N]``
     (+1 or -1) and ``bend`` = BEND_THRESHOLD."""
     for p in prange(normal.shape[0]):
-        _, _, _, _, _, _, _, _, _, _, m = _frame(normal, tangent, tangent_space, mapped, p)
-        f = facing[p]
-        gx, gy, gz = f * geometric[p, 0], f * geometric[p, 1], f * geometric[p, 2]
-        sx, sy, sz = f * m[0], f * m[1], f * m[2]
-        w = (sx * view_dir[p, 0] + sy * view_dir[p, 1] + sz * view_dir[p, 2]) / bend
-        w = min(max(w, 0.0), 1.0)
-        ox, oy, oz, _, _ = _normalize(gx + w * (sx - gx), gy + w * (sy - gy), gz + w * (sz - gz))
-        out[p, 0] = ox
-        out[p, 1] = oy
-        out[p, 2] = oz
+        shading_normal_point(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend, out, p)
+
+
+@njit(cache=CACHE, inline="always")
+def shading_normal_point(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend, out, p):
+    """Point ``p`` of :func:`shading_normal_forward` (both its CPU and its CUDA form): ``out[p]``."""
+    _, _, _, _, _, _, _, _, _, _, m = _frame(normal, tangent, tangent_space, mapped, p)
+    f = facing[p]
+    gx, gy, gz = f * geometric[p, 0], f * geometric[p, 1], f * geometric[p, 2]
+    sx, sy, sz = f * m[0], f * m[1], f * m[2]
+    w = (sx * view_dir[p, 0] + sy * view_dir[p, 1] + sz * view_dir[p, 2]) / bend
+    w = min(max(w, 0.0), 1.0)
+    ox, oy, oz, _, _ = _normalize(gx + w * (sx - gx), gy + w * (sy - gy), gz + w * (sz - gz))
+    out[p, 0] = ox
+    out[p, 1] = oy
+    out[p, 2] = oz
 
 
 @njit(cache=CACHE, parallel=True)
@@ -93,63 +101,73 @@ def shading_normal_backward(normal, tangent, tangent_space, mapped, geometric, v
     of ``grad_normal, grad_tangent_space, grad_geometric, grad_view_dir [N, 3]`` and
     ``grad_tangent [N, 4]`` (zero where not mapped, and in the sign column)."""
     for p in prange(normal.shape[0]):
-        n, qn, in_n, t, qt, in_t, sign, _, qm, in_m, m = _frame(normal, tangent, tangent_space, mapped, p)
-        f = facing[p]
-        vx, vy, vz = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
-        gx, gy, gz = f * geometric[p, 0], f * geometric[p, 1], f * geometric[p, 2]
-        sx, sy, sz = f * m[0], f * m[1], f * m[2]
-        raw = (sx * vx + sy * vy + sz * vz) / bend
-        w = min(max(raw, 0.0), 1.0)
-        w_inside = 1.0 if 0.0 <= raw <= 1.0 else 0.0
-        lx, ly, lz = gx + w * (sx - gx), gy + w * (sy - gy), gz + w * (sz - gz)
-        ox, oy, oz, ql, in_l = _normalize(lx, ly, lz)
-        glx, gly, glz = _normalize_backward(ox, oy, oz, ql, in_l, grad_out[p, 0], grad_out[p, 1], grad_out[p, 2])
-        # lerp(g', s, w): d/dg' = 1 - w, d/ds = w, d/dw = s - g'; w = clamp(s.v / bend)
-        g_raw = (glx * (sx - gx) + gly * (sy - gy) + glz * (sz - gz)) * w_inside / bend
-        gsx, gsy, gsz = w * glx + g_raw * vx, w * gly + g_raw * vy, w * glz + g_raw * vz
-        grad_view_dir[p, 0] = g_raw * sx
-        grad_view_dir[p, 1] = g_raw * sy
-        grad_view_dir[p, 2] = g_raw * sz
-        grad_geometric[p, 0] = f * (1.0 - w) * glx
-        grad_geometric[p, 1] = f * (1.0 - w) * gly
-        grad_geometric[p, 2] = f * (1.0 - w) * glz
-        gmx, gmy, gmz = f * gsx, f * gsy, f * gsz
-        for k in range(4):
-            grad_tangent[p, k] = 0.0
-        if not mapped[p]:
-            grad_tangent_space[p, 0] = 0.0
-            grad_tangent_space[p, 1] = 0.0
-            grad_tangent_space[p, 2] = 0.0
-            gnx, gny, gnz = gmx, gmy, gmz
-        else:
-            gux, guy, guz = _normalize_backward(m[0], m[1], m[2], qm, in_m, gmx, gmy, gmz)
-            nx, ny, nz = n
-            px, py, pz = t
-            bx, by, bz = sign * (ny * pz - nz * py), sign * (nz * px - nx * pz), sign * (nx * py - ny * px)
-            a, b, c = tangent_space[p, 0], tangent_space[p, 1], tangent_space[p, 2]
-            grad_tangent_space[p, 0] = gux * px + guy * py + guz * pz
-            grad_tangent_space[p, 1] = gux * bx + guy * by + guz * bz
-            grad_tangent_space[p, 2] = gux * nx + guy * ny + guz * nz
-            # mm = a t' + b (s n x t') + c n
-            gbx, gby, gbz = b * gux, b * guy, b * guz
-            gtx = a * gux + sign * (gby * nz - gbz * ny)  # d/dt' of s (n x t').gb = s (gb x n)
-            gty = a * guy + sign * (gbz * nx - gbx * nz)
-            gtz = a * guz + sign * (gbx * ny - gby * nx)
-            gnx = c * gux + sign * (py * gbz - pz * gby)  # d/dn = s (t' x gb)
-            gny = c * guy + sign * (pz * gbx - px * gbz)
-            gnz = c * guz + sign * (px * gby - py * gbx)
-            # t' = normalize(t - (t.n) n)
-            gpx, gpy, gpz = _normalize_backward(px, py, pz, qt, in_t, gtx, gty, gtz)
-            tx, ty, tz = tangent[p, 0], tangent[p, 1], tangent[p, 2]
-            d = tx * nx + ty * ny + tz * nz
-            gpn = gpx * nx + gpy * ny + gpz * nz
-            grad_tangent[p, 0] = gpx - nx * gpn
-            grad_tangent[p, 1] = gpy - ny * gpn
-            grad_tangent[p, 2] = gpz - nz * gpn
-            gnx -= d * gpx + gpn * tx
-            gny -= d * gpy + gpn * ty
-            gnz -= d * gpz + gpn * tz
-        grad_n = _normalize_backward(n[0], n[1], n[2], qn, in_n, gnx, gny, gnz)
-        grad_normal[p, 0] = grad_n[0]
-        grad_normal[p, 1] = grad_n[1]
-        grad_normal[p, 2] = grad_n[2]
+        shading_normal_backward_point(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend,
+                                      grad_out, grad_normal, grad_tangent, grad_tangent_space, grad_geometric,
+                                      grad_view_dir, p)
+
+
+@njit(cache=CACHE, inline="always")
+def shading_normal_backward_point(normal, tangent, tangent_space, mapped, geometric, view_dir, facing, bend, grad_out,
+                                  grad_normal, grad_tangent, grad_tangent_space, grad_geometric, grad_view_dir, p):
+    """Point ``p`` of :func:`shading_normal_backward` (both its CPU and its CUDA form): its rows
+    of the gradients."""
+    n, qn, in_n, t, qt, in_t, sign, _, qm, in_m, m = _frame(normal, tangent, tangent_space, mapped, p)
+    f = facing[p]
+    vx, vy, vz = view_dir[p, 0], view_dir[p, 1], view_dir[p, 2]
+    gx, gy, gz = f * geometric[p, 0], f * geometric[p, 1], f * geometric[p, 2]
+    sx, sy, sz = f * m[0], f * m[1], f * m[2]
+    raw = (sx * vx + sy * vy + sz * vz) / bend
+    w = min(max(raw, 0.0), 1.0)
+    w_inside = 1.0 if 0.0 <= raw <= 1.0 else 0.0
+    lx, ly, lz = gx + w * (sx - gx), gy + w * (sy - gy), gz + w * (sz - gz)
+    ox, oy, oz, ql, in_l = _normalize(lx, ly, lz)
+    glx, gly, glz = _normalize_backward(ox, oy, oz, ql, in_l, grad_out[p, 0], grad_out[p, 1], grad_out[p, 2])
+    # lerp(g', s, w): d/dg' = 1 - w, d/ds = w, d/dw = s - g'; w = clamp(s.v / bend)
+    g_raw = (glx * (sx - gx) + gly * (sy - gy) + glz * (sz - gz)) * w_inside / bend
+    gsx, gsy, gsz = w * glx + g_raw * vx, w * gly + g_raw * vy, w * glz + g_raw * vz
+    grad_view_dir[p, 0] = g_raw * sx
+    grad_view_dir[p, 1] = g_raw * sy
+    grad_view_dir[p, 2] = g_raw * sz
+    grad_geometric[p, 0] = f * (1.0 - w) * glx
+    grad_geometric[p, 1] = f * (1.0 - w) * gly
+    grad_geometric[p, 2] = f * (1.0 - w) * glz
+    gmx, gmy, gmz = f * gsx, f * gsy, f * gsz
+    for k in range(4):
+        grad_tangent[p, k] = 0.0
+    if not mapped[p]:
+        grad_tangent_space[p, 0] = 0.0
+        grad_tangent_space[p, 1] = 0.0
+        grad_tangent_space[p, 2] = 0.0
+        gnx, gny, gnz = gmx, gmy, gmz
+    else:
+        gux, guy, guz = _normalize_backward(m[0], m[1], m[2], qm, in_m, gmx, gmy, gmz)
+        nx, ny, nz = n
+        px, py, pz = t
+        bx, by, bz = sign * (ny * pz - nz * py), sign * (nz * px - nx * pz), sign * (nx * py - ny * px)
+        a, b, c = tangent_space[p, 0], tangent_space[p, 1], tangent_space[p, 2]
+        grad_tangent_space[p, 0] = gux * px + guy * py + guz * pz
+        grad_tangent_space[p, 1] = gux * bx + guy * by + guz * bz
+        grad_tangent_space[p, 2] = gux * nx + guy * ny + guz * nz
+        # mm = a t' + b (s n x t') + c n
+        gbx, gby, gbz = b * gux, b * guy, b * guz
+        gtx = a * gux + sign * (gby * nz - gbz * ny)  # d/dt' of s (n x t').gb = s (gb x n)
+        gty = a * guy + sign * (gbz * nx - gbx * nz)
+        gtz = a * guz + sign * (gbx * ny - gby * nx)
+        gnx = c * gux + sign * (py * gbz - pz * gby)  # d/dn = s (t' x gb)
+        gny = c * guy + sign * (pz * gbx - px * gbz)
+        gnz = c * guz + sign * (px * gby - py * gbx)
+        # t' = normalize(t - (t.n) n)
+        gpx, gpy, gpz = _normalize_backward(px, py, pz, qt, in_t, gtx, gty, gtz)
+        tx, ty, tz = tangent[p, 0], tangent[p, 1], tangent[p, 2]
+        d = tx * nx + ty * ny + tz * nz
+        gpn = gpx * nx + gpy * ny + gpz * nz
+        grad_tangent[p, 0] = gpx - nx * gpn
+        grad_tangent[p, 1] = gpy - ny * gpn
+        grad_tangent[p, 2] = gpz - nz * gpn
+        gnx -= d * gpx + gpn * tx
+        gny -= d * gpy + gpn * ty
+        gnz -= d * gpz + gpn * tz
+    grad_n = _normalize_backward(n[0], n[1], n[2], qn, in_n, gnx, gny, gnz)
+    grad_normal[p, 0] = grad_n[0]
+    grad_normal[p, 1] = grad_n[1]
+    grad_normal[p, 2] = grad_n[2]

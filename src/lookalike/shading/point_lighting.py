@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba
 import torch
 
+from ..devices import launch, uses_cuda_kernels
 from . import bsdf
 from . import point_lighting_kernels as kernels
 from .light import PointLight
@@ -28,8 +29,14 @@ class _LitRadiance(torch.autograd.Function):
                                                                  light_pos, intensity)]
         view, horizon = view.contiguous(), horizon.contiguous()
         out = kd.new_empty(kd.shape[0], 3)
-        kernels.lit_radiance_forward(*(a.numpy() for a in arrays[:6]), view.numpy(), *(a.numpy() for a in arrays[6:]),
-                                     horizon.numpy(), out.numpy(), numba.get_num_threads())
+        if uses_cuda_kernels(kd):
+            from . import point_lighting_cuda
+
+            launch(point_lighting_cuda.lit_radiance_forward, kd.shape[0], *arrays[:6], view, *arrays[6:], horizon, out)
+        else:
+            kernels.lit_radiance_forward(*(a.numpy() for a in arrays[:6]), view.numpy(),
+                                         *(a.numpy() for a in arrays[6:]), horizon.numpy(), out.numpy(),
+                                         numba.get_num_threads())
         ctx.save_for_backward(*arrays, view, horizon)
         return out
 
@@ -37,9 +44,16 @@ class _LitRadiance(torch.autograd.Function):
     def backward(ctx, grad_out):
         *arrays, view, horizon = ctx.saved_tensors
         grads = [torch.empty_like(arrays[0]) for _ in range(6)]
-        kernels.lit_radiance_backward(*(a.numpy() for a in arrays[:6]), view.numpy(), *(a.numpy() for a in arrays[6:]),
-                                      horizon.numpy(), grad_out.to(arrays[0].dtype).contiguous().numpy(),
-                                      *(g.numpy() for g in grads), numba.get_num_threads())
+        grad_out = grad_out.to(arrays[0].dtype).contiguous()
+        if uses_cuda_kernels(grad_out):
+            from . import point_lighting_cuda
+
+            launch(point_lighting_cuda.lit_radiance_backward, grad_out.shape[0], *arrays[:6], view, *arrays[6:],
+                   horizon, grad_out, *grads)
+        else:
+            kernels.lit_radiance_backward(*(a.numpy() for a in arrays[:6]), view.numpy(),
+                                          *(a.numpy() for a in arrays[6:]), horizon.numpy(), grad_out.numpy(),
+                                          *(g.numpy() for g in grads), numba.get_num_threads())
         grad_kd, grad_ks, grad_normal, grad_view_dir, grad_position, grad_intensity = grads
         light_pos = arrays[6]
         grad_light_pos = grad_light_intensity = None
@@ -52,10 +66,11 @@ class _LitRadiance(torch.autograd.Function):
 
 
 def _horizon(light: PointLight) -> torch.Tensor:
-    """``[L]`` bool: which lights apply the horizon test (none where ``light.horizon`` is None)."""
+    """``[L]`` bool on the light's device: which lights apply the horizon test (none where
+    ``light.horizon`` is None)."""
     if light.horizon is None:
-        return torch.zeros(light.position.shape[0], dtype=torch.bool)
-    return light.horizon.to(torch.bool)
+        return torch.zeros(light.position.shape[0], dtype=torch.bool, device=light.position.device)
+    return light.horizon.to(device=light.position.device, dtype=torch.bool)
 
 
 def lit_radiance(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, view_dir: torch.Tensor,
@@ -75,8 +90,8 @@ def lit_radiance(kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor, view_
         light: the views' point lights (``l``, ``d`` from ``position``).
 
     Differentiable in every input but ``geometric_normal`` and ``view``, the light's position
-    and intensity included. Compiled (:mod:`.point_lighting_kernels`); the twin is
-    :func:`lit_radiance_python`.
+    and intensity included. Compiled (:mod:`.point_lighting_kernels`; :mod:`.point_lighting_cuda`
+    for tensors on the GPU); the twin is :func:`lit_radiance_python`.
     """
     dtype = torch.promote_types(kd.dtype, normal.dtype)
     return _LitRadiance.apply(kd.to(dtype), ks.to(dtype), normal.to(dtype), view_dir.to(dtype), position.to(dtype),

@@ -11,6 +11,9 @@ clamp(ks_1, MIN_ROUGHNESS, 1)``, ``a2 = r^4``, ``h = (v + l) / sqrt(max(|v + l|^
 
 with ``F``, ``D``, ``Vis`` as in :mod:`.bsdf`. Clamps pass gradients where their input lies
 inside the closed range, as ``torch.clamp`` does. Arithmetic is float64 per point.
+
+The CUDA forms (:mod:`.point_lighting_cuda`) run the same loops over runs of points
+(``_forward_run``, ``_backward_run``), each GPU thread on a run of one point.
 """
 
 from __future__ import annotations
@@ -107,8 +110,6 @@ def _forward_run(kd, ks, normal, view_dir, position, geometric, view, light_pos,
             fresnel = f0 + (f90 - f0) * schlick
             bsdf = kd[p, c] * (1.0 - metal) / math.pi + fresnel * dist * vis
             out[p, c] = bsdf * cosine * intensity[b, c] / d2
-
-
 
 
 @njit(cache=CACHE, parallel=True)
