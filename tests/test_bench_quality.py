@@ -26,7 +26,7 @@ def _metrics(triangles, psnr_decimated, psnr_ours, seconds=420.0, baked=None):
 def stub_simplify(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh):
+    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh, device=None):
         calls.append(SimpleNamespace(input=input, outdir=outdir, triangles=triangles, time_budget=time_budget,
                                      iterations=iterations, material=material_override))
         gain = 2.0 if "spot" in str(input) else 4.0
@@ -92,9 +92,9 @@ def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, caps
     assert [c.outdir.name for c in calls] == ["spot"]
     assert [line.split()[0] for line in capsys.readouterr().out.splitlines()[2:3]] == ["spot"]
     assert main(["bench", "render", "--asset", "spot"]) != 0
-    assert "--asset: bench render does not run the benchmark assets" in capsys.readouterr().err
+    assert "--asset: bench render does not take it" in capsys.readouterr().err
     assert main(["bench", "render", "--assets-dir", str(assets)]) != 0
-    assert "--assets-dir: bench render does not run the benchmark assets" in capsys.readouterr().err
+    assert "--assets-dir: bench render does not take it" in capsys.readouterr().err
     assert main(["bench", "quality", "--assets-dir", str(tmp_path / "nowhere")]) != 0
     assert "benchmark assets are missing: no folder" in capsys.readouterr().err
 

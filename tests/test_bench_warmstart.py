@@ -34,7 +34,7 @@ def _metrics(init: str, asset: str, iterations: int | None) -> dict:
 def runs(monkeypatch, tmp_path):
     calls = []
 
-    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh):
+    def fake(input, outdir, *, triangles, time_budget, init, iterations, force, progress, material_override, init_mesh, device=None):
         calls.append(SimpleNamespace(input=str(input), outdir=outdir, init=init, time_budget=time_budget,
                                      iterations=iterations))
         return SimpleNamespace(metrics=_metrics(init, str(input), iterations))

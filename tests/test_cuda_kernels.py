@@ -393,8 +393,9 @@ _COMPILE = textwrap.dedent("""
     try:
         from numba.cuda.cudadrv import nvvm
         nvvm.NVVM()
+        cuda.compile_ptx(lambda a: None, "void(float32[:])", cc=(9, 0))  # NVRTC too, where the toolkit has it
     except Exception as e:
-        print(f"no NVVM: {e}")
+        print(f"no NVVM or NVRTC: {e}")
         sys.exit(77)
     failed = []
     scattering = set(sys.argv[2:])

@@ -62,8 +62,7 @@ def run(args: argparse.Namespace) -> int:
         if value is None:
             continue
         if parameter not in inspect.signature(module.run).parameters:
-            raise ConfigError(f"{flag}: bench {args.name} does not take it (it is for the benchmarks that run the "
-                              "assets, and --device for quality)")
+            raise ConfigError(f"{flag}: bench {args.name} does not take it")
         kwargs[parameter] = value
     result = module.run(**kwargs)
     if args.json:
