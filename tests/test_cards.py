@@ -221,27 +221,27 @@ def test_cards_command_reports_bad_input_in_one_line(tmp_path, capsys):
 def test_bench_cards_tabulates_every_method_and_holds_each_case_to_the_bar():
     from lookalike.bench import cards as bench
 
-    row = {"asset": "conifer-0.5pct", "triangles": 88, "minutes_cards": 9.7, "minutes_cards_blend": 9.9,
-           "step_s_cards": 1.1, "iterations": 300}
+    row = {"asset": "conifer-0.5pct", "triangles": 88, "minutes_cards": 9.7, "step_s_cards": 1.1, "iterations": 300}
     for key, _ in bench.METHODS:
-        row.update({f"psnr_{key}": 20.0, f"flip_{key}": 0.1, f"iou_{key}": 0.5})
-    row.update(psnr_simplify=bench.NOT_RUN, psnr_decimated=16.0, flip_decimated=0.2, psnr_start=19.0, psnr_cards_blend=20.4)
+        row.update({f"psnr_{key}": 20.0, f"flip_{key}": 0.1, f"iou_{key}": 0.5, f"kb_{key}": 900.0})
+    row.update(psnr_simplify=bench.NOT_RUN, psnr_blender_decimated=bench.NOT_RUN, psnr_decimated=17.5,
+               flip_decimated=0.2, psnr_start=19.0)
     row["judge"] = {renderer: {key: {"psnr": 15.0, "flip": 0.1} for key, _ in bench.METHODS}
-                    for renderer in ("cycles", "cycles_no_shadows", "ours")}
-    row["judge"]["cycles"]["decimated"] = {"psnr": 11.0, "flip": 0.2}
-    case = bench.CardsCase("conifer-0.5pct", "conifer", 0.005)
-    assert bench._with_bar(dict(row), case)["meets_bar"]
-    assert not bench._with_bar({**row, "psnr_cards_blend": 20.6}, case)["meets_bar"]      # mask 0.6 dB below blend
-    assert not bench._with_bar({**row, "psnr_start": 20.1}, case)["meets_bar"]            # below its start
-    assert not bench._with_bar({**row, "minutes_cards_blend": 10.5}, case)["meets_bar"]
-    judged_worse = {**row["judge"], "cycles": {**row["judge"]["cycles"], "decimated": {"psnr": 13.0, "flip": 0.2}}}
-    assert not bench._with_bar({**row, "judge": judged_worse}, case)["meets_bar"]          # only +2 dB in Cycles
-    shrub = bench.CardsCase("shrub-0.5pct", "shrub", 0.005, simplify=True)
-    assert not bench._with_bar({**row, "psnr_simplify": 18.5}, shrub)["meets_bar"]        # simplify + 1.5 dB only
-    result = {"time_budget_s": 600.0, "runs": [bench._with_bar(dict(row), case)], "all_meet_bar": True, "outputs": None,
-              "bar": {"minutes": 10.0, "gain_over_decimated_db": 3.0, "mask_below_blend_db": 0.5,
-                      "gain_over_simplify_db": 2.0, "simplify_share": 0.005}}
+                    for renderer in ("cycles", "cycles_no_shadows", "ours", "three_shadows", "three")}
+    for scores in row["judge"].values():
+        scores["decimated"] = scores["blender_decimated"] = {"psnr": 12.0, "flip": 0.2}
+    assert bench._with_bar(dict(row))["meets_bar"]                                        # +2.5 dB, +3 dB judged
+    assert not bench._with_bar({**row, "psnr_start": 20.1})["meets_bar"]                  # below its start
+    assert not bench._with_bar({**row, "minutes_cards": 10.5})["meets_bar"]
+    assert not bench._with_bar({**row, "psnr_decimated": 18.5})["meets_bar"]              # only +1.5 dB
+    for renderer, key in (("three_shadows", "blender_decimated"), ("cycles_no_shadows", "decimated")):
+        worse = {**row["judge"], renderer: {**row["judge"][renderer], key: {"psnr": 13.5, "flip": 0.2}}}
+        assert not bench._with_bar({**row, "judge": worse})["meets_bar"], renderer        # only +1.5 dB there
+        worse = {**row["judge"], renderer: {**row["judge"][renderer], key: {"psnr": 12.0, "flip": 0.09}}}
+        assert not bench._with_bar({**row, "judge": worse})["meets_bar"], renderer        # a lower FLIP there
+    result = {"time_budget_s": 600.0, "runs": [bench._with_bar(dict(row))], "all_meet_bar": True, "outputs": None,
+              "bar": {"minutes": 10.0, "gain_over_decimated_db": 2.0}}
     text = bench.format_table(result)
-    assert "IoU cards_blend" in text and "PSNR stochastic" in text and ": met (time budget 600 s" in text
-    assert "Cycles, shadows" in text and "+4.00" in text and "nan" in text
+    assert "IoU blender_decimated" in text and "KB cards" in text and "PSNR stochastic" in text and ": met (time budget 600 s" in text
+    assert "Cycles, shadows" in text and "three.js, shadows" in text and "+3.00" in text and "nan" in text
     assert [case.name for case in bench.ASSETS][:3] == ["shrub-0.5pct", "shrub-2pct", "broadleaf-tree-0.5pct"]

@@ -8,10 +8,10 @@ import shutil
 import numpy as np
 import pytest
 import torch
-from io_factory import gradient_texture, npm_package, uv_sphere
+from io_factory import gradient_texture, npm_package, plane, uv_sphere
 
 from lookalike import io
-from lookalike.asset import Asset, Material, PunctualLight, Texture
+from lookalike.asset import Asset, Material, Mesh, PunctualLight, Texture
 from lookalike.errors import ConfigError
 from lookalike.shading.light import PointLight
 from lookalike.shading.pipeline import render
@@ -129,3 +129,39 @@ def test_the_written_light_is_a_khr_point_light_read_back_where_it_was(tmp_path)
 def test_a_missing_three_js_is_one_line_naming_what_to_install(tmp_path):
     with pytest.raises(ConfigError, match="npm install"):
         require_threejs(tmp_path / "node_modules")
+
+
+def card_over_floor(cut_out: bool) -> Asset:
+    """A grey floor (y = 0, 4 x 4) under a white card (y = 1, 1 x 1) lit from straight above:
+    the card alpha-tested, its half x < 0 cut away where ``cut_out``."""
+    floor, card = plane(2), plane(2)
+    floor.v_pos = torch.stack([4 * floor.v_pos[:, 0] - 2, torch.zeros(4), 2 - 4 * floor.v_pos[:, 1]], -1)
+    card.v_pos = torch.stack([card.v_pos[:, 0] - 0.5, torch.ones(4), 0.5 - card.v_pos[:, 1]], -1)
+    kd = torch.ones(16, 16, 4)
+    if cut_out:
+        kd[:, :8, 3] = 0.0                                                    # u < 0.5: x < 0
+    t_pos_idx = torch.cat([floor.t_pos_idx, card.t_pos_idx + 4])
+    uv = torch.cat([floor.uv[0][0], card.uv[0][0]])
+    mesh = Mesh(v_pos=torch.cat([floor.v_pos, card.v_pos]), t_pos_idx=t_pos_idx, uv=[(uv, t_pos_idx.clone())],
+                t_mat_idx=torch.tensor([0, 0, 1, 1]))
+    lambertian = Texture.constant([1.0, 1.0, 0.0])
+    return Asset(mesh=mesh, materials=[
+        Material(name="floor", kd=Texture.constant([0.5, 0.5, 0.5, 1.0]), ks=lambertian),
+        Material(name="card", kd=Texture(kd), ks=lambertian, alpha_mode="MASK", alpha_cutoff=0.5, double_sided=True)])
+
+
+def test_threejs_shadows_fall_through_the_cut_outs(modules, tmp_path):
+    from lookalike.shading.camera import Camera
+
+    camera = Camera.looking_at(torch.tensor([[0.0, 3.0, 4.0]]), torch.zeros(1, 3))
+    light = PointLight(position=torch.tensor([[0.0, 5.0, 0.0]]), intensity=torch.tensor([[40.0, 40.0, 40.0]]))
+    floor = {}
+    for name, cut_out, shadows in (("unshadowed", False, False), ("opaque", False, True), ("cut out", True, True)):
+        io.save(card_over_floor(cut_out), tmp_path / f"{name}.glb")
+        picture = render_threejs(tmp_path / f"{name}.glb", camera, 96, light=light, samples=0, modules=modules,
+                                 shadows=shadows)[0]
+        floor[name] = picture[48:58, :, :3].mean().item()    # the floor's strip across the shadow's near half
+    assert floor["opaque"] < 0.9 * floor["unshadowed"], floor                 # the card's shadow on the floor
+    assert floor["opaque"] < floor["cut out"] < floor["unshadowed"], floor    # half of it lets the light through
+    half = (floor["unshadowed"] + floor["opaque"]) / 2
+    assert floor["cut out"] == pytest.approx(half, rel=0.15), floor

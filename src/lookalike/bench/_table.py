@@ -34,19 +34,22 @@ def runs_table(result: dict, columns: tuple, bar: str, judge_table) -> str:
 
 def judged_table(rows: list[dict], first: str, methods: tuple, ours: str, gains: tuple, title: str) -> list[str]:
     """Lines of a judge's table: ``title``, then per judged row (``row["judge"]``), one line
-    per renderer (Cycles with and without shadows, ours) with the PSNR of each method of
+    per renderer the row was judged in (``judge_scores.RENDERERS`` and ``THREEJS_RENDERERS``:
+    Cycles with and without shadows, ours, three.js where judged) with the PSNR of each method of
     ``methods`` (``(column name, method key)``), the gains of ``ours`` over the methods
     ``gains`` (``(column name, method key)``) and each method's FLIP; ``first`` heads the
     rows' name column."""
-    from ..jobs.judge_scores import RENDERERS
+    from ..jobs.judge_scores import RENDERERS, THREEJS_RENDERERS
 
+    names = {key: {**RENDERERS, **THREEJS_RENDERERS}[key] for key in ("cycles", "cycles_no_shadows", "ours",
+                                                                      *THREEJS_RENDERERS)}
     header = ([first, "renderer"] + [f"PSNR {name}" for name, _ in methods] + [name for name, _ in gains]
               + [f"FLIP {name}" for name, _ in methods])
     cells = []
     for row in (r for r in rows if "judge" in r):
-        for i, renderer in enumerate(("cycles", "cycles_no_shadows", "ours")):
+        for i, renderer in enumerate(r for r in names if r in row["judge"]):
             scores = row["judge"][renderer]
-            cells.append([row["asset"] if i == 0 else "", RENDERERS[renderer]]
+            cells.append([row["asset"] if i == 0 else "", names[renderer]]
                          + [f"{scores[key]['psnr']:.2f}" for _, key in methods]
                          + [f"{scores[ours]['psnr'] - scores[key]['psnr']:+.2f}" for _, key in gains]
                          + [f"{scores[key]['flip']:.4f}" for _, key in methods])

@@ -11,7 +11,7 @@ Blender runs as the ``bpy`` package (the ``judge`` extra) in a child process
   time)
 - ``cycles_worker``  the Blender side of ``cycles``
 - ``decimate_bake``  ``blender_classic_bake``: Blender's decimate + xatlas + selected-to-active
-  bake (of still models)
+  bake (of still models), and ``blender_decimate_glb``: its Decimate alone, materials kept
 - ``decimate_bake_worker``  the Blender side of ``decimate_bake``
 
 This package imports nothing heavy on import, so that the workers (run with ``python -m``)

@@ -66,7 +66,7 @@ def _size(resolution) -> tuple[int, int]:
 def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight, resolution,
                         shadows: tuple[bool, ...] = (True, False), samples: int = SAMPLES,
                         threads: int | None = None, pose: Poses | None = None, environment: str | Path | None = None,
-                        bounces: int = 0) -> CyclesRender:
+                        bounces: int = 0, seed: int = SEED) -> CyclesRender:
     """Render the glb at ``glb_path`` in Cycles from B cameras, each lit by its point light, once
     for each setting in ``shadows`` (True: the model casts shadows; False: no object does).
 
@@ -75,7 +75,8 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
         camera: B cameras (centred perspective projections, aspect = W / H).
         light: B point lights (or 1, shared).
         resolution: ``H`` or ``(H, W)``.
-        samples: Cycles samples per pixel; threads: CPU threads (default: ours).
+        samples: Cycles samples per pixel; threads: CPU threads (default: ours); seed: Cycles'
+            sampling seed (another seed draws another noise: the judge's own noise floor).
         pose: B poses of an animated glb (clip indices into its animations, times in seconds);
             ``None``: the rest pose (a still glb shows itself as it is).
     Raises:
@@ -91,7 +92,7 @@ def render_cycles_views(glb_path: str | Path, camera: Camera, light: PointLight,
     with tempfile.TemporaryDirectory(prefix="lookalike-cycles-") as scratch:
         output, stats = Path(scratch) / "images.npy", Path(scratch) / "stats.json"
         job = {"glb": str(Path(glb_path).resolve()), "output": str(output), "stats": str(stats), "scratch": scratch,
-               "width": width, "height": height, "samples": int(samples), "seed": SEED,
+               "width": width, "height": height, "samples": int(samples), "seed": int(seed),
                "threads": threads or thread_count(), "views": views, "shadows": [bool(s) for s in shadows],
                "environment": str(Path(environment).resolve()) if environment else None, "bounces": int(bounces),
                "environment_turn": ENVIRONMENT_TURN}

@@ -1,5 +1,6 @@
 """Blender's classic LOD pipeline as a baseline: decimate, unwrap, bake selected-to-active
-(``blender_classic_bake``). What users compare us with ("Blender's decimate + bake"); the
+(``blender_classic_bake``), and its decimation alone with the input's materials kept
+(``blender_decimate_glb``). What users compare us with ("Blender's decimate + bake"); the
 steps and their settings are in ``lookalike.blender.decimate_bake_worker``. It makes a still model
 (its steps know no skeleton), so the judge leaves it out of animated runs.
 """
@@ -67,16 +68,30 @@ def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, tria
             Blender ran past its deadline (the reference's triangles and
             ``SECONDS_PER_TEXEL_SAMPLE``), twice.
     """
+    job = {"texture_size": int(texture_size), "padding": int(padding), "samples": int(samples),
+           "threads": threads or thread_count(), "cage_fraction": float(cage_fraction), "margin": int(margin),
+           "base_colour_pass": base_colour_pass}
+    return _run_pipeline(reference_glb, output_glb, triangles, job, SECONDS_PER_TEXEL_SAMPLE * texture_size ** 2 * samples)
+
+
+def blender_decimate_glb(reference_glb: str | Path, output_glb: str | Path, triangles: int) -> BlenderBake:
+    """Blender's Decimate alone, as a user makes plain decimation in Blender: ``reference_glb``
+    decimated to about ``triangles`` triangles (the pipeline's steps 1-2) and written to
+    ``output_glb`` with the input's own materials and UVs (its textures whole: a tree of
+    alpha-textured leaf quads keeps its leaf texture). Raises as ``blender_classic_bake``."""
+    return _run_pipeline(reference_glb, output_glb, triangles, {"keep_materials": True}, 0.0)
+
+
+def _run_pipeline(reference_glb: str | Path, output_glb: str | Path, triangles: int, options: dict,
+                  work: float) -> BlenderBake:
+    """Run ``decimate_bake_worker`` on ``reference_glb`` with the job ``options`` (and ``work``
+    seconds beside the reference's triangles in its deadline); what it wrote to ``output_glb``."""
     output_glb = Path(output_glb).resolve()
     output_glb.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="lookalike-blender-bake-") as scratch:
         stats = Path(scratch) / "stats.json"
         job = {"reference": str(Path(reference_glb).resolve()), "output": str(output_glb), "stats": str(stats),
-               "scratch": scratch, "triangles": int(triangles), "texture_size": int(texture_size),
-               "padding": int(padding), "samples": int(samples), "threads": threads or thread_count(),
-               "cage_fraction": float(cage_fraction), "margin": int(margin),
-               "base_colour_pass": base_colour_pass}
-        work = SECONDS_PER_TEXEL_SAMPLE * texture_size ** 2 * samples
+               "scratch": scratch, "triangles": int(triangles), **options}
         total = run_worker("decimate_bake_worker", job, worker_deadline(triangle_count(reference_glb), work),
                            Path(reference_glb).name)
         figures = json.loads(stats.read_text())

@@ -6,7 +6,9 @@ Run as ``python -m lookalike.blender.decimate_bake_worker JOB.json``; imports on
 the baked PNGs), ``triangles``, ``texture_size``, ``padding``, ``samples``, ``threads``,
 ``cage_fraction``, ``margin`` and ``base_colour_pass`` (``"DIFFUSE"`` or ``"EMIT"``); with
 ``positions`` (a path), it stops after step 2 and writes the decimation there (``write_positions``:
-``lookalike bench decimate`` measures Blender's Decimate alone).
+``lookalike bench decimate`` measures Blender's Decimate alone); with ``keep_materials`` true, it
+stops after step 2 and exports the decimated mesh with the input's own materials and UVs
+(``export_low``: plain decimation as a Blender user makes it, a leaf texture kept whole).
 
 Steps, as a Blender user does them:
 
@@ -404,6 +406,10 @@ def main(job_path: str) -> None:
     if job.get("positions"):
         write_positions(low.data, job["positions"], timings["decimate"])
         return
+    if job.get("keep_materials"):
+        timings["export"] = export_low(high, low, job["output"])
+        write_stats(job["stats"], input_triangles, low, timings)
+        return
 
     started = time.monotonic()
     uv_name = set_only_uv_map(low.data, xatlas_uvs(low.data, int(job["texture_size"]), int(job["padding"])))
@@ -436,18 +442,29 @@ def main(job_path: str) -> None:
         with EmitInput(sources, "Alpha"):
             timings["bake alpha"] = bake("EMIT")
 
-    started = time.monotonic()
     material.wire_for_export(scratch, uv_name)
+    timings["export"] = export_low(high, low, job["output"])
+    write_stats(job["stats"], input_triangles, low, timings)
+
+
+def export_low(high: list, low, path: str) -> float:
+    """Export ``low`` alone (the reference's objects ``high`` hidden) as a glb with its
+    materials, normals and UVs, y up; the seconds it took."""
+    started = time.monotonic()
     for obj in high:
         obj.hide_render = True
     select_only([low], low)
-    bpy.ops.export_scene.gltf(filepath=job["output"], export_format="GLB", use_selection=True,
+    bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", use_selection=True,
                               export_materials="EXPORT", export_image_format="AUTO", export_normals=True,
                               export_texcoords=True, export_tangents=False, export_yup=True, export_apply=True,
                               export_animations=False, export_cameras=False, export_lights=False)
-    timings["export"] = time.monotonic() - started
-    Path(job["stats"]).write_text(json.dumps({
-        "input_triangles": input_triangles, "triangles": triangle_count([low]), "seconds": timings}))
+    return time.monotonic() - started
+
+
+def write_stats(path: str, input_triangles: int, low, timings: dict) -> None:
+    """The job's ``stats`` JSON: the triangle counts and the seconds of each step."""
+    Path(path).write_text(json.dumps({"input_triangles": input_triangles, "triangles": triangle_count([low]),
+                                      "seconds": timings}))
 
 
 if __name__ == "__main__":

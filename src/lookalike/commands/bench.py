@@ -37,7 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "../shared/assets beside the source checkout)")
     parser.add_argument("--judge", choices=JUDGES, default=None,
                         help="blender (quality, skinned, cards, displace, implicit; decimate: Blender's Decimate "
-                             "alone; pathtraced: Cycles under the sky): also render every method in Blender "
+                             "alone; pathtraced: Cycles under the sky; cards: Blender's Decimate, and three.js "
+                             "with and without shadows too): also render every method in Blender "
                              "Cycles (shadows on and off) and run Blender's own decimate + bake; needs pip install -e "
                              "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
                              "Chromium, see the README)")

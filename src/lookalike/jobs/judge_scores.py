@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,13 @@ JUDGE_RESOLUTION = 384
 """Side of the judged pictures in pixels (the judge's prescribed size)."""
 
 RENDERERS = {"ours": "our renderer", "cycles": "Cycles, shadows", "cycles_no_shadows": "Cycles, no shadows"}
-"""Renderer keys of the judged scores, and what tables call them."""
+"""Renderer keys of the judged scores (``judge_models``), and what tables call them."""
+
+THREEJS_RENDERERS = {"three_shadows": "three.js, shadows", "three": "three.js, no shadows"}
+"""Renderer keys of ``threejs_scores``, where a judge asks for three.js too, and their names."""
+
+THREEJS_SAMPLES = 4
+"""MSAA samples per pixel of the three.js judge's pictures (a viewer's antialiasing)."""
 
 CONTACT_VIEWS = 3
 """Views shown per model in the contact sheet (``contact_sheet``)."""
@@ -158,6 +165,22 @@ def judge_models(reference: Reference, reference_glb: Path, models: list[JudgedM
             "labels": {m.key: m.label for m in models}, "reference_coverage": coverage,
             "agreement": {key: {"psnr": a["psnr"], "flip": a["flip"]} for key, a in agreement.items()},
             "seconds": seconds}
+
+
+def threejs_scores(reference_glb: Path, models: list[JudgedModel], views: Views,
+                   resolution: int = JUDGE_RESOLUTION) -> dict[str, dict[str, dict]]:
+    """``{"three_shadows" | "three": {key: score_renders(...)}}``: the input and every model
+    drawn by three.js (``lookalike.webgl``) on the still ``views`` under each view's light, with
+    its shadow maps on and off, each model scored against three.js's picture of the input."""
+    from ..webgl import render_threejs
+
+    scores = {}
+    for renderer, shadows in (("three_shadows", True), ("three", False)):
+        draw = partial(render_threejs, camera=views.camera, resolution=resolution, light=views.light,
+                       samples=THREEJS_SAMPLES, shadows=shadows)
+        reference = draw(reference_glb)
+        scores[renderer] = {m.key: score_renders(reference, draw(m.glb)) for m in models}
+    return scores
 
 
 def contact_sheet(renders: dict[str, dict[str, torch.Tensor]], models: list[JudgedModel], path: Path) -> None:

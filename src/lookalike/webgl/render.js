@@ -32,8 +32,8 @@ server.listen(0, '127.0.0.1', async () => {
     await page.waitForFunction('window.ready === true', { timeout: 60000 });
     const job = JSON.parse(fs.readFileSync(jobPath, 'utf8'));
     const glb = fs.readFileSync(job.model).toString('base64');
-    const pictures = await page.evaluate((g, v, s, n) => window.renderViews(g, v, s, n),
-                                         glb, job.views, job.size, job.samples);
+    const pictures = await page.evaluate((g, v, s, n, d) => window.renderViews(g, v, s, n, d),
+                                         glb, job.views, job.size, job.samples, Boolean(job.shadows));
     if (errors.length) throw new Error(errors.join('; '));
     fs.writeFileSync(outPath, Buffer.concat(pictures.map((b) => Buffer.from(b, 'base64'))));
   } catch (error) {

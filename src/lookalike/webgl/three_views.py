@@ -81,12 +81,13 @@ def require_threejs(modules: str | Path | None = None) -> None:
 
 
 def render_threejs(model: str | Path, camera: Camera, resolution: int, light: PointLight | None = None,
-                   samples: int = 4, modules: str | Path | None = None) -> torch.Tensor:
+                   samples: int = 4, modules: str | Path | None = None, shadows: bool = False) -> torch.Tensor:
     """``[B, H, W, 4]`` float32 pictures of the glb ``model`` by three.js from B cameras
     (``H = W = resolution``, row 0 at the top): linear RGB weighted by coverage, and coverage.
     ``light`` (batch 1, or one per camera): the point light of each view in place of the file's
     own lights (views scored as ours are); ``None`` keeps the file's. ``samples``: MSAA samples
-    per pixel (0: one).
+    per pixel (0: one). ``shadows``: the given light casts shadows (three.js's shadow maps, as a
+    viewer with shadows on draws them: alpha-tested cut-outs cast theirs).
 
     Raises ``ConfigError`` where three.js is not installed, ``WebglError`` where it fails,
     ``ExternalToolTimeout`` where it runs past ``render_deadline`` twice."""
@@ -102,7 +103,7 @@ def render_threejs(model: str | Path, camera: Camera, resolution: int, light: Po
     with tempfile.TemporaryDirectory(prefix="lookalike-webgl-") as scratch:
         job, out = Path(scratch) / "job.json", Path(scratch) / "pictures.bin"
         job.write_text(json.dumps({"model": str(Path(model).resolve()), "views": views, "size": int(resolution),
-                                   "samples": int(samples)}))
+                                   "samples": int(samples), "shadows": bool(shadows)}))
         done = run_tool(["node", str(PACKAGE / "render.js"), str(_modules(modules)), str(PACKAGE), _browser(),
                          str(job), str(out)], tool="three.js", subject=Path(model).name,
                         deadline=render_deadline(camera.batch_size, resolution, samples))
