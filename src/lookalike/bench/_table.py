@@ -41,13 +41,13 @@ def judged_table(rows: list[dict], first: str, methods: tuple, ours: str, gains:
     rows' name column."""
     from ..jobs.judge_scores import RENDERERS, THREEJS_RENDERERS
 
-    names = {key: {**RENDERERS, **THREEJS_RENDERERS}[key] for key in ("cycles", "cycles_no_shadows", "ours",
-                                                                      *THREEJS_RENDERERS)}
+    names = {**RENDERERS, **THREEJS_RENDERERS}
+    order = ("cycles", "cycles_no_shadows", "ours", *THREEJS_RENDERERS)
     header = ([first, "renderer"] + [f"PSNR {name}" for name, _ in methods] + [name for name, _ in gains]
               + [f"FLIP {name}" for name, _ in methods])
     cells = []
     for row in (r for r in rows if "judge" in r):
-        for i, renderer in enumerate(r for r in names if r in row["judge"]):
+        for i, renderer in enumerate(r for r in order if r in row["judge"]):
             scores = row["judge"][renderer]
             cells.append([row["asset"] if i == 0 else "", names[renderer]]
                          + [f"{scores[key]['psnr']:.2f}" for _, key in methods]

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import tempfile
 from dataclasses import dataclass, field
 from functools import partial
@@ -179,7 +180,7 @@ def beats_bar(scores: dict) -> bool:
     NaN for a method not scored): at least its start, and every decimation scored + 2 dB with a
     lower FLIP."""
     cards = scores["cards"]
-    decimations = [scores[key] for key in DECIMATIONS if scores[key]["psnr"] == scores[key]["psnr"]]
+    decimations = [scores[key] for key in DECIMATIONS if not math.isnan(scores[key]["psnr"])]
     return cards["psnr"] >= scores["start"]["psnr"] and all(
         cards["psnr"] >= d["psnr"] + BAR_GAIN_OVER_DECIMATED_DB and cards["flip"] < d["flip"] for d in decimations)
 
@@ -188,7 +189,7 @@ def _with_bar(row: dict) -> dict:
     """``row`` with the gains of ``cards`` and ``meets_bar`` (module docstring)."""
     row["gain_over_start_db"] = row["psnr_cards"] - row["psnr_start"]
     row["gain_over_decimated_db"] = row["psnr_cards"] - row["psnr_decimated"]
-    if row["psnr_simplify"] == row["psnr_simplify"]:
+    if not math.isnan(row["psnr_simplify"]):
         row["gain_over_simplify_db"] = row["psnr_cards"] - row["psnr_simplify"]
     scores = {"heldout": {key: {"psnr": row[f"psnr_{key}"], "flip": row[f"flip_{key}"]} for key, _ in METHODS}}
     scores.update(row.get("judge", {}))
