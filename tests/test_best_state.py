@@ -173,3 +173,34 @@ def test_of_two_states_with_equal_psnr_the_one_with_lower_flip_is_kept(first):
         best.validate(Picture(first), iteration=0)
         best.validate(Picture(second), iteration=1)
         assert best.state == {"name": kept}, share
+
+
+def test_where_every_form_must_gain_the_state_that_lifts_each_form_is_kept_over_a_better_mean():
+    """Two forms (a displaced model at a coarse and a fine level): state "mean" gains more on
+    average but loses the fine form; "each" gains a little on both. On the mean, "mean" is
+    kept; where every form must gain, "each", and "mean" alone does not beat the start."""
+    import dataclasses
+
+    from lookalike.jobs.written_model import WrittenModel
+
+    table = {"start.glb": (30.0, 40.0), "mean.glb": (31.0, 39.9), "each.glb": (30.3, 40.2)}
+
+    class Views:  # PSNR alone (FLIP's share 0)
+        def validation_score(self, asset, draw, flip_share):
+            name, form = str(asset.source).split("#") if "#" in str(asset.source) else (str(asset.source), "0")
+            return table[name][int(form)]
+
+    def forms(model):
+        return [model, dataclasses.replace(model, source=Path(f"{model.source}#1"))]
+
+    for every, kept in ((False, "mean"), (True, "each")):
+        written = WrittenModel("auto", Views(), draw=None, forms=forms, every_form_gains=every)
+        written.start(Picture("start").export())
+        best = BestState(written.validate, validate_every=1, start={})
+        best.validate(Picture("mean"), iteration=0)
+        best.validate(Picture("each"), iteration=1)
+        assert best.state == {"name": kept}, every
+    assert written.start_forms == [30.0, 40.0]
+    start, mean = Picture("start").export(), Picture("mean").export()
+    assert written.kept(mean, start) == (start, True)
+    assert written.score(Picture("each").export()) == pytest.approx(0.2)

@@ -108,8 +108,8 @@ def judged_levels(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: 
     {key: scores}}, "checks", "meets_bar"}``, keys ``ours_lK``, ``start_lK`` and ``bake_l0``,
     the bar's clauses (``bar_checks``) in Cycles with shadows."""
     from .. import io
-    from ..asset.displacement import tessellated
     from ..fit.reference import MeshReference
+    from ..jobs.displace import written_level
     from ..jobs.input_asset import prepare_input
     from ..jobs.judge_scores import JudgedModel, heldout_views, judge_models
     from ..settings import load_config
@@ -123,7 +123,7 @@ def judged_levels(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: 
     models = []
     for key, label, model in [("bake_l0", "Classic decimate + bake, base count", baselines.get("bake_l0"))] + [
             (f"start_l{level}", f"Classic displacement bake, level {level}",
-             tessellated(baselines["start" if level == levels[-1] else f"start_l{level}"])) for level in levels]:
+             written_level(baselines["start" if level == levels[-1] else f"start_l{level}"])) for level in levels]:
         if model is not None:
             io.save(model, folder / f"{key}.glb")
             models.append(JudgedModel(key, label, folder / f"{key}.glb", model))

@@ -4,7 +4,8 @@ Inside lookalike a normal map lives in our frame (``lookalike.asset.frames``: ``
 on the mesh's shading normals, ``Mesh.normals``). Files use another frame on the same normals (a
 mesh read from a file keeps the file's normals): the TANGENT attribute where present, else
 MikkTSpace of the mesh as stored (what Blender always does and what the glTF specification
-prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the written mesh.
+prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the written mesh;
+``on_own_normals`` moves a map from authored normals onto the geometry's own.
 
 Frames are given per triangle corner and interpolated, and values re-expressed, as
 ``lookalike.asset.frames`` describes. Texels no triangle covers take the mean of converted
@@ -21,7 +22,7 @@ import numpy as np
 import torch
 from numba import njit
 
-from ..asset import Material, Mesh
+from ..asset import Asset, Material, Mesh
 from ..asset.frames import corner_normals, corner_uvs, frame_at, our_corner_frame, reexpress_texels, unit
 from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
 from ..kernel_cache import CACHE
@@ -112,8 +113,9 @@ def reexpress_normal_map(pixels: np.ndarray, uv: np.ndarray, src: tuple[np.ndarr
 
 
 def _convert(mesh: Mesh, materials: list[Material], frames, to_ours: bool) -> list[Material]:
-    """Materials with every normal map (and each of its own mip levels) converted;
-    ``frames(uv_set) -> (file normals, file tangents)`` gives the file's corner frame of a UV set."""
+    """Materials with every normal map (and each of its own mip levels) converted between our
+    frame on ``mesh`` and another; ``frames(uv_set) -> (normals, tangents)`` gives the other
+    corner frame of a UV set (a file's)."""
     out = []
     t_mat_idx = mesh.t_mat_idx.numpy()
     cache = {}
@@ -163,3 +165,20 @@ def export_normal_maps(mesh: Mesh, materials: list[Material]) -> list[Material]:
     """Materials with normal maps converted from our frame to MikkTSpace of the mesh as written
     (its shading normals, float32 positions and UVs)."""
     return _convert(mesh, materials, lambda uv_set: _mikktspace_frame(mesh, uv_set), to_ours=False)
+
+
+def on_own_normals(asset: Asset) -> Asset:
+    """``asset`` shading as it does, on its geometry's own normals: the authored normals
+    (``Mesh.v_nrm``) dropped for the split smooth normals of the positions (the normal slots
+    kept), and every normal map re-expressed from our frame on the authored normals into ours on
+    the new ones, so that the shading normal ``m.x t + m.y b + m.z n`` stays the same at every
+    texel. Where shading normals tilt far from the facets (a displaced mesh shaded by its base's
+    normals), renderers part from each other (they test the light and the view against the
+    facets, or filter the map, each its own way); on normals that follow the facets the map holds
+    only the residual and they agree. An asset without authored normals is returned as it is."""
+    mesh = asset.mesh
+    if mesh.v_nrm is None:
+        return asset
+    own = replace(mesh, v_nrm=None)
+    return replace(asset, mesh=own,
+                   materials=_convert(mesh, asset.materials, lambda uv_set: our_corner_frame(own, uv_set), to_ours=False))

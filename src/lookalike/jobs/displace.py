@@ -13,12 +13,14 @@ input; with ``"recomputed"`` each level shades its own relief and a normal map b
 suits the levels near it best, so they are baked at the middle one (``docs/benchmarks.md``). The
 latent (``lookalike.fit.displaced_mesh``) fits the heights (by default; the base positions and
 maps too where their learning rates are set), each step at the next of
-``latent.tessellation_levels``, the levels' losses balanced, its states scored on the mean over
-the levels. The report scores every level beside the start at that level and the classic
+``latent.tessellation_levels``, the levels' losses balanced, its states chosen on the least gain
+over the start among the levels (so that every level gains). The report scores every level beside the start at that level and the classic
 decimate + bake at the same triangle count. Outputs besides the run's (``model.glb`` is the finest level):
 ``base.glb`` (the base mesh and its maps, the displacement map in the material's ``extras``),
 ``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package is installed)
-and ``lodK.glb``, level K tessellated and displaced, for engines without tessellation.
+and ``lodK.glb``, level K tessellated and displaced, for engines without tessellation
+(``written_level``: on the displaced geometry's own normals, the normal map re-expressed to
+shade as the engine convention does).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from ..init.projection_bake import bake
 from ..io.glb_bytes import to_glb_bytes
 from ..io.gpu_memory import gpu_bytes
 from ..io.image_files import write_png
+from ..io.normal_frames import on_own_normals
 from ..phases import phase
 from ..fit.displaced_mesh import DisplacedMesh
 from ..report.record import MethodResult
@@ -152,7 +155,7 @@ def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: P
     base_bytes, base_gpu = (folder / "base.glb").stat().st_size, gpu_bytes(folder / "base.glb")["total"]
     rows = []
     for level in levels:
-        drawn = tessellated(model, level)
+        drawn = written_level(model, level)
         io.save(drawn, folder / f"lod{level}.glb")
         ours = scores["ours" if level == levels[-1] else f"ours_l{level}"]
         start = scores["start" if level == levels[-1] else f"start_l{level}"]
@@ -167,6 +170,15 @@ def write_displacement(model: Asset, guess: InitialGuess, cfg: Config, folder: P
                         "bake_psnr": baked.psnr, "bake_flip": baked.flip})
         rows.append(row)
     return rows
+
+
+def written_level(model: Asset, level: int | None = None) -> Asset:
+    """``model`` tessellated and displaced at ``level`` (default its own) as files hold it: with
+    engine shading, on the displaced geometry's own normals, the normal map re-expressed so that
+    every texel shades as the base's interpolated frame shades it (``io.normal_frames.on_own_normals``):
+    a rasterizer draws the same picture either way, and renderers that light by the facets as
+    well (Cycles) or filter the map their own way agree with it far better (``docs/benchmarks.md``)."""
+    return on_own_normals(tessellated(model, level))
 
 
 def glb_gpu_bytes(data: bytes) -> int:
@@ -190,7 +202,8 @@ def write_exr(heights: np.ndarray, path: Path) -> None:
 
 DISPLACE = Application(command="displace", outdir_suffix="-displaced", initial_guess=displace_guess,
                        defaults=DISPLACE_DEFAULTS, start_label="Classic displacement bake", latent=displaced_latent,
-                       variants=level_variants, written_form=tessellated, files=write_displacement)
+                       variants=level_variants, every_variant_gains=True, written_form=written_level,
+                       files=write_displacement)
 """``displace``: a base mesh with a displacement map, fitted at every tessellation level."""
 
 

@@ -150,6 +150,9 @@ class Application:
         latent: ``(input, start, cfg, moving) -> Latent``, the model the loop fits.
         variants: ``(model, cfg) -> [(key, label, asset)]``, other forms of the written model
             scored beside it (e.g. a displaced model at each tessellation level).
+        every_variant_gains: choose the fit's state on the least gain over the start among the
+            model and its ``variants`` (each must gain), not on their mean
+            (``WrittenModel.every_form_gains``).
         written_form: ``model -> asset``, what ``model.glb`` holds (e.g. a displaced model
             tessellated at its level, for viewers that cannot displace).
         files: ``(model, guess, cfg, folder, methods) -> rows or None``, writes the
@@ -167,6 +170,7 @@ class Application:
     reference: Callable[[Asset, Config, bool], RunReference] = run_reference
     latent: Callable[[Asset, Asset, Config, bool], Latent] = mesh_latent
     variants: Callable[[Asset, Config], list[tuple[str, str, Asset]]] = no_variants
+    every_variant_gains: bool = False
     written_form: Callable[[Asset], Asset] = as_fitted
     files: Callable[[Asset, InitialGuess, Config, Path, list[MethodResult]], list[dict] | None] = no_files
 
@@ -315,7 +319,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         latent = s.app.latent(asset, start, cfg, moving)
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)],
-                           flip_share=validation_flip_share(cfg))
+                           flip_share=validation_flip_share(cfg), every_form_gains=s.app.every_variant_gains)
     with s.stage("alpha of the start"):
         start_written = written.start(start)
     methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset, reference)

@@ -3,7 +3,9 @@ fit are scored on the validation views as they would be written (alpha-tested at
 cutoff, dithered, or blended: ``jobs.alpha_export``), so that the best state is the best
 *written* state, and a fit that ends below its start returns its start. The score is the mean
 PSNR, or where FLIP weighs in (``optim.validation_flip_share``) a blend of PSNR and FLIP in dB
-(``lookalike.report.metrics.perceptual_score``). Without validation views, the fit's best state
+(``lookalike.report.metrics.perceptual_score``); a model scored in several forms (a displaced
+model at each tessellation level) scores the mean over them, or, where every form must gain, the
+least gain of a form over the start's same form. Without validation views, the fit's best state
 is written as it is chosen by the loop (nothing to compare on)."""
 
 from __future__ import annotations
@@ -22,7 +24,9 @@ class WrittenModel:
     trains its alpha test in (``latent.mask_anneal``), at the start's cutoff; ``forms``: the
     forms a model is scored in, by the mean of their scores (e.g. a displaced model at each of
     its tessellation levels; by default the model alone); ``flip_share``: FLIP's weight in the
-    score (``HeldoutViews.validation_score``; 0: PSNR alone).
+    score (``HeldoutViews.validation_score``; 0: PSNR alone); ``every_form_gains``: score a
+    model by ``min_k (s_k - s_k(start))``, its least gain over the start among its forms, so
+    that the state chosen lifts each form rather than their mean at one form's cost.
 
     Attributes:
         choice: the alpha choice of the start, with which every state of the fit is scored.
@@ -31,12 +35,16 @@ class WrittenModel:
         alpha: ``{"start": label, "ours": label}``, how each writes its alpha
             (``alpha_export.alpha_label``), once chosen; ``"written"`` is added by ``kept``
             (the one of the model it returns).
+        start_forms: each form's score of the start as written, once ``start`` has scored it
+            (with ``every_form_gains``).
     """
 
     def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False,
-                 forms: Callable[[Asset], list[Asset]] = lambda model: [model], flip_share: float = 0.0):
+                 forms: Callable[[Asset], list[Asset]] = lambda model: [model], flip_share: float = 0.0,
+                 every_form_gains: bool = False):
         self.mode, self.validation, self.draw, self.annealed, self.forms = mode, validation, draw, annealed, forms
-        self.flip_share = flip_share
+        self.flip_share, self.every_form_gains = flip_share, every_form_gains
+        self.start_forms: list[float] | None = None
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
         self.alpha: dict[str, str | None] = {}
@@ -44,23 +52,34 @@ class WrittenModel:
     @property
     def metric(self) -> str:
         """What ``score`` is, for the report's lines."""
-        return "PSNR" if self.flip_share == 0 else f"score (PSNR and FLIP, FLIP's share {self.flip_share:g})"
+        metric = "PSNR" if self.flip_share == 0 else f"score (PSNR and FLIP, FLIP's share {self.flip_share:g})"
+        return f"least gain over the start among its forms in {metric}" if self.every_form_gains else metric
+
+    def form_scores(self, asset: Asset) -> list[float]:
+        """The validation score (dB, higher is better) of each of ``asset``'s ``forms``: its mean
+        PSNR, FLIP weighing in by ``flip_share``."""
+        return [self.validation.validation_score(form, self.draw, self.flip_share) for form in self.forms(asset)]
 
     def score(self, asset: Asset) -> float:
-        """The validation score (dB, higher is better) of ``asset`` (as it is), the mean over its
-        ``forms``: its mean PSNR, FLIP weighing in by ``flip_share``."""
-        forms = self.forms(asset)
-        return sum(self.validation.validation_score(form, self.draw, self.flip_share) for form in forms) / len(forms)
+        """The validation score of ``asset`` (as it is): the mean of its ``form_scores``, or with
+        ``every_form_gains`` (once the start is scored) their least gain over the start's."""
+        scores = self.form_scores(asset)
+        if self.every_form_gains and self.start_forms is not None:
+            return min(score - start for score, start in zip(scores, self.start_forms))
+        return sum(scores) / len(scores)
 
     def _scorer(self):
         return None if self.validation is None else self.score
 
     def start(self, start: Asset) -> Asset:
         """``start`` as written, its alpha choice the best on the validation views (kept as
-        ``choice``)."""
+        ``choice``; with ``every_form_gains`` its forms' scores kept as ``start_forms``)."""
         self.choice = chosen_alpha(start, self.mode, self._scorer())
         self.alpha["start"] = alpha_label(start, self.mode, self.choice)
-        return written_alpha(start, self.mode, self.choice)
+        written = written_alpha(start, self.mode, self.choice)
+        if self.every_form_gains and self.validation is not None:
+            self.start_forms = self.form_scores(written)
+        return written
 
     def validate(self, latent: Latent) -> float:
         """The loop's validator: the state of ``latent`` as written with the start's choice;
