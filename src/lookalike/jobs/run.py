@@ -344,13 +344,14 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                     for key, label, variant in s.app.variants(export, cfg)]
         methods.append(heldout.score("ours", "Ours", export, draw, cfg.latent.texture_size))
     motion = moving_picture(s, cfg, reference.renderer, export, heldout) if moving else None
-    record = run_record(s, cfg, asset, heldout, methods, fit, export, notes + guess.notes, interrupted, moving)
+    as_written = s.app.written_form(export)
+    record = run_record(s, cfg, asset, heldout, methods, fit, as_written, notes + guess.notes, interrupted, moving)
     record.device = device_label(device)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
     record.validation_metric = written.metric
     record.reference_coverage, record.start_distance = coverage, guess.start_distance
     reference.annotate(record, getattr(source, "nbytes", 0))
-    metrics = write_outputs(s, cfg, export, guess, record,
+    metrics = write_outputs(s, cfg, export, as_written, guess, record,
                             lambda model: heldout.score("compressed", "Ours, compressed", model, draw,
                                                         cfg.latent.texture_size))
     if not interrupted:
@@ -574,12 +575,12 @@ def moving_picture(s: _Session, cfg: Config, reference: Reference, export: Asset
 
 
 def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, methods: list[MethodResult],
-               fit: FitResult, export: Asset, notes: list[str], interrupted: bool, moving: bool) -> RunRecord:
-    """What the report and the metrics say of the run."""
+               fit: FitResult, as_written: Asset, notes: list[str], interrupted: bool, moving: bool) -> RunRecord:
+    """What the report and the metrics say of the run (``as_written``: what ``model.glb`` holds)."""
     return RunRecord(
         asset_name=asset.name, input=cfg.io.input, reference=heldout.reference, silhouette=heldout.silhouette,
         methods=methods, input_triangles=asset.mesh.num_triangles,
-        output_triangles=s.app.written_form(export).mesh.num_triangles,
+        output_triangles=as_written.mesh.num_triangles,
         texture_size=cfg.latent.texture_size, resolution=cfg.render.resolution,
         loss_history=np.asarray(fit.losses, dtype=np.float64),
         validation_history=np.asarray(fit.validation, dtype=np.float64).reshape(-1, 2),
@@ -591,9 +592,9 @@ def run_record(s: _Session, cfg: Config, asset: Asset, heldout: HeldoutViews, me
         view_labels=animated.pose_labels(asset, heldout.pose) if moving else None)
 
 
-def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, record: RunRecord,
-                  score: Callable[[Asset], MethodResult]) -> dict:
-    """``model.glb`` (+ ``model.obj``; with ``io.compress``, ``model.compressed.glb``, read back
+def write_outputs(s: _Session, cfg: Config, export: Asset, as_written: Asset, guess: InitialGuess,
+                  record: RunRecord, score: Callable[[Asset], MethodResult]) -> dict:
+    """``model.glb`` (``as_written``, the application's ``written_form`` of ``export``; + ``model.obj``; with ``io.compress``, ``model.compressed.glb``, read back
     and scored by ``score`` among the record's methods), the application's own files,
     ``config.toml``, ``report.html`` and ``metrics.json``, all or none
     (``jobs.outputs.staged_outputs``); returns the metrics. A compressed model whose tool fails
@@ -602,7 +603,7 @@ def write_outputs(s: _Session, cfg: Config, export: Asset, guess: InitialGuess, 
     optional = OptionalOutputs(s.outdir)
     with staged_outputs(s.outdir) as staging:
         with s.stage("export"):
-            model = write_model(s.app.written_form(export), staging, cfg.io.export_obj)
+            model = write_model(as_written, staging, cfg.io.export_obj)
             if cfg.io.compress:
                 with optional.attempt(COMPRESSED_NAME, record.notes):
                     record.methods.append(score(io.load(write_compressed(model, staging / COMPRESSED_NAME))))
