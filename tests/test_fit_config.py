@@ -61,6 +61,7 @@ def test_defaults_round_trip():
     ({"extras": {}}, "unknown section [extras]"),
     ({"views": {"pool_size": 1, "batch_size": 4}}, "pool_size"),
     ({"optim": {"outline_views": -1}}, "optim.outline_views must not be negative"),
+    ({"optim": {"lr_decades": -1.0}}, "optim.lr_decades must not be negative"),
     ({"optim": {"outline_weight": -0.5}}, "optim.outline_weight must not be negative"),
 ])
 def test_invalid_settings_are_refused_with_a_clear_message(data, words):
@@ -143,6 +144,7 @@ def test_the_loop_settings_follow_the_configuration(init):
     assert loop_settings(emissive, outline=True).learning_rates["emissive"] == 0.002
     assert (settings.views_per_step, settings.iterations, settings.lr_decay, settings.seed) == (3, 40, 0.01, 9)
     assert settings.lr_decades == (WARM_START if init == "bake" else COLD_START).lr_decades
+    assert loop_settings(config_from_dict({"optim": {"lr_decades": 3.0}}), outline=True).lr_decades == 3.0
     assert (settings.validate_every, settings.rollback_lr_factor, settings.max_rollbacks) == (7, 0.25, 5)
 
 

@@ -332,7 +332,9 @@ class OptimConfig:
         lr_decay: k in lr_t = lr_0 * 10^(-k t); ``None`` stretches the schedule over the run,
             k = decades / iterations, with ``COLD_START``'s two decades (the paper's; its 0.0002
             is that for its 10k steps) or ``WARM_START``'s one, as for ``lr_positions`` (see
-            ``lookalike.fit.schedule``).
+            ``lookalike.fit.schedule``), or ``lr_decades`` where set.
+        lr_decades: decades the learning rate falls over the run where ``lr_decay`` is unset;
+            ``None`` takes the start's (``StartDefaults.lr_decades``).
         outline_views: extra views per step, drawn with the batch, on which only the latent's
             antialiased coverage is rendered and compared (L1) with the reference's: cheap
             gradients for the vertices on the outline. ``None`` picks the warm or cold default
@@ -375,6 +377,7 @@ class OptimConfig:
     lr_displacement: float | None = None
     lr_weights: float = 0.1
     lr_decay: float | None = None
+    lr_decades: float | None = None
     outline_views: int | None = None
     outline_weight: float = 1.0
     laplacian_weight: float | None = None
@@ -476,6 +479,7 @@ class Config:
                                                    opt.lr_displacement, opt.lr_weights)),
              "learning rates must not be negative"),
             (opt.lr_decay is None or opt.lr_decay >= 0, "optim.lr_decay must not be negative"),
+            (opt.lr_decades is None or opt.lr_decades >= 0, "optim.lr_decades must not be negative"),
             (opt.outline_views is None or opt.outline_views >= 0, "optim.outline_views must not be negative"),
             (opt.outline_weight >= 0, "optim.outline_weight must not be negative"),
             (self.clamp.normal_max_slope > 0, "clamp.normal_max_slope must be positive"),

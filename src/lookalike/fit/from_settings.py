@@ -24,7 +24,8 @@ def loop_settings(config: Config, outline: bool) -> LoopSettings:
     return LoopSettings(learning_rates={"positions": lr_positions, "textures": lr_textures, "emissive": lr_emissive,
                                         "displacement": lr_displacement, "weights": opt.lr_weights},
                         views_per_step=views.batch_size + count, iterations=opt.iterations, lr_decay=opt.lr_decay,
-                        lr_decades=start_defaults(config).lr_decades, seed=opt.seed,
+                        lr_decades=start_defaults(config).lr_decades if opt.lr_decades is None else opt.lr_decades,
+                        seed=opt.seed,
                         validate_every=opt.validate_every, rollback_lr_factor=opt.rollback_lr_factor,
                         max_rollbacks=opt.max_rollbacks, position_backoff=opt.position_backoff)
 

@@ -81,8 +81,8 @@ fit (scoring ours, and the report's pictures), once more for each further scorin
 (an animated run's moving picture, the bind-pose fit's), and for a model with trained alpha the
 validation renders of its candidate cutoffs (``lookalike.jobs.alpha_export``)."""
 
-OUTPUT_TIME_MARGIN = 5.0
-"""Plus these seconds (writing the glTF and the report's pictures)."""
+OUTPUT_TIME_MARGIN = 10.0
+"""Plus these seconds (writing the glTF, a displaced model's levels, and the report's pictures)."""
 
 POOL_STREAM, TEXTURE_STREAM = 1, 2
 """Independent random streams derived from the seed: ``default_rng((seed, stream))`` (the
