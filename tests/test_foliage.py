@@ -17,24 +17,28 @@ from lookalike.samples.foliage import (
     CONIFER_RINGS,
     CONIFER_SIDES,
     FOLIAGE,
+    GAME_CARDS,
     SOIL_SIDES,
     WHORL_BRANCHES,
     WHORLS,
     broadleaf_tree,
     conifer,
+    game_tree,
     grass_tuft,
     stitch,
 )
 from lookalike.samples.shrub import shrub
 
 SMALL = {"broadleaf-tree": lambda seed: broadleaf_tree(seed, cards=150, branches=3),
+         "game-tree": lambda seed: game_tree(seed, cards=60, branches=3),
          "grass-tuft": lambda seed: grass_tuft(seed, blades=40),
          "conifer": lambda seed: conifer(seed, whorls=6)}
 
 
 @pytest.fixture(scope="module")
 def default_assets():
-    return {"broadleaf-tree": broadleaf_tree(), "grass-tuft": grass_tuft(), "conifer": conifer()}
+    return {"broadleaf-tree": broadleaf_tree(), "game-tree": game_tree(), "grass-tuft": grass_tuft(),
+            "conifer": conifer()}
 
 
 def _arrays(asset):
@@ -59,8 +63,9 @@ def _closed_and_outward(v_pos, tri):
     return bool((count == 2).all()) and len(np.unique(directed, axis=0)) == len(directed) and volume > 0
 
 
-def test_the_registry_names_the_shrub_and_the_three_generators():
-    assert FOLIAGE == {"shrub": shrub, "broadleaf-tree": broadleaf_tree, "grass-tuft": grass_tuft, "conifer": conifer}
+def test_the_registry_names_the_shrub_and_the_four_generators():
+    assert FOLIAGE == {"shrub": shrub, "broadleaf-tree": broadleaf_tree, "game-tree": game_tree,
+                       "grass-tuft": grass_tuft, "conifer": conifer}
 
 
 @pytest.mark.parametrize("name", sorted(SMALL))
@@ -72,7 +77,8 @@ def test_a_seed_gives_the_same_asset_and_another_seed_another(name):
 
 
 @pytest.mark.parametrize("name, cutout",
-                         [("broadleaf-tree", "leaves"), ("grass-tuft", "blades"), ("conifer", "needles")])
+                         [("broadleaf-tree", "leaves"), ("game-tree", "leaves"), ("grass-tuft", "blades"),
+                          ("conifer", "needles")])
 def test_the_cards_are_alpha_cut_outs_and_the_rest_opaque(default_assets, name, cutout):
     asset = default_assets[name]
     for material in asset.materials:
@@ -92,18 +98,20 @@ def test_the_cards_are_alpha_cut_outs_and_the_rest_opaque(default_assets, name, 
     assert uv.min() >= 0 and uv.max() <= 1
 
 
-def test_the_tree_bark_is_one_closed_part_and_each_card_a_quad(default_assets):
-    tree = default_assets["broadleaf-tree"]
+@pytest.mark.parametrize("name, count", [("broadleaf-tree", CARDS), ("game-tree", GAME_CARDS)])
+def test_the_tree_bark_is_one_closed_part_and_each_card_a_quad(default_assets, name, count):
+    tree = default_assets[name]
     v_pos, bark = _triangles(tree, "bark")
     assert triangle_parts(v_pos, bark).max() == 0
     assert _closed_and_outward(v_pos, bark)
     v_pos, cards = _triangles(tree, "leaves")
-    assert np.array_equal(np.bincount(triangle_parts(v_pos, cards)), np.full(CARDS, 2))
+    assert np.array_equal(np.bincount(triangle_parts(v_pos, cards)), np.full(count, 2))
 
 
 @pytest.mark.parametrize("seed", range(1, 7))
 def test_the_bark_stays_one_closed_part_for_other_seeds_and_sizes(seed):
-    for asset in (broadleaf_tree(seed, cards=10, branches=2 + 2 * seed), conifer(seed, whorls=3)):
+    for asset in (broadleaf_tree(seed, cards=10, branches=2 + 2 * seed), game_tree(seed, cards=10, branches=1 + seed),
+                  conifer(seed, whorls=3)):
         v_pos, bark = _triangles(asset, "bark")
         assert triangle_parts(v_pos, bark).max() == 0 and _closed_and_outward(v_pos, bark)
 
@@ -115,6 +123,12 @@ def test_the_counts_are_as_documented(default_assets):
     assert 5_000 <= bark <= 25_000 and 10_000 <= tree.mesh.num_triangles <= 30_000
     lo, hi = tree.mesh.bounds()
     assert float(lo[1]) == 0 and 4 < float(hi[1]) < 8 and float((hi - lo)[[0, 2]].min()) > 2   # a crown, not a pole
+
+    game = default_assets["game-tree"]                        # a game's budget: a tenth of the bark, larger cards
+    assert int((game.mesh.t_mat_idx == 1).sum()) == 2 * GAME_CARDS and game.mesh.num_triangles == 5_604
+    assert int((game.mesh.t_mat_idx == 0).sum()) < bark / 4
+    lo, hi = game.mesh.bounds()
+    assert float(lo[1]) == 0 and 4 < float(hi[1]) < 8 and float((hi - lo)[[0, 2]].min()) > 2
 
     assert tuft.mesh.num_triangles == BLADES * 2 * BLADE_ROWS + SOIL_SIDES
     v_pos, blades = _triangles(tuft, "blades")

@@ -196,6 +196,17 @@ class RenderConfig:
             (the GPU, with the ``[cuda]`` extra), ``"cpu"``, or ``"auto"``, the GPU where torch
             sees one and numba-cuda is installed, else the CPU. The same seed gives the same
             bytes on the same device; the CPU and the GPU agree to float tolerance.
+        shadows: the reference and the models shadow themselves under each view's point light
+            (deep opacity shadow maps, ``lookalike.shading.shadow_maps``), as Cycles with
+            shadows draws them: leaves shadow leaves, and cards learn to cast alike. Off,
+            every point whose normal faces the light is lit, as real-time engines without
+            shadow maps draw.
+        shadow_layers: depth-peeled layers of each light's shadow map: how many shadowing
+            surfaces, nearest the light first, a point's light passes (beyond them it passes
+            freely).
+        shadow_resolution: side, in pixels, of each light's shadow map (square, just holding the
+            model's bounding sphere): the sharpness of shadow edges against the cost of each
+            render.
     """
 
     resolution: int = 512
@@ -205,6 +216,9 @@ class RenderConfig:
     layers: int = 1
     mip_footprint: str = "supersampled"
     device: str = "auto"
+    shadows: bool = False
+    shadow_layers: int = 4
+    shadow_resolution: int = 256
 
     @property
     def reference_layers(self) -> int:
@@ -447,6 +461,12 @@ class Config:
             (1 <= ren.layers <= MAX_LAYERS, f"render.layers must lie in [1, {MAX_LAYERS}], not {ren.layers}"),
             (ren.layers == 1 or not vw.relight,
              "views.relight keeps the nearest surface's G-buffer only: it needs render.layers = 1"),
+            (1 <= ren.shadow_layers <= MAX_LAYERS,
+             f"render.shadow_layers must lie in [1, {MAX_LAYERS}], not {ren.shadow_layers}"),
+            (16 <= ren.shadow_resolution <= MAX_RESOLUTION,
+             f"render.shadow_resolution must lie in [16, {MAX_RESOLUTION}], not {ren.shadow_resolution}"),
+            (not (ren.shadows and vw.relight),
+             "views.relight lights a stored G-buffer again, which casts no shadows: it needs render.shadows off"),
             (lat.displacement_shading in SHADING_CONVENTIONS,
              f"latent.displacement_shading (--shading) must be one of {', '.join(SHADING_CONVENTIONS)}, not "
              f"{lat.displacement_shading!r}"),

@@ -1,7 +1,8 @@
 """``lookalike bench cards``: foliage as cards on the generated foliage of
 ``lookalike.samples.foliage`` (the shrub of leaf meshes, and a broadleaf tree, a grass tuft and a
-conifer drawn as real-time foliage is, alpha-textured cards on bark), each at two budgets,
-0.5 % and 2 % of its triangles.
+conifer drawn as real-time foliage is, alpha-textured cards on bark, and a game's tree of 5,604
+triangles, leaf clusters on quads over low-poly bark), each at two budgets, 0.5 % and 2 % of its
+triangles.
 
 Per case, with default settings: ``cards`` as a user runs it (alpha-tested); on the shrub also
 ``simplify`` at the same triangle count (its renders peeled as deep as ``cards``', so that both
@@ -57,12 +58,16 @@ class CardsCase:
     sizes: dict = field(default_factory=dict, hash=False)
 
 
-BENCH_SIZES = {"shrub": {}, "broadleaf-tree": {}, "grass-tuft": {"blades": 3000}, "conifer": {"whorls": 480}}
+BENCH_SIZES = {"shrub": {}, "broadleaf-tree": {}, "game-tree": {}, "grass-tuft": {"blades": 3000},
+               "conifer": {"whorls": 480}}
 """Each kind's generator arguments: the tuft and the conifer denser than their defaults
 (24,016 and 17,540 triangles), so that 0.5 % of them still makes some fifty cards."""
 
 ASSETS = tuple(CardsCase(f"{kind}-{label}", kind, share, simplify=kind == "shrub", sizes=sizes)
-               for kind, sizes in BENCH_SIZES.items() for share, label in ((0.005, "0.5pct"), (0.02, "2pct")))
+               for kind, sizes in BENCH_SIZES.items() for share, label in ((0.005, "0.5pct"), (0.02, "2pct"))
+               ) + (CardsCase("game-tree-9pct", "game-tree", 0.09),)
+"""Every kind at 0.5 % and 2 % of its triangles; the game's tree also at 9 % (504 triangles),
+the gentle budget of a game's far LOD, at which plain decimation still keeps leaves."""
 
 METHODS = (("decimated", "Plain decimation"), ("blender_decimated", "Blender's Decimate"),
            ("stochastic", "Stochastic simplification"), ("simplify", "simplify"), ("start", "Billboard cloud"),

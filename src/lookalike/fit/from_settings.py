@@ -4,6 +4,7 @@ loop's settings and the objective. Kept apart from the settings, which import no
 from __future__ import annotations
 
 from ..settings import Config, emissive_learning_rate, learning_rates, outline_views, start_defaults
+from ..shading.shadow_maps import ShadowMapping
 from ..shading.texturing import ENGINE_FOOTPRINT, FOOTPRINT_SCALE
 from .loop import LoopSettings
 from .objective import Objective
@@ -42,3 +43,10 @@ def lookup_footprint(config: Config) -> float:
     """The models' texture lookup footprint for ``render.mip_footprint``: ``ENGINE_FOOTPRINT``
     for ``"engine"``, else ``FOOTPRINT_SCALE`` (``lookalike.shading.texturing``)."""
     return ENGINE_FOOTPRINT if config.render.mip_footprint == "engine" else FOOTPRINT_SCALE
+
+
+def shadow_mapping(config: Config) -> ShadowMapping | None:
+    """How the run's renders draw shadows (``render.shadows``, ``render.shadow_layers``,
+    ``render.shadow_resolution``): ``None`` where they draw none."""
+    ren = config.render
+    return ShadowMapping(ren.shadow_layers, ren.shadow_resolution) if ren.shadows else None

@@ -30,6 +30,7 @@ from ..shading.light import PointLight
 from ..shading.path_tracing import mitsuba_scene, render_path_traced
 from ..shading.pipeline import FixedAsset, render
 from ..shading.relight import CapturedView, capture_view
+from ..shading.shadow_maps import ShadowMapping
 from ..shading.sphere_tracing import render_field
 
 RENDER_CHUNK = 4
@@ -65,19 +66,21 @@ class Reference(Protocol):
 
 class MeshReference:
     """A static asset rendered by ``lookalike.shading.render``, supersampled, with ``layers``
-    depth-peeled layers (it does not move: ``pose`` is ignored); what its views share is
-    computed once (``FixedAsset``)."""
+    depth-peeled layers, shadowing itself as ``shadows`` says (``None``: no shadows); it does
+    not move (``pose`` is ignored); what its views share is computed once (``FixedAsset``)."""
 
     fixed_light = None
 
-    def __init__(self, asset: Asset, layers: int = 1):
+    def __init__(self, asset: Asset, layers: int = 1, shadows: ShadowMapping | None = None):
         self.asset = FixedAsset.of(asset)
         self.layers = layers
+        self.shadows = shadows
 
     @torch.no_grad()
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
                pose: Poses | None = None) -> torch.Tensor:
-        return render(self.asset, camera, light, (resolution, resolution), spp=spp, layers=self.layers)
+        return render(self.asset, camera, light, (resolution, resolution), spp=spp, layers=self.layers,
+                      shadows=self.shadows)
 
     def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
         """The view from ``camera`` (batch 1), ready to be lit again (``CapturedView.light``),
@@ -93,12 +96,14 @@ class SkinnedReference:
     of each view (``lookalike.asset.skinning.posed``: its file's normals skinned with it, as
     engines and viewers show it); without poses, in the rest pose. The triangles' topology and the texture
     pyramids are shared by every pose; normals, tangents and clip positions are computed per
-    pose, at a cost that grows with the input as a render's does."""
+    pose, at a cost that grows with the input as a render's does. It shadows itself as
+    ``shadows`` says (``None``: no shadows)."""
 
     fixed_light = None
 
-    def __init__(self, asset: Asset):
+    def __init__(self, asset: Asset, shadows: ShadowMapping | None = None):
         self.fixed = FixedAsset.of(asset)
+        self.shadows = shadows
 
     @property
     def asset(self) -> Asset:
@@ -109,7 +114,7 @@ class SkinnedReference:
                pose: Poses | None = None) -> torch.Tensor:
         pose = Poses.rest(camera.batch_size) if pose is None else pose
         return torch.cat([render(self.fixed.sharing(posed(self.asset, clip, time)), camera[views], light[views],
-                                 (resolution, resolution), spp=spp)
+                                 (resolution, resolution), spp=spp, shadows=self.shadows)
                           for views, clip, time in pose.runs()])
 
     def bounding_sphere(self) -> tuple[torch.Tensor, float]:

@@ -25,6 +25,7 @@ from ..shading.camera import Camera
 from ..shading.light import PointLight
 from ..shading.peeled_layers import LayerCount
 from ..shading.pipeline import render, render_coverage
+from ..shading.shadow_maps import ShadowMapping
 from ..shading.texturing import FOOTPRINT_SCALE
 from ..settings import ClampConfig
 from .position_steps import local_step_scale
@@ -91,6 +92,8 @@ class TexturedMesh(torch.nn.Module):
         coverage_ramp: the ramp's width at the start (``Material.coverage_ramp``).
         fitted_mips: fit every mip level of kd, ks and normal as its own variable.
         footprint: scale of its texture lookups' footprint (``lookalike.shading.texturing``).
+        shadows: how its renders draw its shadows on itself (``lookalike.shading.shadow_maps``),
+            or ``None`` (no shadows).
     """
 
     def __init__(self, mesh: Mesh, kd: torch.Tensor, ks: torch.Tensor, normal: torch.Tensor,
@@ -99,7 +102,8 @@ class TexturedMesh(torch.nn.Module):
                  texture_scales: tuple[float, ...] = (1.0,), emissive: torch.Tensor | None = None,
                  occlusion: torch.Tensor | None = None, layers: int = 1,
                  position_steps: torch.Tensor | None = None, mask_anneal: float = 0.0, coverage_ramp: float = 0.0,
-                 fitted_mips: bool = False, absolute_laplacian: bool = False, footprint: float = FOOTPRINT_SCALE):
+                 fitted_mips: bool = False, absolute_laplacian: bool = False, footprint: float = FOOTPRINT_SCALE,
+                 shadows: ShadowMapping | None = None):
         super().__init__()
         centre = torch.as_tensor(centre, dtype=torch.float32)
         radius = torch.as_tensor(radius, dtype=torch.float32)
@@ -128,6 +132,7 @@ class TexturedMesh(torch.nn.Module):
         self.wrap = wrap
         self.layers = layers
         self.footprint = footprint
+        self.shadows = shadows
         self.mask_anneal = mask_anneal
         self.start_ramp = coverage_ramp
         self.coverage_ramp = coverage_ramp
@@ -159,7 +164,7 @@ class TexturedMesh(torch.nn.Module):
                    train_alpha: bool, constant: frozenset[str] = frozenset(),
                    texture_scales: tuple[float, ...] = (1.0,), layers: int = 1, position_steps: str = "uniform",
                    mask_anneal: float = 0.0, fitted_mips: bool = False, absolute_laplacian: bool = False,
-                   footprint: float = FOOTPRINT_SCALE) -> TexturedMesh:
+                   footprint: float = FOOTPRINT_SCALE, shadows: ShadowMapping | None = None) -> TexturedMesh:
         """The latent starting from ``asset``: its mesh (UV set 0, normal slots) and its first material's
         base colour (alpha kept where ``train_alpha``), specular and normal textures (a flat
         normal map where it has none). The channels named in ``constant`` (``"kd"``, ``"ks"``)
@@ -170,7 +175,7 @@ class TexturedMesh(torch.nn.Module):
         ``position_steps``: ``"local"`` steps each vertex by its local size
         (``lookalike.fit.position_steps``), ``"uniform"`` all alike. A trained ``"MASK"``
         material's ``coverage_ramp`` is where the ramp starts; ``fitted_mips``,
-        ``absolute_laplacian``: see the class."""
+        ``absolute_laplacian``, ``footprint``, ``shadows``: see the class."""
         material = asset.materials[0]
         kd = material.kd.data[..., :4 if train_alpha else 3]
         ks = material.ks.data
@@ -189,7 +194,7 @@ class TexturedMesh(torch.nn.Module):
                      double_sided=material.double_sided, wrap=material.kd.wrap, texture_scales=texture_scales,
                      layers=layers, position_steps=steps, mask_anneal=mask_anneal,
                      coverage_ramp=material.coverage_ramp if train_alpha else 0.0, fitted_mips=fitted_mips,
-                     absolute_laplacian=absolute_laplacian, footprint=footprint,
+                     absolute_laplacian=absolute_laplacian, footprint=footprint, shadows=shadows,
                      **_emission_and_occlusion(material, size))
         return latent
 
@@ -297,7 +302,8 @@ class TexturedMesh(torch.nn.Module):
         """``render`` of ``asset``, this model as ``as_asset`` gives it or in another shape (a
         pose of it): ``[B, H, W, 4]``, differentiable."""
         return render(asset, camera, light, (resolution, resolution), spp=self.msaa, layers=self.layers,
-                      msaa=self.msaa > 1, layer_count=self.layers_used, footprint=self.footprint)
+                      msaa=self.msaa > 1, layer_count=self.layers_used, footprint=self.footprint,
+                      shadows=self.shadows)
 
     def coverage(self, camera: Camera, resolution: int, pose: Poses | None = None) -> torch.Tensor | None:
         """``[B, H, W]`` antialiased coverage with ``msaa`` x ``msaa`` samples; ``None`` where
@@ -379,18 +385,20 @@ def _emission_and_occlusion(material: Material, size) -> dict:
 
 
 def render_asset(asset: Asset, camera: Camera, light: PointLight, pose: Poses | None = None, *, resolution: int,
-                 msaa: int, layers: int = 1, footprint: float = FOOTPRINT_SCALE) -> torch.Tensor:
+                 msaa: int, layers: int = 1, footprint: float = FOOTPRINT_SCALE,
+                 shadows: ShadowMapping | None = None) -> torch.Tensor:
     """How fitted models and the baselines they are compared with are scored: every one of
     ``msaa`` x ``msaa`` samples per pixel shaded, as the reference is, over ``layers``
-    depth-peeled layers, texture lookups of ``footprint``, ``[B, H, W, 4]``,
+    depth-peeled layers, texture lookups of ``footprint``, shadowed as ``shadows`` says
+    (``None``: no shadows), ``[B, H, W, 4]``,
     differentiable (deterministic; what training's stochastic MSAA matches in expectation).
     A skinned asset is drawn in the poses ``pose`` (batch B) where given
     (``lookalike.asset.skinning.posed``); else as it is stored."""
     size = (resolution, resolution)
     if pose is None or asset.skin is None:
-        return render(asset, camera, light, size, spp=msaa, layers=layers, footprint=footprint)
+        return render(asset, camera, light, size, spp=msaa, layers=layers, footprint=footprint, shadows=shadows)
     return torch.cat([render(posed(asset, clip, time), camera[views], light[views], size, spp=msaa, layers=layers,
-                             footprint=footprint)
+                             footprint=footprint, shadows=shadows)
                       for views, clip, time in pose.runs()])
 
 

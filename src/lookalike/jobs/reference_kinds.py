@@ -17,6 +17,8 @@ import torch
 
 from ..asset import Asset
 from ..asset.pose import Poses
+from ..errors import ConfigError
+from ..fit.from_settings import shadow_mapping
 from ..fit.reference import FieldReference, MeshReference, PathTracedReference, Reference, SkinnedReference
 from ..report.heldout import AssetRenderer
 from ..report.record import RunRecord
@@ -143,12 +145,18 @@ def run_reference(asset: Asset, cfg: Config, moving: bool) -> RunReference:
     """The input drawn by its own renderer: path traced under fixed lighting where
     ``reference.renderer`` says so; an implicit surface sphere-traced (in a sphere around its
     mesh, ``FIELD_MARGIN`` of its bounds wider); a mesh by our pipeline, posed per view where
-    ``moving``, else still, with ``render.reference_layers`` depth-peeled layers."""
+    ``moving``, else still, with ``render.reference_layers`` depth-peeled layers, shadowing itself
+    where ``render.shadows`` says so. Raises ``ConfigError`` for shadows on an implicit surface,
+    whose sphere tracing casts none."""
     if cfg.reference.path_traced:
         return PathTracedInput(path_traced_reference(asset, cfg, moving), cfg)
     if asset.field is not None:
+        if cfg.render.shadows:
+            raise ConfigError("render.shadows: an implicit surface's sphere-traced reference casts no shadows")
         centre, radius = asset.mesh.bounding_sphere()
         extent = float((asset.field.hi - asset.field.lo).max())
         return FieldInput(FieldReference(asset.field, (centre, radius + FIELD_MARGIN * extent)))
-    return RunReference(SkinnedReference(asset) if moving else MeshReference(asset, cfg.render.reference_layers))
+    shadows = shadow_mapping(cfg)
+    return RunReference(SkinnedReference(asset, shadows) if moving
+                        else MeshReference(asset, cfg.render.reference_layers, shadows))
 

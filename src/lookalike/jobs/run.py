@@ -40,7 +40,7 @@ from ..asset import Asset, Material
 from ..devices import device_label, resolve_device
 from ..errors import ConfigError, DeviceError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
-from ..fit.from_settings import lookup_footprint, loop_settings, objective
+from ..fit.from_settings import lookup_footprint, loop_settings, objective, shadow_mapping
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
 from ..fit.progress_bar import CountedReference
@@ -98,7 +98,7 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
                "constant": constant_channels(asset) if cfg.latent.constant_colour else frozenset(),
                "texture_scales": cfg.latent.texture_scales, "position_steps": cfg.optim.position_steps,
                "mask_anneal": cfg.latent.mask_anneal, "fitted_mips": cfg.latent.fitted_mips,
-               "footprint": lookup_footprint(cfg),
+               "footprint": lookup_footprint(cfg), "shadows": shadow_mapping(cfg),
                "absolute_laplacian": cfg.latent.init == "sphere"}
     return (SkinnedMesh if moving else TexturedMesh).from_asset(start, **surface)
 
@@ -106,9 +106,10 @@ def mesh_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent
 def scoring_draw(cfg: Config) -> AssetRenderer:
     """How a run draws ours and the baselines on its held-out and validation views:
     ``render_asset`` at ``render.resolution``, with ``render.latent_msaa`` samples per axis, each
-    shaded, ``render.layers`` layers and the texture footprint of ``render.mip_footprint``."""
+    shaded, ``render.layers`` layers, the texture footprint of ``render.mip_footprint`` and the
+    shadows of ``render.shadows``, as the reference draws them."""
     return partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
-                   layers=cfg.render.layers, footprint=lookup_footprint(cfg))
+                   layers=cfg.render.layers, footprint=lookup_footprint(cfg), shadows=shadow_mapping(cfg))
 
 
 def no_remarks(asset: Asset) -> list[str]:

@@ -71,6 +71,21 @@ TREE_SIDES, TREE_RINGS = 12, 28
 TREE_LEVELS = (Level(9, 24, 8, (0.45, 0.92), 2, 0.55, 0.6, 0.4),     # main branches
                Level(6, 20, 4, (0.3, 0.9), 2, 0.5, 0.8, 0.4),        # sub-branches
                Level(4, 4, 3, (0.3, 0.95), 1, 0.45, 1.0, 0.3))       # twigs
+
+
+class TreeShape(NamedTuple):
+    """A tree's bark: the trunk's ``sides`` and ``rings``, and its generations of branches."""
+
+    sides: int
+    rings: int
+    levels: tuple[Level, ...]
+
+
+BROADLEAF = TreeShape(TREE_SIDES, TREE_RINGS, TREE_LEVELS)
+GAME_LEVELS = (Level(6, 8, 8, (0.45, 0.92), 1, 0.55, 0.6, 0.4),       # main branches
+               Level(4, 6, 4, (0.3, 0.9), 1, 0.5, 0.8, 0.4))         # sub-branches
+GAME_TREE = TreeShape(10, 10, GAME_LEVELS)
+GAME_CARDS, GAME_CARD_LENGTH = 1500, 1.1
 JITTER = 0.3
 TIP_V = 0.1                                                 # bark v from a tube's last ring to its tip
 
@@ -334,17 +349,20 @@ def twig_texture(rng: np.random.Generator, size: int = CARD_TEXTURE) -> np.ndarr
     return tile([twig_cell(rng, leaves, size) for _ in range(4)])
 
 
-def tree_bark(rng: np.random.Generator, branches: int) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """The broadleaf tree's bark (``bark_mesh``) with ``branches`` main branches, and the curves
-    ``[C, 3, 3]`` of its sub-branches and twigs, which carry the cards."""
+def tree_bark(rng: np.random.Generator, branches: int, shape: TreeShape | None = None
+              ) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """A tree's bark (``bark_mesh``) of ``shape`` (default ``BROADLEAF``) with ``branches`` main
+    branches, and the curves ``[C, 3, 3]`` of its two outermost generations, which carry the
+    cards."""
+    shape = BROADLEAF if shape is None else shape
     vertices = Vertices()
     lean = rng.normal(0.0, TREE_LEAN, 2)
     trunk = np.array([[[0.0, 0.0, 0.0], [0.0, TREE_HEIGHT / 2, 0.0], [lean[0], TREE_HEIGHT, lean[1]]]])
-    generations = [tubes(vertices, trunk, np.array([TREE_RADIUS]), TREE_SIDES, TREE_RINGS)]
-    for k, level in enumerate(TREE_LEVELS):
+    generations = [tubes(vertices, trunk, np.array([TREE_RADIUS]), shape.sides, shape.rings)]
+    for k, level in enumerate(shape.levels):
         level = level._replace(count=branches) if k == 0 else level
         generations.append(grow(rng, vertices, vertices.array(), generations[-1], level))
-    carriers = np.concatenate([generations[2].ctrl, generations[3].ctrl])
+    carriers = np.concatenate([generation.ctrl for generation in generations[-2:]])
     return bark_mesh(vertices, generations), carriers
 
 
@@ -354,11 +372,28 @@ def broadleaf_tree(seed: int = 0, cards: int = CARDS, branches: int = TREE_LEVEL
     twigs on each of those), 15,176 triangles by default whatever the seed; material 1, leaves:
     ``cards`` quads (2 triangles each) on the sub-branches and twigs, cut out of a 2 x 2 atlas of
     leafy twigs. By default 3,000 cards and 21,176 triangles in all."""
+    return cut_out_tree(seed, cards, branches, BROADLEAF, CARD_LENGTH)
+
+
+def game_tree(seed: int = 0, cards: int = GAME_CARDS, branches: int = GAME_LEVELS[0].count) -> Asset:
+    """A broadleaf tree as game trees are made, for ``seed``: the broadleaf tree's kind of crown
+    on a low-poly bark (``GAME_TREE``: the trunk, ``branches`` main branches and 4 sub-branches
+    on each, no twigs; 2,604 triangles by default whatever the seed), and ``cards`` larger quads,
+    each a cluster of leaves from the same 2 x 2 atlas of leafy twigs, on the main and
+    sub-branches. By default 1,500 cards and 5,604 triangles in all: the budget of a game's tree,
+    where the broadleaf tree's is a film's."""
+    return cut_out_tree(seed, cards, branches, GAME_TREE, GAME_CARD_LENGTH)
+
+
+def cut_out_tree(seed: int, cards: int, branches: int, shape: TreeShape, card_length: float) -> Asset:
+    """A tree of ``shape`` with ``branches`` main branches (``tree_bark``) and ``cards`` quads of
+    about ``card_length`` metres (``CARD_SPREAD``) on its outer branches, cut out of the twig
+    atlas (``twig_texture``): bark material 0, leaves material 1."""
     rng = np.random.default_rng(seed)
-    bark, carriers = tree_bark(rng, branches)
+    bark, carriers = tree_bark(rng, branches, shape)
     base, tangent = leaf_bases(rng, carriers, cards, CARD_START, CARD_BALL)
     frame = leaf_frames(rng, base, tangent)
-    length = CARD_LENGTH * rng.uniform(1 - CARD_SPREAD, 1 + CARD_SPREAD, (cards, 1))
+    length = card_length * rng.uniform(1 - CARD_SPREAD, 1 + CARD_SPREAD, (cards, 1))
     cell = rng.integers(0, 4, (cards, 1))
     v_pos, tri, v_tex = leaf_strips(base, frame, length, 0.5 * CARD_ASPECT * length, 0.0, 0.0, cell, rows=1, cols=1)
     return assemble([bark, (v_pos, tri, v_tex, tri)],
@@ -491,5 +526,5 @@ def conifer(seed: int = 0, whorls: int = WHORLS) -> Asset:
 
 
 FOLIAGE: dict[str, Callable[..., Asset]] = {"shrub": shrub, "broadleaf-tree": broadleaf_tree,
-                                            "grass-tuft": grass_tuft, "conifer": conifer}
+                                            "game-tree": game_tree, "grass-tuft": grass_tuft, "conifer": conifer}
 """The foliage assets of the benchmark by name: each ``(seed=0, ...) -> Asset``."""

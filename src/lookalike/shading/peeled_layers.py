@@ -24,6 +24,7 @@ from .camera import Camera
 from .gbuffer import GBuffer, MeshBuffers
 from .light import PointLight
 from .points import facing_viewer, light_points, surface_points, visible_alpha
+from .shadow_maps import DeepShadowMap
 from .surface import Surface, sample_surface
 from .texturing import TextureSampler
 
@@ -31,14 +32,16 @@ from .texturing import TextureSampler
 @dataclass
 class Frame:
     """What every layer of one ``render`` call shares: the asset, its per-render vertex
-    buffers, the views and lights, and the texture sampler (mip pyramids built once per
-    render, or once for all renders of a ``FixedAsset``)."""
+    buffers, the views and lights, the texture sampler (mip pyramids built once per
+    render, or once for all renders of a ``FixedAsset``) and, where the render draws shadows,
+    the lights' shadow maps (``None``: every point the light faces is lit)."""
 
     asset: object
     buffers: MeshBuffers
     camera: Camera
     light: PointLight
     sampler: TextureSampler = field(default_factory=TextureSampler)
+    shadow: DeepShadowMap | None = None
 
 
 def layer_gbuffer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, needed: torch.Tensor, factor: int,
@@ -59,9 +62,13 @@ def layer_gbuffer(frame: Frame, rast: torch.Tensor, rast_db: torch.Tensor, neede
 def shade_points(frame: Frame, gbuffers: list[GBuffer]) -> list[torch.Tensor]:
     """Straight-alpha colour ``[N_i, 4]`` of the points of each of ``gbuffers`` (the layers of
     one render), shaded together: one material lookup for all, because the backward pass of each
-    lookup costs a pass over the whole stacked mip pyramid however few points it has."""
+    lookup costs a pass over the whole stacked mip pyramid however few points it has. The light
+    reaching each point is scaled by its transmittance where ``frame`` has shadow maps."""
     gb = GBuffer.concatenate(gbuffers)
-    colour = light_points(surface_points(gb, frame_surface(frame, gb), frame.camera), frame.light)
+    points = surface_points(gb, frame_surface(frame, gb), frame.camera)
+    transmittance = (None if frame.shadow is None
+                     else frame.shadow.transmittance(points.position, points.view, points.geometric_normal))
+    colour = light_points(points, frame.light, transmittance)
     return list(torch.split(colour, [part.pixel.shape[0] for part in gbuffers]))
 
 

@@ -29,7 +29,9 @@ Conventions:
   see a surface. The paper's MSAA shades the pixel centre at the pixel's footprint instead: a
   fit against supersampled targets then learns maps that compensate for shading once per
   pixel, which show as grain in every renderer that shades per sample.
-- No ambient light: surfaces the point light does not reach are black.
+- No ambient light: surfaces the point light does not reach are black. No shadows unless
+  ``render`` is given ``shadows``: then a point's light is scaled by the share of it that the
+  asset lets through (deep opacity shadow maps, ``lookalike.shading.shadow_maps``); emission is not.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from .camera import Camera
 from .gbuffer import MeshBuffers
 from .light import PointLight
 from .peeled_layers import Frame, LayerCount, composite_layers, peel_and_shade
+from .shadow_maps import ShadowMapping, deep_shadow_map
 from .texturing import FOOTPRINT_SCALE, TextureSampler
 
 
@@ -100,7 +103,7 @@ def image_size(resolution) -> tuple[int, int]:
 
 def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, layers: int = 1,
            background=None, msaa: bool = False, layer_count: LayerCount | None = None,
-           footprint: float = FOOTPRINT_SCALE) -> torch.Tensor:
+           footprint: float = FOOTPRINT_SCALE, shadows: ShadowMapping | None = None) -> torch.Tensor:
     """Render B views of an asset.
 
     Args:
@@ -119,6 +122,10 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
         layer_count: where given, counts the layers this render used.
         footprint: scale of the texture lookups' footprint (``lookalike.shading.texturing``:
             ``FOOTPRINT_SCALE`` as supersampling renderers filter, ``ENGINE_FOOTPRINT`` as GPUs).
+        shadows: where given, the asset shadows itself: each view's light is drawn into deep
+            opacity shadow maps of these layers and resolution, once per call, and the light
+            reaching each shaded point is scaled by its transmittance
+            (``lookalike.shading.shadow_maps``); ``None``, no shadows.
     Returns:
         ``[B, H, W, 4]`` linear RGB radiance and alpha, row 0 = top of the picture. RGB is
         composited over the background; with none, over black (so RGB is premultiplied by
@@ -132,7 +139,9 @@ def render(asset, camera: Camera, light: PointLight, resolution, spp: int = 1, l
     if isinstance(asset, Asset):
         asset = tessellated(asset)
     buffers = mesh_buffers(asset, camera)
-    frame = Frame(asset, buffers, camera, light, texture_sampler(asset, footprint))
+    sampler = texture_sampler(asset, footprint)
+    shadow = None if shadows is None else deep_shadow_map(asset, buffers, light, sampler, shadows)
+    frame = Frame(asset, buffers, camera, light, sampler, shadow)
     shaded = peel_and_shade(frame, (height * spp, width * spp), spp, layers, msaa and spp > 1)
     if layer_count is not None:
         layer_count.add(len(shaded))

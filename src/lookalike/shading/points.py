@@ -85,12 +85,17 @@ def _normal_map_inputs(gb: GBuffer, surface: Surface) -> tuple[torch.Tensor, tor
     return tangent, surface.normal_map, mapped
 
 
-def light_points(points: SurfacePoints, light: PointLight) -> torch.Tensor:
+def light_points(points: SurfacePoints, light: PointLight, transmittance: torch.Tensor | None = None) -> torch.Tensor:
     """Straight-alpha colour ``[N, 4]`` (linear radiance, coverage) of ``points`` under
-    ``light``: ``lit_radiance`` (``bsdf.shade(kd, ks, n, v, l) * irradiance``, compiled) +
-    emissive, no light where the view's horizon test finds the light below the geometric surface."""
+    ``light``: ``lit_radiance`` (``bsdf.shade(kd, ks, n, v, l) * irradiance``, compiled), times
+    ``transmittance [N, 1]`` where given (the share of the light that reaches each point past
+    shadowing parts, ``lookalike.shading.shadow_maps``; exact, the radiance being linear in the
+    light's irradiance), + emissive, no light where the view's horizon test finds the light
+    below the geometric surface."""
     radiance = lit_radiance(points.kd, points.ks, points.normal, points.view_dir, points.position,
                             points.geometric_normal, points.view, light)
+    if transmittance is not None:
+        radiance = radiance * transmittance
     if points.emissive is not None:
         radiance = radiance + points.emissive
     return torch.cat([radiance, points.alpha], dim=-1)
