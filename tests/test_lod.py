@@ -139,20 +139,24 @@ def test_a_run_starts_from_the_alternative_that_scores_higher_on_its_validation_
     from lookalike.init.initial_guess import InitialGuess
     from lookalike.jobs.run import take_best_start
 
-    class Views:  # each start's PSNR is its number of triangles
-        def psnr(self, asset, draw):
-            return asset.mesh.num_triangles
+    def score(asset):  # each start's score is its number of triangles
+        return asset.mesh.num_triangles
 
     small, large = (dataclasses.replace(bumpy_sphere(), mesh=decimate(bumpy_sphere().mesh, n)) for n in (100, 200))
     guess = InitialGuess(start=small, baseline=small, bake=None, notes=[], alternatives=[("the larger", large)],
                          start_distance={"of": "the smaller"},
                          alternative_distances={"the larger": {"of": "the larger"}})
-    take_best_start(guess, Views(), None)
+    take_best_start(guess, score)
     assert guess.start is large and guess.alternatives == [] and "started from the larger" in guess.notes[-1]
     assert guess.start_distance == {"of": "the larger"}
     kept = InitialGuess(start=large, baseline=large, bake=None, notes=[], alternatives=[("the smaller", small)])
-    take_best_start(kept, Views(), None)
-    assert kept.start is large and kept.alternatives == [] and kept.notes == []
+    take_best_start(kept, score)
+    assert kept.start is large and kept.alternatives == []
+    assert kept.notes == ["started from the usual start: it scored higher on the validation views (200.00 dB) than "
+                          "the smaller (100.00 dB)"]
+    unjudged = InitialGuess(start=small, baseline=small, bake=None, notes=[], alternatives=[("the larger", large)])
+    take_best_start(unjudged, None)  # no validation views: the start stays, unremarked
+    assert unjudged.start is small and unjudged.alternatives == [] and unjudged.notes == []
 
 
 def test_simplify_prefilters_one_model_for_a_screen_size(tmp_path, capsys):

@@ -65,7 +65,8 @@ class InitialGuess:
     """Where the optimisation starts, and what it is compared with.
 
     Attributes:
-        start: the initial guess (one material, atlas in UV set 0).
+        start: the initial guess (one material, atlas in UV set 0; or a start that keeps the
+            input's materials, ``lookalike.init.leaf_texture_cards``).
         baseline: the low-poly model as users know it: plain decimation with the input's
             materials (``decimation_baseline``), or the user's mesh as given.
         bake: the classic bake onto ``start``'s mesh (material and how the projection went)
@@ -82,6 +83,8 @@ class InitialGuess:
             (``fitted_distance``) or of a kept trunk beside cards; ``"of"`` says which. ``None``
             where the start holds no such mesh (a sphere, cards alone).
         alternative_distances: ``start_distance`` of each alternative, by its label.
+        start_label: the report's label of the start where an alternative was taken
+            (``take_start``), else ``None`` (the application's own).
     """
 
     start: Asset
@@ -92,15 +95,20 @@ class InitialGuess:
     alternatives: list[tuple[str, Asset]] = field(default_factory=list)
     start_distance: dict | None = None
     alternative_distances: dict[str, dict] = field(default_factory=dict)
+    start_label: str | None = None
 
-    def take_start(self, label: str, start: Asset) -> None:
-        """Start from ``start`` (``label``: what it is) instead, with no alternatives left; a
-        classic bake the start was stays scored, as the comparison ``"baked"``; the start's
-        distance becomes the alternative's."""
-        replaced = "the classic bake" if self.bake is not None else "the usual start"
+    def take_start(self, label: str, start: Asset, usual: str | None = None) -> None:
+        """Start from ``start`` (``label``: what it is, also its label in the report) instead,
+        with no alternatives left; a classic bake the start was stays scored, as the comparison
+        ``"baked"``, and so does a start of another kind, called ``usual``, as
+        ``"usual_start"``; the start's distance becomes the alternative's."""
+        replaced = "the classic bake" if self.bake is not None else usual_start(usual)
         if self.bake is not None:
             self.comparisons.append(("baked", "Classic bake", self.baked))
+        elif usual is not None:
+            self.comparisons.append(("usual_start", usual, self.start))
         self.start, self.bake, self.alternatives = start, None, []
+        self.start_label = label[:1].upper() + label[1:]
         self.start_distance = self.alternative_distances.get(label)
         self.notes.append(f"started from {label}: it scored higher on the validation views than {replaced}")
 
@@ -112,7 +120,7 @@ class InitialGuess:
 
     def __setstate__(self, state: dict) -> None:
         comparisons = [(key, label, from_glb_bytes(data)) for key, label, data in state.get("comparisons", [])]
-        self.__dict__.update({"start_distance": None, "alternative_distances": {}, **state,
+        self.__dict__.update({"start_distance": None, "alternative_distances": {}, "start_label": None, **state,
                               "comparisons": comparisons})
 
     @property
@@ -123,6 +131,11 @@ class InitialGuess:
             return None
         return Asset(mesh=self.start.mesh, materials=[self.bake.material], skin=self.start.skin,
                      animations=self.start.animations, source=self.start.source)
+
+
+def usual_start(label: str | None) -> str:
+    """How a note names the application's own start called ``label`` (``None``: unnamed)."""
+    return f"the {label[:1].lower()}{label[1:]}" if label else "the usual start"
 
 
 def target_triangle_count(triangles: int | None, ratio: float, input_triangles: int) -> int:

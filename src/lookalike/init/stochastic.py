@@ -88,6 +88,28 @@ def pulled_contrast(material: Material, share: float) -> Material:
     return replace(material, kd=replace(material.kd, data=data, mips=None))
 
 
+def drawn_parts(count: np.ndarray, candidates: np.ndarray, budget: int,
+                rng: np.random.Generator) -> tuple[np.ndarray, float]:
+    """``(parts [K], lambda)``: the ``candidates`` (part indices) visited in a random order and
+    kept while their running triangle count (``count [P]``) stays within ``budget`` (at least
+    one is kept), and the share lambda of the candidates kept (1 without candidates)."""
+    order = rng.permutation(candidates)
+    kept = min(len(order), max(1, int((np.cumsum(count[order]) <= budget).sum())))
+    return order[:kept], kept / len(order) if len(order) else 1.0
+
+
+def enlarge_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray, label: np.ndarray, centroid: np.ndarray,
+                  moved: np.ndarray, share: float) -> None:
+    """Scale, in place in ``v_pos [V, 3]``, the vertices of the triangles where ``moved [T]``
+    about their part's centroid (``centroid [P, 3]``, ``label [T]``) by ``sqrt(1 / share)``,
+    so that kept parts make up the area of the ``1 / share`` times as many they stand for."""
+    vertex_part = np.full(len(v_pos), -1)
+    vertex_part[t_pos_idx[moved].reshape(-1)] = np.repeat(label[moved], 3)
+    inside = vertex_part >= 0
+    m = centroid[vertex_part[inside]]
+    v_pos[inside] = m + (1 / share) ** 0.5 * (v_pos[inside] - m)
+
+
 def _compacted(index: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """The rows ``[U]`` (ascending) of a table that ``index [T', 3]`` uses, and ``index``
     renumbered to them."""
@@ -119,19 +141,12 @@ def stochastic_simplification(asset: Asset, triangles: int, rng: np.random.Gener
         raise ConfigError(f"stochastic simplification to {triangles} triangles leaves none for the aggregate: "
                           f"its solid parts ({int(solid.sum())}, kept whole) alone have {int(count[solid].sum())} triangles")
 
-    small = rng.permutation(np.flatnonzero(~solid))
-    kept = min(len(small), max(1, int((np.cumsum(count[small]) <= budget).sum())))
-    share = kept / len(small) if len(small) else 1.0
+    drawn, share = drawn_parts(count, np.flatnonzero(~solid), budget, rng)
     keep = solid.copy()
-    keep[small[:kept]] = True
+    keep[drawn] = True
     tri_small = ~solid[label] & keep[label]                               # [T] kept triangles of small parts
     tri_kept = solid[label] | tri_small
-
-    vertex_part = np.full(len(v_pos), -1)
-    vertex_part[t_pos_idx[tri_small].reshape(-1)] = np.repeat(label[tri_small], 3)
-    moved = vertex_part >= 0
-    m = centroid[vertex_part[moved]]
-    v_pos[moved] = m + (1 / share) ** 0.5 * (v_pos[moved] - m)
+    enlarge_parts(v_pos, t_pos_idx, label, centroid, tri_small, share)
 
     materials = list(asset.materials)
     remap = np.arange(len(materials))

@@ -5,8 +5,12 @@ which decimation melts into blobs or loses. ``cards`` starts from a billboard cl
 (``lookalike.init.billboard_cloud``: the input's parts clustered by position and orientation,
 one textured quad per cluster, or one per part where the budget allows, its base colour and
 alpha baked by projection), with the large solid parts (a trunk, a pot) kept beside the cards
-as a decimated mesh where the budget allows (``lookalike.init.trunk_and_cards``), and fits the
-vertices, base colour + alpha, specular and normal map against renders of the input, with
+as a decimated mesh where the budget allows (``lookalike.init.trunk_and_cards``). Where the
+input is already cards of one leaf texture (game foliage), a second start keeps that texture
+on fewer, larger leaf quads (``lookalike.init.leaf_texture_cards``); the run keeps whichever
+start scores higher on its validation views, as written. It fits the vertices, base colour +
+alpha, specular and normal map (of a start that keeps the input's textures, the vertices and a
+tint per material, ``lookalike.fit.tinted_mesh``) against renders of the input, with
 ``render.layers`` depth-peeled layers composited back to front, both sides of each card lit.
 Each vertex steps by its own size (``lookalike.fit.position_steps``). The loss is the paper's
 for this application, squared L2 on tone-mapped colour. ``model.glb`` is alpha-tested
@@ -26,11 +30,16 @@ import numpy as np
 from ..asset import Asset
 from ..errors import ConfigError
 from ..init import decimate
+import torch
+
+from ..fit.latent import Latent
+from ..fit.tinted_mesh import TintedMesh, surface_of
+from ..init.leaf_texture_cards import LEAF_TEXTURE_START, leaf_texture_cards
 from ..init.trunk_and_cards import trunk_and_cards
 from ..init.initial_guess import InitialGuess, decimation_baseline
 from ..phases import phase
 from ..settings import Config, LatentConfig, OptimConfig, RenderConfig, ViewsConfig
-from .run import TEXTURE_STREAM, Application, keywords_doc, run
+from .run import TEXTURE_STREAM, Application, keywords_doc, mesh_latent, run
 from .run_result import RunResult
 
 CARDS_DEFAULTS = Config(
@@ -53,7 +62,8 @@ def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     textures, its large solid parts (a trunk, a pot) kept beside the cards as a decimated mesh
     where the budget allows (``lookalike.init.trunk_and_cards``; how far that mesh strays from
     those parts is the guess's ``start_distance``), and plain decimation to the same count as
-    the baseline. Raises ``ConfigError`` for settings that do not apply
+    the baseline; where the input is already cards of one leaf texture, the start that keeps
+    it (``lookalike.init.leaf_texture_cards``) as an alternative. Raises ``ConfigError`` for settings that do not apply
     (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
     if cfg.io.init_mesh or count is None:
         raise ConfigError("cards starts from its own billboard cloud: io.init_mesh does not apply")
@@ -62,14 +72,33 @@ def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     with phase("billboard cloud"):
         cloud = trunk_and_cards(asset, count, cfg.latent.texture_size,
                                 np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM)))
+    with phase("leaf texture kept"):
+        kept = leaf_texture_cards(asset, count, np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM, 1)))
     with phase("decimation"):
         decimated = decimate(asset.mesh, count)
     return InitialGuess(start=cloud.asset, baseline=decimation_baseline(asset, decimated), bake=None,
-                        notes=list(cloud.notes), start_distance=cloud.kept_distance)
+                        notes=list(cloud.notes), start_distance=cloud.kept_distance,
+                        alternatives=[] if kept is None else [(LEAF_TEXTURE_START, kept)])
+
+
+def keeps_input_textures(asset: Asset, start: Asset) -> bool:
+    """Whether every material of ``start`` has one of ``asset``'s own base colour textures (the
+    start that keeps the input's leaf texture; a billboard cloud's atlas is baked anew)."""
+    own = [m.kd.data for m in asset.materials]
+    return all(any(data.shape == m.kd.data.shape and torch.equal(data, m.kd.data) for data in own)
+               for m in start.materials)
+
+
+def cards_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Latent:
+    """The run's textured mesh (``mesh_latent``), or for a start that keeps the input's
+    textures a ``TintedMesh``: its vertices and a tint per material fitted, its texels held."""
+    if moving or not keeps_input_textures(asset, start):
+        return mesh_latent(asset, start, cfg, moving)
+    return TintedMesh(mesh_latent(asset, surface_of(start), cfg, False), start)
 
 
 CARDS = Application(command="cards", outdir_suffix="-cards", initial_guess=cards_guess,
-                    start_label="Billboard cloud", defaults=CARDS_DEFAULTS)
+                    start_label="Billboard cloud", defaults=CARDS_DEFAULTS, latent=cards_latent)
 """``cards``: a billboard cloud, fitted."""
 
 

@@ -48,7 +48,7 @@ from ..fit.reference import Reference
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
-from ..init.initial_guess import InitialGuess, target_triangle_count, uses_alpha
+from ..init.initial_guess import InitialGuess, target_triangle_count, usual_start, uses_alpha
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..limits import MAX_LAYERS, MAX_WORKERS
@@ -60,7 +60,7 @@ from ..settings import (Config, config_to_dict, refresh_interval, section_of, se
                         validation_flip_share, with_overrides)
 from ..threads import CoreShare, set_threads
 from . import animated
-from .alpha_export import ALPHA_CANDIDATES, annealed_alpha, training_start
+from .alpha_export import ALPHA_CANDIDATES, AlphaChoice, annealed_alpha, training_start, written_alpha
 from .bind_pose import BIND_POSE_STAGE, bind_pose_fit
 from .compressed_model import COMPRESSED_NAME, check_compression_tools, compress_seconds, write_compressed
 from .input_asset import prepare_input
@@ -314,13 +314,18 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
                                             partial(draw, layers=MAX_LAYERS if uses_alpha(asset) else 1))
-    with s.stage("the start"):
-        take_best_start(guess, validation, draw)
-        start = reference.latent_start(training_start(guess.start, cfg.latent.alpha_mode, cfg.latent.mask_anneal))
-        latent = s.app.latent(asset, start, cfg, moving)
-    written = WrittenModel(cfg.latent.alpha_mode, validation, draw, annealed=annealed_alpha(start),
+    written = WrittenModel(cfg.latent.alpha_mode, validation, draw,
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)],
                            flip_share=validation_flip_share(cfg), every_form_gains=s.app.every_variant_gains)
+
+    def prepared(model: Asset) -> Asset:
+        return reference.latent_start(training_start(model, cfg.latent.alpha_mode, cfg.latent.mask_anneal))
+
+    with s.stage("the start"):
+        take_best_start(guess, start_as_written(written, prepared), s.app.start_label)
+        start = prepared(guess.start)
+        latent = s.app.latent(asset, start, cfg, moving)
+    written.annealed = annealed_alpha(start)
     with s.stage("alpha of the start"):
         start_written = written.start(start)
     methods = score_baselines(s, cfg, heldout, draw, guess, start_written, asset, reference)
@@ -439,20 +444,34 @@ def starting_point(s: _Session, cfg: Config, asset: Asset, moving: bool) -> tupl
     return guess, checkpointer
 
 
-def take_best_start(guess: InitialGuess, views: HeldoutViews, draw) -> None:
-    """Start from whichever of ``guess.start`` and ``guess.alternatives`` scores the highest
-    mean PSNR on ``views`` (the validation views: the held-out ones stay unseen); the
-    alternatives are then dropped (``InitialGuess.take_start``); without validation views the
-    start stays."""
-    if not guess.alternatives or views is None:
+def take_best_start(guess: InitialGuess, score: Callable[[Asset], float] | None, usual: str | None = None) -> None:
+    """Start from whichever of ``guess.start`` and ``guess.alternatives`` has the highest
+    ``score`` (the validation views, each start as written: the held-out ones stay unseen); the
+    alternatives are then dropped (``InitialGuess.take_start``, which keeps the usual start,
+    called ``usual``, scored beside them) and a note says which start was taken and why;
+    without validation views (``score`` ``None``) the start stays."""
+    if not guess.alternatives or score is None:
         guess.alternatives = []
         return
-    scores = [(views.psnr(asset, draw), label, asset) for label, asset in guess.alternatives]
-    best = max(scores, key=lambda score: score[0])
-    if best[0] > views.psnr(guess.start, draw):
-        guess.take_start(best[1], best[2])
+    scores = [(score(asset), label, asset) for label, asset in guess.alternatives]
+    best = max(scores, key=lambda candidate: candidate[0])
+    own = score(guess.start)
+    if best[0] > own:
+        guess.take_start(best[1], best[2], usual)
     else:
+        others = ", ".join(f"{label} ({value:.2f} dB)" for value, label, _ in scores)
+        guess.notes.append(f"started from {usual_start(usual)}: it scored higher on the validation views "
+                           f"({own:.2f} dB) than {others}")
         guess.alternatives = []
+
+
+def start_as_written(written: WrittenModel, prepared: Callable[[Asset], Asset]) -> Callable[[Asset], float] | None:
+    """The validation score of a start as the fit would begin from it (``prepared``) and as it
+    would be written at its own alpha cutoff (one scoring, not the full alpha choice); ``None``
+    without validation views."""
+    if written.validation is None:
+        return None
+    return lambda start: written.score(written_alpha(prepared(start), written.mode, AlphaChoice()))
 
 
 def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool,
@@ -504,7 +523,7 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
             methods.append(heldout.score(key, label + drawn, model, baseline_draw, cfg.latent.texture_size))
     if s.app.start_label is not None:
         with s.stage(f"{scoring} the start"):
-            methods.append(heldout.score("start", s.app.start_label + drawn, start, baseline_draw,
+            methods.append(heldout.score("start", (guess.start_label or s.app.start_label) + drawn, start, baseline_draw,
                                          cfg.latent.texture_size))
     elif guess.baked is not None:
         with s.stage(f"{scoring} the classic bake"):
