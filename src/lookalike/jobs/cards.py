@@ -26,12 +26,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from ..asset import Asset
 from ..errors import ConfigError
 from ..init import decimate
-import torch
-
 from ..fit.latent import Latent
 from ..fit.tinted_mesh import TintedMesh, surface_of
 from ..init.leaf_texture_cards import LEAF_TEXTURE_START, leaf_texture_cards
@@ -63,8 +62,8 @@ def cards_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess:
     where the budget allows (``lookalike.init.trunk_and_cards``; how far that mesh strays from
     those parts is the guess's ``start_distance``), and plain decimation to the same count as
     the baseline; where the input is already cards of one leaf texture, the start that keeps
-    it (``lookalike.init.leaf_texture_cards``) as an alternative. Raises ``ConfigError`` for settings that do not apply
-    (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
+    it (``lookalike.init.leaf_texture_cards``) as an alternative. Raises ``ConfigError`` for
+    settings that do not apply (``io.init_mesh``, ``latent.init`` other than ``"bake"``)."""
     if cfg.io.init_mesh or count is None:
         raise ConfigError("cards starts from its own billboard cloud: io.init_mesh does not apply")
     if cfg.latent.init != "bake":

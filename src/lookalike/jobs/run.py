@@ -522,9 +522,9 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
         with s.stage(f"{scoring} {label}"):
             methods.append(heldout.score(key, label + drawn, model, baseline_draw, cfg.latent.texture_size))
     if s.app.start_label is not None:
+        named = guess.start_label or s.app.start_label
         with s.stage(f"{scoring} the start"):
-            methods.append(heldout.score("start", (guess.start_label or s.app.start_label) + drawn, start, baseline_draw,
-                                         cfg.latent.texture_size))
+            methods.append(heldout.score("start", named + drawn, start, baseline_draw, cfg.latent.texture_size))
     elif guess.baked is not None:
         with s.stage(f"{scoring} the classic bake"):
             methods.append(heldout.score("baked", "Classic bake" + drawn, guess.baked, baseline_draw,
