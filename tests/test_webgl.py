@@ -165,3 +165,31 @@ def test_threejs_shadows_fall_through_the_cut_outs(modules, tmp_path):
     assert floor["opaque"] < floor["cut out"] < floor["unshadowed"], floor    # half of it lets the light through
     half = (floor["unshadowed"] + floor["opaque"]) / 2
     assert floor["cut out"] == pytest.approx(half, rel=0.15), floor
+
+
+def test_threejs_shadows_leave_either_side_of_a_lone_card_lit_and_a_sphere_without_acne(modules, tmp_path):
+    """A double-sided card alone, lit and seen from above and from below, and a lit sphere: with
+    shadows on, each is as bright as with them off (within 2 %) where the light reaches it
+    (nothing stands between them: a receiver offset along the vertex normal would put the card's
+    lit back face in its own shadow, and too small a bias stripes the sphere with acne)."""
+    from lookalike.shading.camera import Camera
+
+    card = card_over_floor(False)
+    keep = torch.tensor([2, 3])
+    card = Asset(mesh=Mesh(v_pos=card.mesh.v_pos, t_pos_idx=card.mesh.t_pos_idx[keep],
+                           uv=[(card.mesh.uv[0][0], card.mesh.uv[0][1][keep])], t_mat_idx=torch.zeros(2, dtype=torch.long)),
+                 materials=[card.materials[1]])
+    io.save(card, tmp_path / "card.glb")
+    io.save(Asset(mesh=uv_sphere(32, 64), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]),
+                                                              ks=Texture.constant([1.0, 1.0, 0.0]))]),
+            tmp_path / "ball.glb")
+    for name, side in (("card", 1.0), ("card", -1.0), ("ball", 1.0)):
+        camera = Camera.looking_at(torch.tensor([[0.3, 1.0 + 3.0 * side, 0.4]]), torch.tensor([[0.0, 1.0, 0.0]]))
+        light = PointLight(position=torch.tensor([[-0.5, 1.0 + 4.0 * side, 0.5]]),
+                           intensity=torch.tensor([[30.0, 30.0, 30.0]]))
+        plain, shadowed = (render_threejs(tmp_path / f"{name}.glb", camera, 64, light=light, samples=0, modules=modules,
+                                          shadows=shadows)[0] for shadows in (False, True))
+        lit = (plain[..., 3] > 0.99) & (plain[..., :3].mean(-1) > 0.2 * plain[..., :3].mean(-1).max())
+        assert lit.sum() > 100, (name, side)
+        ratio = shadowed[..., :3][lit].mean() / plain[..., :3][lit].mean()
+        assert ratio.item() == pytest.approx(1.0, abs=0.02), (name, side)
