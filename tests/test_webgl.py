@@ -131,23 +131,32 @@ def test_a_missing_three_js_is_one_line_naming_what_to_install(tmp_path):
         require_threejs(tmp_path / "node_modules")
 
 
-def card_over_floor(cut_out: bool) -> Asset:
-    """A grey floor (y = 0, 4 x 4) under a white card (y = 1, 1 x 1) lit from straight above:
-    the card alpha-tested, its half x < 0 cut away where ``cut_out``."""
-    floor, card = plane(2), plane(2)
-    floor.v_pos = torch.stack([4 * floor.v_pos[:, 0] - 2, torch.zeros(4), 2 - 4 * floor.v_pos[:, 1]], -1)
+LAMBERTIAN = Texture.constant([1.0, 1.0, 0.0])
+"""A specular map of no specular (glTF's occlusion, roughness, metalness: 1, 1, 0)."""
+
+
+def white_card(cut_out: bool) -> Asset:
+    """A white card (y = 1, 1 x 1, double-sided, alpha-tested), its half x < 0 cut away where
+    ``cut_out``."""
+    card = plane(2)
     card.v_pos = torch.stack([card.v_pos[:, 0] - 0.5, torch.ones(4), 0.5 - card.v_pos[:, 1]], -1)
     kd = torch.ones(16, 16, 4)
     if cut_out:
         kd[:, :8, 3] = 0.0                                                    # u < 0.5: x < 0
-    t_pos_idx = torch.cat([floor.t_pos_idx, card.t_pos_idx + 4])
-    uv = torch.cat([floor.uv[0][0], card.uv[0][0]])
-    mesh = Mesh(v_pos=torch.cat([floor.v_pos, card.v_pos]), t_pos_idx=t_pos_idx, uv=[(uv, t_pos_idx.clone())],
+    return Asset(mesh=card, materials=[Material(name="card", kd=Texture(kd), ks=LAMBERTIAN, alpha_mode="MASK",
+                                                alpha_cutoff=0.5, double_sided=True)])
+
+
+def card_over_floor(cut_out: bool) -> Asset:
+    """A grey floor (y = 0, 4 x 4) under ``white_card(cut_out)``, lit from straight above."""
+    floor, card = plane(2), white_card(cut_out)
+    floor.v_pos = torch.stack([4 * floor.v_pos[:, 0] - 2, torch.zeros(4), 2 - 4 * floor.v_pos[:, 1]], -1)
+    t_pos_idx = torch.cat([floor.t_pos_idx, card.mesh.t_pos_idx + 4])
+    uv = torch.cat([floor.uv[0][0], card.mesh.uv[0][0]])
+    mesh = Mesh(v_pos=torch.cat([floor.v_pos, card.mesh.v_pos]), t_pos_idx=t_pos_idx, uv=[(uv, t_pos_idx.clone())],
                 t_mat_idx=torch.tensor([0, 0, 1, 1]))
-    lambertian = Texture.constant([1.0, 1.0, 0.0])
-    return Asset(mesh=mesh, materials=[
-        Material(name="floor", kd=Texture.constant([0.5, 0.5, 0.5, 1.0]), ks=lambertian),
-        Material(name="card", kd=Texture(kd), ks=lambertian, alpha_mode="MASK", alpha_cutoff=0.5, double_sided=True)])
+    return Asset(mesh=mesh, materials=[Material(name="floor", kd=Texture.constant([0.5, 0.5, 0.5, 1.0]), ks=LAMBERTIAN),
+                                       *card.materials])
 
 
 def test_threejs_shadows_fall_through_the_cut_outs(modules, tmp_path):
@@ -174,14 +183,8 @@ def test_threejs_shadows_leave_either_side_of_a_lone_card_lit_and_a_sphere_witho
     lit back face in its own shadow, and too small a bias stripes the sphere with acne)."""
     from lookalike.shading.camera import Camera
 
-    card = card_over_floor(False)
-    keep = torch.tensor([2, 3])
-    card = Asset(mesh=Mesh(v_pos=card.mesh.v_pos, t_pos_idx=card.mesh.t_pos_idx[keep],
-                           uv=[(card.mesh.uv[0][0], card.mesh.uv[0][1][keep])], t_mat_idx=torch.zeros(2, dtype=torch.long)),
-                 materials=[card.materials[1]])
-    io.save(card, tmp_path / "card.glb")
-    io.save(Asset(mesh=uv_sphere(32, 64), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]),
-                                                              ks=Texture.constant([1.0, 1.0, 0.0]))]),
+    io.save(white_card(False), tmp_path / "card.glb")
+    io.save(Asset(mesh=uv_sphere(32, 64), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]), ks=LAMBERTIAN)]),
             tmp_path / "ball.glb")
     for name, side in (("card", 1.0), ("card", -1.0), ("ball", 1.0)):
         camera = Camera.looking_at(torch.tensor([[0.3, 1.0 + 3.0 * side, 0.4]]), torch.tensor([[0.0, 1.0, 0.0]]))
