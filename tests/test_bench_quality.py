@@ -99,6 +99,17 @@ def test_bench_command_runs_only_the_chosen_assets(stub_simplify, tmp_path, caps
     assert "benchmark assets are missing: no folder" in capsys.readouterr().err
 
 
+def test_bench_command_passes_a_time_budget_to_the_runs(stub_simplify, tmp_path, capsys):
+    from lookalike.cli import main
+
+    calls, assets = stub_simplify
+    assert main(["bench", "quality", "--asset", "spot", "--assets-dir", str(assets), "--time-budget", "90s",
+                 "--out", str(tmp_path / "out")]) == 0
+    assert [c.time_budget for c in calls] == [90.0]
+    assert main(["bench", "render", "--time-budget", "90s"]) != 0
+    assert "--time-budget: bench render does not take it" in capsys.readouterr().err
+
+
 def _judged(ours_cycles: float, blender_cycles: float, ours_ours: float, baked_ours: float) -> dict:
     """A ``judged_row``-shaped result with the given PSNRs (FLIP lower for ours)."""
     def scores(values):

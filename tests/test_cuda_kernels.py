@@ -312,14 +312,15 @@ def test_texture_pyramid_sum_matches_the_twin(size):
     levels = [4 * torch.randn(h, w, 3, generator=generator) for h, w in sizes]
     low, high = torch.tensor([0.0, -0.5, -math.inf]), 0.8
     scales = (0.25, 0.5, 1.0)[: len(sizes)]
-    ours_levels = [level.clone().requires_grad_(True) for level in levels]
+    # on DEVICE from the start: compose takes the excess off the levels in place
+    ours_levels = [level.clone().to(DEVICE).requires_grad_(True) for level in levels]
     twin_levels = [level.clone().requires_grad_(True) for level in levels]
     ours, gradients = on_cuda(lambda *ls: compose(list(ls), scales, low, high), *ours_levels, gradients_to=ours_levels)
     twin = compose_python(twin_levels, scales, low, high)
     assert ours.max() == 0.8 and ours[..., 2].min() < -0.5  # the bounds were active
     torch.testing.assert_close(ours, twin)
-    torch.testing.assert_close(ours_levels[0].detach(), twin_levels[0].detach())  # the same excess taken off
-    torch.testing.assert_close(gradients, weighted_sum_gradients([twin], twin_levels))
+    torch.testing.assert_close(ours_levels[0].detach().cpu(), twin_levels[0].detach())  # the same excess taken off
+    torch.testing.assert_close([g.cpu() for g in gradients], list(weighted_sum_gradients([twin], twin_levels)))
 
 
 def test_slope_normals_match_the_twin():
@@ -421,6 +422,17 @@ CUDA_MODULES = ["render.visibility", "render.barycentrics", "render.interpolate"
 SCATTERING = [f"lookalike.render.{name}_cuda.{name}_backward" for name in ("barycentrics", "interpolate", "texture")]
 """The kernels whose threads add into shared elements (``kernel_scatter.scatter_add``): their
 PTX must add atomically."""
+
+
+def test_the_render_bench_launches_an_empty_kernel_and_counts_the_launches():
+    from lookalike.bench import render as bench
+    from lookalike.devices import launches
+
+    before = launches()
+    assert bench.time_launch(DEVICE, repeats=3) > 0
+    assert launches() - before == 4  # the compiling launch and three timed ones
+    for key in [k for k in LAUNCHED if k[0] == bench.__name__]:  # a local kernel: nothing to compile by name
+        del LAUNCHED[key]
 
 
 def test_every_launched_kernel_compiles_for_the_gpu(tmp_path):

@@ -18,3 +18,15 @@ def test_benchmark_scene_renders_and_table_lists_targets():
     assert 0.1 < coverage < 0.9  # the sphere is in view, not filling it
     table = bench.format_table({"visibility_100k_ms": 12.5, "cpu_per_wall": 1.8, "threads": 2})
     assert "<= 70" in table and ">= 1.8" in table and "threads" in table
+
+
+def test_table_holds_a_gpu_run_to_the_gpu_frame_target():
+    table = bench.format_table({"device": "cuda:0 (NVIDIA H200)", "frame_total_ms": 4.0, "visibility_100k_ms": 3.0})
+    assert "<= 5" in table and "<= 70" not in table and "<= 120" not in table
+
+
+def test_cpu_timings_run_on_the_device_they_are_given():
+    cpu = torch.device("cpu")
+    assert bench.time_visibility(2_000, 1, cpu) > 0
+    frame = bench.time_frame(1, cpu)
+    assert frame["frame_total_ms"] >= frame["frame_forward_ms"] > 0

@@ -22,6 +22,8 @@ but the tests uses it.
 from __future__ import annotations
 
 import contextlib
+import copy
+import dataclasses
 import sys
 import types
 from collections.abc import Iterator
@@ -32,8 +34,12 @@ THREADS_PER_BLOCK = 128
 """GPU threads per block of every launch: a multiple of the warp, small enough that blocks of
 kernels with many registers still fit several to a multiprocessor."""
 
+CPU = "cpu"
+"""The device name of the CPU (``torch.device`` takes it as it is)."""
+
 _cuda_kernels_for_cpu_tensors = False
 _device_functions: dict = {}
+_launches = 0
 
 
 def numba_cuda():
@@ -117,6 +123,32 @@ def device_label(device) -> str:
     return f"cuda:{index} ({torch.cuda.get_device_name(index)})"
 
 
+def moved(value, device):
+    """``value`` with every tensor in it on ``device``: a tensor, or a dataclass, list, tuple or
+    dict holding tensors (nested), rebuilt around the moved tensors (a shallow copy of each
+    dataclass, so ``init=False`` fields move too); anything else, and whatever holds no tensor
+    off ``device``, is returned as it is (the same object). How a run carries its assets, views and
+    references to the GPU in one call each."""
+    if hasattr(value, "is_cuda"):
+        return value.to(device)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        fields = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+        changed = {name: v for name, old in fields.items() if (v := moved(old, device)) is not old}
+        if not changed:
+            return value
+        twin = copy.copy(value)
+        for name, v in changed.items():
+            object.__setattr__(twin, name, v)
+        return twin
+    if isinstance(value, (list, tuple, dict)):
+        items = list(value.items()) if isinstance(value, dict) else list(enumerate(value))
+        twins = [(k, moved(v, device)) for k, v in items]
+        if all(t is v for (_, v), (_, t) in zip(items, twins)):
+            return value
+        return dict(twins) if isinstance(value, dict) else type(value)(t for _, t in twins)
+    return value
+
+
 def device_failure(error: BaseException) -> str | None:
     """One line naming a failure of the GPU (torch's out of memory, a CUDA driver or runtime
     error from torch or numba-cuda), or ``None`` where ``error`` is not one."""
@@ -163,8 +195,10 @@ def launch(kernel, count: int, *args) -> None:
     """Run the CUDA ``kernel`` on ``count`` threads (``cuda.grid(1)`` is ``0 .. count - 1``; the
     kernel returns for the rest of the last block), on torch's current stream of its tensors'
     GPU. ``args``: tensors (passed by ``kernel_array``) and scalars."""
+    global _launches
     if count <= 0:
         return
+    _launches += 1
     cuda = numba_cuda()
     blocks = (count + THREADS_PER_BLOCK - 1) // THREADS_PER_BLOCK
     gpu = next((a.device for a in args if hasattr(a, "is_cuda") and a.is_cuda), None)
@@ -176,3 +210,8 @@ def launch(kernel, count: int, *args) -> None:
 
     stream = cuda.external_stream(torch.cuda.current_stream(gpu).cuda_stream)
     kernel[blocks, THREADS_PER_BLOCK, stream](*arrays)
+
+
+def launches() -> int:
+    """CUDA kernels launched by this process so far (``bench render`` counts a frame's)."""
+    return _launches

@@ -16,6 +16,14 @@ Figures (medians over ``repeats``):
 
 Targets on the 2-core reference machine: visibility <= 70 ms (100k) and <= 150 ms (500k),
 frame forward + backward <= 120 ms and CPU/wall >= 1.8, cached start-up <= 1 s.
+
+On a GPU (``device`` ``"cuda"``, or ``"auto"`` where there is one) the sphere, the texture and
+the targets live on it, the visibility figures time ``rasterize`` (the CUDA visibility kernels
+take a GPU tensor, the CPU query NumPy), every time is read after ``torch.cuda.synchronize``, and
+the start-up figures are left out (they time the CPU kernels' cache), and two more say where a
+frame's time goes: ``launches_per_frame``, the CUDA kernels it launches, and ``launch_us``, the
+wall time of launching an empty kernel with eight tensor arguments (the host's share of each
+launch). Target there: the frame <= 5 ms.
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ TARGETS = {
     "cpu_per_wall": 1.8,
     "startup_s": 1.0,
 }
+GPU_TARGETS = {"frame_total_ms": 5.0}
 
 _STARTUP_SCRIPT = """
 import time
@@ -103,42 +112,62 @@ def _median_ms(samples):
     return 1000.0 * statistics.median(samples)
 
 
-def time_visibility(n_triangles: int, repeats: int) -> float:
-    """Median ms of the visibility query, 4 views at 512x512."""
+def _clock(device):
+    """``time.perf_counter`` read once ``device``'s queued work is done."""
+    import torch
+
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+    return time.perf_counter()
+
+
+def time_visibility(n_triangles: int, repeats: int, device) -> float:
+    """Median ms of the visibility query, 4 views at 512x512 (on a GPU: of ``rasterize``)."""
     import numpy as np
 
+    import lookalike.render as dr
     from lookalike.render.visibility import visible_triangles
 
     rows = max(2, int(round(math.sqrt(n_triangles / 4))))
     v_pos, _, _, tri = sphere_mesh(rows, 2 * rows)
-    pos = to_clip(v_pos, orbit_mvp(4)).numpy()
-    tri = tri.numpy()
-    tri_range = np.array([[0, tri.shape[0]]] * 4)
-    visible_triangles(pos, tri, tri_range, 512, 512)
+    pos = to_clip(v_pos, orbit_mvp(4))
+    if device.type == "cuda":
+        pos, tri = pos.to(device), tri.to(device)
+
+        def query():
+            dr.rasterize(None, pos, tri, (512, 512))
+    else:
+        pos, tri = pos.numpy(), tri.numpy()
+        tri_range = np.array([[0, tri.shape[0]]] * 4)
+
+        def query():
+            visible_triangles(pos, tri, tri_range, 512, 512)
+    query()
     samples = []
     for _ in range(repeats):
-        start = time.perf_counter()
-        visible_triangles(pos, tri, tri_range, 512, 512)
-        samples.append(time.perf_counter() - start)
+        start = _clock(device)
+        query()
+        samples.append(_clock(device) - start)
     return _median_ms(samples)
 
 
-def time_frame(repeats: int) -> dict:
+def time_frame(repeats: int, device) -> dict:
     """Median forward / backward ms of one optimisation frame and the CPU/wall ratio."""
     import torch
 
     import lookalike.render as dr
+    from lookalike.devices import launches
 
-    v_pos, v_nrm, v_uv, tri = sphere_mesh(50, 50)
+    v_pos, v_nrm, v_uv, tri = (t.to(device) for t in sphere_mesh(50, 50))
     v_pos.requires_grad_(True)
-    texels = torch.rand(1, 1024, 1024, 4, requires_grad=True)
-    mvp = orbit_mvp(4)
-    light = torch.tensor([0.3, 0.8, 0.5])
-    target = torch.rand(4, 512, 512, 3)
+    texels = torch.rand(1, 1024, 1024, 4, device=device, requires_grad=True)
+    mvp = orbit_mvp(4).to(device)
+    light = torch.tensor([0.3, 0.8, 0.5], device=device)
+    target = torch.rand(4, 512, 512, 3, device=device)
     topology = dr.antialias_construct_topology_hash(tri)
 
     def one_frame() -> tuple[float, float]:
-        start = time.perf_counter()
+        start = _clock(device)
         pos = to_clip(v_pos, mvp)
         rast, rast_db = dr.rasterize(None, pos, tri, (512, 512))
         uv, uv_da = dr.interpolate(v_uv, rast, tri, rast_db, diff_attrs="all")
@@ -148,23 +177,47 @@ def time_frame(repeats: int) -> dict:
         shade = (normal * light).sum(-1, keepdim=True).clamp_min(0.0) + 0.05 * position.norm(dim=-1, keepdim=True)
         color = dr.antialias(albedo[..., :3] * shade, rast, pos, tri, topology)
         loss = (color - target).abs().mean()
-        middle = time.perf_counter()
+        middle = _clock(device)
         loss.backward()
-        end = time.perf_counter()
+        end = _clock(device)
         v_pos.grad, texels.grad = None, None
         return middle - start, end - middle
 
     one_frame()  # warm-up
+    launched = launches()
     wall0, cpu0 = time.perf_counter(), time.process_time()
     forward, backward = zip(*(one_frame() for _ in range(repeats)))
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-    return {
+    figures = {
         "frame_forward_ms": _median_ms(forward),
         "frame_backward_ms": _median_ms(backward),
         "frame_total_ms": _median_ms([f + b for f, b in zip(forward, backward)]),
         "frame_cpu_ms": 1000.0 * cpu / repeats,
         "cpu_per_wall": cpu / wall,
     }
+    if device.type == "cuda":
+        figures["launches_per_frame"] = (launches() - launched) / repeats
+    return figures
+
+
+def time_launch(device, repeats: int = 200) -> float:
+    """Mean wall microseconds of launching an empty CUDA kernel with eight tensor arguments."""
+    import torch
+
+    from lookalike.devices import launch, numba_cuda
+
+    cuda = numba_cuda()
+
+    @cuda.jit
+    def nothing(a, b, c, d, e, f, g, h):
+        pass
+
+    tensors = [torch.zeros(16, device=device) for _ in range(8)]
+    launch(nothing, 1, *tensors)  # compiles it
+    start = _clock(device)
+    for _ in range(repeats):
+        launch(nothing, 1, *tensors)
+    return 1e6 * (_clock(device) - start) / repeats
 
 
 def time_startup() -> dict:
@@ -182,24 +235,33 @@ def time_startup() -> dict:
     return {"compile_s": compile_s, "startup_s": startup_s}
 
 
-def run(repeats: int | None = None) -> dict:
+def run(repeats: int | None = None, device: str | None = None) -> dict:
+    """The figures on ``device`` (``"auto"``, ``"cuda"`` or ``"cpu"``; default ``"auto"``)."""
     repeats = 5 if repeats is None else max(1, repeats)
     import torch
 
+    from lookalike.devices import device_label, resolve_device
+
+    on = resolve_device(device or "auto")
     result = {
+        "device": device_label(on),
         "threads": torch.get_num_threads(),
-        "visibility_100k_ms": time_visibility(100_000, repeats),
-        "visibility_500k_ms": time_visibility(500_000, repeats),
+        "visibility_100k_ms": time_visibility(100_000, repeats, on),
+        "visibility_500k_ms": time_visibility(500_000, repeats, on),
     }
-    result.update(time_frame(repeats))
-    result.update(time_startup())
+    result.update(time_frame(repeats, on))
+    if on.type == "cuda":
+        result["launch_us"] = time_launch(on)
+    else:
+        result.update(time_startup())
     return result
 
 
 def format_table(result: dict) -> str:
     rows = [("figure", "value", "target")]
+    targets = TARGETS if result.get("device", "cpu") == "cpu" else GPU_TARGETS
     for key, value in result.items():
-        target = TARGETS.get(key)
+        target = targets.get(key)
         bound = "" if target is None else (f">= {target:g}" if key == "cpu_per_wall" else f"<= {target:g}")
         rows.append((key, f"{value:.3g}" if isinstance(value, float) else str(value), bound))
     width = [max(len(r[i]) for r in rows) for i in range(3)]

@@ -15,7 +15,7 @@ from ..bench.decimate import ASSETS as DECIMATE_ASSETS
 from ..bench.pathtraced import ASSETS as PATHTRACED_ASSETS
 from ..bench.skinned import ASSETS as SKINNED_ASSETS
 from ..errors import ConfigError
-from ..settings import DEVICES
+from ..settings import DEVICES, parse_duration
 
 HELP = "run a benchmark and print its figures"
 
@@ -43,8 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "\".[judge]\"; three (lod): also draw every level of both chains in three.js (headless "
                              "Chromium, see the README)")
     parser.add_argument("--device", choices=DEVICES, default=None,
-                        help="quality: where the tensors live and the kernels run (default: auto, the GPU "
+                        help="quality and render: where the tensors live and the kernels run (default: auto, the GPU "
                              "where torch sees one and numba-cuda is installed)")
+    parser.add_argument("--time-budget", metavar="T", default=None,
+                        help="benchmarks that run the tool (quality, cards, skinned, ...): wall time of each run, "
+                             "90s, 10m or seconds (default: the benchmark's own, mostly 10 minutes)")
     parser.add_argument("--reuse", action="store_true",
                         help="quality and skinned: take the runs already in --out instead of simplifying again (with --judge: "
                              "judge earlier runs); lod: keep the levels already fitted in --out and score them again")
@@ -58,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     cases = getattr(module, "ASSETS", ASSETS)
     asset_options = {"--asset": ("assets", select_assets(args.asset, cases) if args.asset else None),
                      "--assets-dir": ("assets_dir", args.assets_dir), "--judge": ("judge", args.judge),
-                     "--reuse": ("reuse", True if args.reuse else None), "--device": ("device", args.device)}
+                     "--reuse": ("reuse", True if args.reuse else None), "--device": ("device", args.device),
+                     "--time-budget": ("time_budget", None if args.time_budget is None else parse_duration(args.time_budget))}
     for flag, (parameter, value) in asset_options.items():
         if value is None:
             continue

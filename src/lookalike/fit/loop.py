@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from ..devices import moved
 from ..interrupts import BetweenSteps
 from ..phases import phase
 from ..threads import CoreShare
@@ -144,6 +145,7 @@ class Fitter:
                  validate: Validator | None = None, checkpointer: Checkpointer | None = None,
                  cores: CoreShare | None = None):
         self.latent = latent
+        self.device = next(iter(latent.parameters())).device  # where each step's views are moved
         self.source = source
         self.objective = objective
         self.settings = settings
@@ -182,7 +184,7 @@ class Fitter:
         """One optimisation step; returns the total loss (NaN if the step was rolled back)."""
         p = self.progress
         with phase("views"):
-            batch = self.source.sample(self.rng, self.settings.views_per_step)
+            batch = moved(self.source.sample(self.rng, self.settings.views_per_step), self.device)
         self._set_learning_rates()
         self.latent.at_progress(None if p.total is None else p.iteration / max(p.total, 1))
         self.optimizer.zero_grad(set_to_none=True)

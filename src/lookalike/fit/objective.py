@@ -94,7 +94,8 @@ class Objective:
                  total: int | None) -> Terms:
         """L of ``latent`` on ``batch`` at ``step`` of ``total``; draws the background colours,
         uniform in [0, 1], from ``rng``."""
-        background = torch.from_numpy(rng.uniform(0.0, 1.0, size=(self.batch_size, 3)).astype(np.float32))
+        background = torch.from_numpy(rng.uniform(0.0, 1.0, size=(self.batch_size, 3)).astype(np.float32)).to(
+            batch.target.device)
         image = self.image_loss(latent, batch, background)
         if hasattr(latent, "image_weight"):
             image = image * latent.image_weight(float(image.detach()))

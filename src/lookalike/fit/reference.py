@@ -21,6 +21,7 @@ import torch
 from ..asset import Asset
 from ..asset.pose import REST, Poses
 from ..asset.skinning import posed
+from ..devices import CPU, moved
 from ..io.atomic import save_array_atomic
 from ..io.mitsuba_runtime import mitsuba
 from ..shading.camera import Camera
@@ -82,6 +83,10 @@ class MeshReference:
         return render(self.asset, camera, light, (resolution, resolution), spp=spp, layers=self.layers,
                       shadows=self.shadows)
 
+    def to(self, device) -> MeshReference:
+        """This reference with its asset on ``device``, where its renders then run."""
+        return MeshReference(moved(self.asset.asset, device), self.layers, moved(self.shadows, device))
+
     def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
         """The view from ``camera`` (batch 1), ready to be lit again (``CapturedView.light``),
         which a still asset allows because its geometry never changes."""
@@ -109,6 +114,10 @@ class SkinnedReference:
     def asset(self) -> Asset:
         return self.fixed.asset
 
+    def to(self, device) -> SkinnedReference:
+        """This reference with its asset on ``device``, where its renders then run."""
+        return SkinnedReference(moved(self.asset, device), moved(self.shadows, device))
+
     @torch.no_grad()
     def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
                pose: Poses | None = None) -> torch.Tensor:
@@ -127,6 +136,38 @@ class SkinnedReference:
         lo, hi = points.min(dim=0).values, points.max(dim=0).values
         centre = 0.5 * (lo + hi)
         return centre, float((points - centre).norm(dim=-1).max())
+
+
+class ReferenceOn:
+    """``reference`` drawing for a run on ``device``: one that can move (``to``: a still or
+    animated asset) is moved there once and renders there, any other (a field, a path tracer)
+    renders where it is; either way the views it is given are moved to where it renders and its
+    images returned on ``device``, and its bounding sphere on the CPU, where views are drawn.
+    Everything else is the wrapped reference's."""
+
+    def __init__(self, reference: Reference, device: torch.device):
+        movable = hasattr(reference, "to")
+        self.wrapped = reference.to(device) if movable else reference
+        self.device, self.renders_on = device, device if movable else torch.device(CPU)
+
+    def render(self, camera: Camera, light: PointLight, resolution: int, spp: int,
+               pose: Poses | None = None) -> torch.Tensor:
+        camera, light, pose = moved((camera, light, pose), self.renders_on)
+        return self.wrapped.render(camera, light, resolution, spp, pose).to(self.device)
+
+    def capture(self, camera: Camera, resolution: int, spp: int) -> CapturedView:
+        return self.wrapped.capture(moved(camera, self.renders_on), resolution, spp)
+
+    def bounding_sphere(self) -> tuple[torch.Tensor, float]:
+        return moved(self.wrapped.bounding_sphere(), torch.device(CPU))
+
+    def __getattr__(self, name: str):
+        return getattr(self.wrapped, name)
+
+
+def reference_on(reference: Reference, device: torch.device) -> Reference:
+    """``reference`` for a run on ``device``: itself on the CPU, else ``ReferenceOn``."""
+    return reference if device.type == "cpu" else ReferenceOn(reference, device)
 
 
 class FieldReference:

@@ -105,8 +105,8 @@ class TexturedMesh(torch.nn.Module):
                  fitted_mips: bool = False, absolute_laplacian: bool = False, footprint: float = FOOTPRINT_SCALE,
                  shadows: ShadowMapping | None = None):
         super().__init__()
-        centre = torch.as_tensor(centre, dtype=torch.float32)
-        radius = torch.as_tensor(radius, dtype=torch.float32)
+        centre = torch.as_tensor(centre, dtype=torch.float32, device=mesh.v_pos.device)
+        radius = torch.as_tensor(radius, dtype=torch.float32, device=mesh.v_pos.device)
         self.register_buffer("centre", centre.clone())
         self.register_buffer("radius", radius.clone())
         self.register_buffer("t_pos_idx", mesh.t_pos_idx.clone())
@@ -120,7 +120,7 @@ class TexturedMesh(torch.nn.Module):
         self.ks = TexturePyramid(ks, texture_scales)
         self.normal = TexturePyramid(normal_to_slopes(normal.float()), texture_scales)
         self.kd_mips, self.ks_mips, self.normal_mips = (
-            (FittedMips(*t.shape, texture_scales) if fitted_mips else None) for t in (self.kd, self.ks, self.normal))
+            (FittedMips(*t.shape, texture_scales).to(mesh.v_pos.device) if fitted_mips else None) for t in (self.kd, self.ks, self.normal))
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
         rest = self.laplacian.differentials(unit)
         self.register_buffer("rest_delta", torch.zeros_like(rest) if absolute_laplacian else rest)

@@ -37,14 +37,14 @@ import numpy as np
 
 from .. import io
 from ..asset import Asset, Material
-from ..devices import device_label, resolve_device
+from ..devices import CPU, device_label, moved, resolve_device
 from ..errors import ConfigError, DeviceError
 from ..fit.checkpoint import Checkpointer, read_checkpoint
 from ..fit.from_settings import lookup_footprint, loop_settings, objective, shadow_mapping
 from ..fit.latent import Latent
 from ..fit.loop import FitResult, Fitter
 from ..fit.progress_bar import CountedReference
-from ..fit.reference import Reference
+from ..fit.reference import Reference, reference_on
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
@@ -160,6 +160,7 @@ class Application:
             application's own files into the output folder (given the initial guess and all the
             scored methods) and returns the rows of its table in the report and the metrics
             (``RunRecord.levels``).
+        runs_on_gpu: its latent and variants have run on a GPU (``run_device``).
     """
 
     command: str
@@ -174,6 +175,7 @@ class Application:
     every_variant_gains: bool = False
     written_form: Callable[[Asset], Asset] = as_fitted
     files: Callable[[Asset, InitialGuess, Config, Path, list[MethodResult]], list[dict] | None] = no_files
+    runs_on_gpu: bool = False
 
 
 @dataclass(frozen=True)
@@ -287,29 +289,34 @@ def run(app: Application, input: str | Path | Asset, outdir: str | Path | None =
         return _run(session, config, settings)
 
 
-def run_device(name: str):
-    """The ``torch.device`` a run computes on, for its setting ``render.device``, resolved once.
-    A run's references, latents and shading build their tensors on the CPU so far (only the
-    render ops follow their tensors to the GPU): ``"auto"`` is the CPU, and ``"cuda"`` a
-    ``DeviceError`` that says so."""
+def run_device(app: Application, name: str, moving: bool, reference: RunReference):
+    """The ``torch.device`` a run computes on, for its setting ``render.device`` (``name``):
+    ``resolve_device``'s, where the run is of a kind that has run on a GPU (an application with
+    ``runs_on_gpu``, a still input, drawn by our own pipeline); for any other, ``"auto"`` is the
+    CPU and ``"cuda"`` a ``DeviceError`` that says so."""
+    if app.runs_on_gpu and not moving and reference.draws_input:
+        return resolve_device(name)
     if name == "cuda":
-        raise DeviceError("a run builds its references and latents on the CPU so far (the render ops and "
-                          "bench render run on the GPU)")
+        kind = ("an animated input" if moving else f"lookalike {app.command}" if reference.draws_input
+                else "a reference other than the input drawn by lookalike (a field, a path tracer)")
+        raise DeviceError(f"{kind} runs on the CPU only so far (--device cpu, or auto)")
     return resolve_device("cpu")
 
 
 def _run(s: _Session, config, settings: dict) -> RunResult:
     """``run`` once its output folder is checked: the phases in turn."""
     cfg, budget = settings_of_run(s, config, settings)
-    device = run_device(cfg.render.device)
     if cfg.io.compress:
         check_compression_tools()
     with s.stage("load and initial guess"):
         asset, notes, moving = load_input(s, cfg)
         reference = s.app.reference(asset, cfg, moving)
+        device = run_device(s.app, cfg.render.device, moving, reference)
+        reference.renderer = reference_on(reference.renderer, device)
         guess, checkpointer = starting_point(s, cfg, asset, moving)
     with s.stage("reference views"):
-        heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress)
+        heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress,
+                                                       device)
     draw = scoring_draw(cfg)
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
@@ -324,7 +331,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     with s.stage("the start"):
         take_best_start(guess, start_as_written(written, prepared), s.app.start_label)
         start = prepared(guess.start)
-        latent = s.app.latent(asset, start, cfg, moving)
+        latent = s.app.latent(asset, moved(start, device), cfg, moving)
     written.annealed = annealed_alpha(start)
     with s.stage("alpha of the start"):
         start_written = written.start(start)
@@ -474,11 +481,12 @@ def start_as_written(written: WrittenModel, prepared: Callable[[Asset], Asset]) 
     return lambda start: written.score(written_alpha(prepared(start), written.mode, AlphaChoice()))
 
 
-def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool,
-                    progress: bool = False) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
+def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool, progress: bool = False,
+                    device=CPU) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
     """The held-out views (the report's), the validation views (``None`` without) and the
     training views' source: a pool of reference images refreshed as the steps go, or fresh
-    renders at every step; with ``progress``, a bar counts the views rendered up front."""
+    renders at every step; with ``progress``, a bar counts the views rendered up front; the
+    models scored on the held-out and validation views are drawn on ``device``."""
     centre, radius = reference.bounding_sphere()
     light = reference.fixed_light
     sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None, fixed_light=light)
@@ -486,8 +494,8 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: boo
     pooled = views.pool_size if views.pool_size and not views.relight else 0
     counted = CountedReference(reference, views.heldout + views.validation + pooled, progress)
     try:
-        heldout = HeldoutViews(counted, sampler, views.heldout, views.heldout_seed, size, spp)
-        validation = (HeldoutViews(counted, sampler, views.validation, views.validation_seed, size, spp)
+        heldout = HeldoutViews(counted, sampler, views.heldout, views.heldout_seed, size, spp, device)
+        validation = (HeldoutViews(counted, sampler, views.validation, views.validation_seed, size, spp, device)
                       if views.validation else None)
         training = view_sampler(centre, radius, cfg.render.horizon_share,
                                 poses=animated.training_poses(asset, cfg) if moving else None,
@@ -560,7 +568,7 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
         notes.append(f"the position learning rate was halved {fit.backoffs} time(s), each time the validation "
                      f"fell {fitter.settings.position_backoff:g} dB below the best state, which the fit returned to")
     with s.stage("alpha cutoff"):
-        export, is_start = written.kept(written.finished(fit.best.export()), start)
+        export, is_start = written.kept(written.finished(moved(fit.best.export(), CPU)), start)
     if is_start:
         notes.append(remark := f"the fit did not improve on its start as written (validation {written.metric} "
                      f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB): model.glb is the start")

@@ -60,7 +60,7 @@ def aggregate_remarks(asset: Asset) -> list[str]:
 
 
 SIMPLIFY = Application(command="simplify", outdir_suffix="-lookalike", initial_guess=build_initial_guess,
-                       remarks=aggregate_remarks)
+                       remarks=aggregate_remarks, runs_on_gpu=True)
 """``simplify``: decimation (or the user's mesh) and the classic bake, fitted."""
 
 

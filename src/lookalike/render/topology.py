@@ -40,14 +40,14 @@ def antialias_construct_topology_hash(tri: torch.Tensor) -> EdgeTopology:
     same_as_next[:-1] = sorted_key[1:] == sorted_key[:-1]
     same_as_prev = torch.zeros_like(same_as_next)
     same_as_prev[1:] = same_as_next[:-1]
-    position = torch.arange(order.numel())
+    position = torch.arange(order.numel(), device=tri.device)
     partner_pos = torch.where(same_as_next, position + 1, torch.where(same_as_prev, position - 1, -1))
     partner = torch.full_like(order, -1)
     has_partner = partner_pos >= 0
     partner[order[has_partner]] = order[partner_pos[has_partner]]
     # the partner edge row 3n + k' belongs to triangle n, and its opposite vertex is tri[n, k']
     valid = partner >= 0
-    opposite = torch.full((n_tris * 3,), -1, dtype=torch.int64)
+    opposite = torch.full((n_tris * 3,), -1, dtype=torch.int64, device=tri.device)
     opposite[valid] = tri.reshape(-1)[partner[valid]]
     neighbour = torch.where(valid, partner // 3, -1)
     return EdgeTopology(opposite.reshape(n_tris, 3), neighbour.reshape(n_tris, 3))

@@ -12,6 +12,7 @@ import torch
 
 from ..asset import Asset
 from ..asset.pose import Poses
+from ..devices import CPU, moved
 from ..fit.losses import composite
 from ..fit.reference import RENDER_CHUNK, Reference, render_in_chunks
 from ..fit.training_views import ViewSampler
@@ -42,26 +43,31 @@ class HeldoutViews:
     Attributes:
         camera, light: the views (batch ``count``).
         pose: the poses they show (batch ``count``), where the sampler draws poses, else ``None``.
-        reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND``.
+        reference: ``[count, H, W, 3]`` float32 linear reference images over ``BACKGROUND`` (on the CPU).
         coverage: ``[count, H, W]`` float32 the reference's antialiased coverage.
         silhouette: ``[count, H, W]`` bool, the pixels near the reference's outline
             (``lookalike.report.metrics.silhouette_band``).
+        device: where every model scored on these views is drawn (a run's device).
     """
 
-    def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int, resolution: int, spp: int):
+    def __init__(self, reference: Reference, sampler: ViewSampler, count: int, seed: int, resolution: int, spp: int,
+                 device=CPU):
+        self.device = torch.device(device)
         views = sampler(np.random.default_rng(seed), count)
         self.camera, self.light, self.pose = views.camera, views.light, views.pose
-        rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp, pose=self.pose)
+        rgba = render_in_chunks(reference, self.camera, self.light, resolution, spp, pose=self.pose).cpu()
         self.reference = over_background(rgba)
         self.coverage = rgba[..., 3].float()
         self.silhouette = silhouette_band(rgba[..., 3])
 
     @torch.no_grad()
     def renders(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
-        """``[count, H, W, 4]`` linear RGB and coverage of ``asset`` drawn by ``render``."""
-        n = self.camera.batch_size
+        """``[count, H, W, 4]`` linear RGB and coverage of ``asset`` drawn by ``render`` on the
+        views' ``device`` (asset and views moved there), returned on the CPU, where the references are."""
+        n, asset = self.camera.batch_size, moved(asset, self.device)
         chunks = [slice(i, i + RENDER_CHUNK) for i in range(0, n, RENDER_CHUNK)]
-        return torch.cat([render(asset, self.camera[c], self.light[c], None if self.pose is None else self.pose[c])
+        return torch.cat([render(asset, *moved((self.camera[c], self.light[c], None if self.pose is None else self.pose[c]),
+                                               self.device)).cpu()
                           for c in chunks])
 
     def images(self, asset: Asset, render: AssetRenderer) -> torch.Tensor:
