@@ -18,7 +18,9 @@ for this application, squared L2 on tone-mapped colour. ``model.glb`` is alpha-t
 engines draw it without sorting) or blended (``alpha_mode="blend"``), double-sided, its colour
 filled under unseen texels (``lookalike.jobs.alpha_export``). Everything else is the shared run
 (``jobs.run``); the report scores plain decimation and the start beside ours, and what it
-writes is never below the start as written (``jobs.written_model``).
+writes is never below the start as written, in our draw or in an engine's (one lookup and one
+alpha test per pixel), the start's base colour on the fitted cards offered beside the fit
+(``jobs.written_model``).
 """
 
 from __future__ import annotations
@@ -97,7 +99,7 @@ def cards_latent(asset: Asset, start: Asset, cfg: Config, moving: bool) -> Laten
 
 
 CARDS = Application(command="cards", outdir_suffix="-cards", initial_guess=cards_guess,
-                    start_label="Billboard cloud", defaults=CARDS_DEFAULTS, latent=cards_latent)
+                    start_label="Billboard cloud", defaults=CARDS_DEFAULTS, latent=cards_latent, engine_checked=True)
 """``cards``: a billboard cloud, fitted."""
 
 

@@ -56,6 +56,7 @@ from ..phases import Profile, phase, recording
 from ..report.heldout import AssetRenderer, HeldoutViews
 from ..report.record import MethodResult, RunRecord
 from ..shading.peeled_layers import LayerCount
+from ..shading.texturing import ENGINE_FOOTPRINT
 from ..settings import (Config, config_to_dict, refresh_interval, section_of, setting_help, setting_value, to_toml,
                         validation_flip_share, with_overrides)
 from ..threads import CoreShare, set_threads
@@ -71,7 +72,7 @@ from .reference_coverage import check_reference_coverage
 from .reference_kinds import RunReference, run_reference
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
-from .written_model import WrittenModel
+from .written_model import BASE_COLOUR_OF_START, WrittenModel
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +111,15 @@ def scoring_draw(cfg: Config) -> AssetRenderer:
     shadows of ``render.shadows``, as the reference draws them."""
     return partial(render_asset, resolution=cfg.render.resolution, msaa=cfg.render.latent_msaa,
                    layers=cfg.render.layers, footprint=lookup_footprint(cfg), shadows=shadow_mapping(cfg))
+
+
+def engine_draw(cfg: Config) -> AssetRenderer:
+    """How an engine draws a model, for runs that check their written model there too
+    (``Application.engine_checked``): ``scoring_draw`` with one sample per pixel (one texture
+    lookup and one alpha test each, as a rasterizer draws an alpha-tested material without alpha
+    to coverage) at the engine's mip level (``ENGINE_FOOTPRINT``)."""
+    return partial(render_asset, resolution=cfg.render.resolution, msaa=1, layers=cfg.render.layers,
+                   footprint=ENGINE_FOOTPRINT, shadows=shadow_mapping(cfg))
 
 
 def no_remarks(asset: Asset) -> list[str]:
@@ -161,6 +171,9 @@ class Application:
             scored methods) and returns the rows of its table in the report and the metrics
             (``RunRecord.levels``).
         runs_on_gpu: its latent and variants have run on a GPU (``run_device``).
+        engine_checked: its written model must gain on the start in an engine's draw too
+            (``engine_draw``, ``jobs.written_model``), the start's base colour on the fitted
+            model offered beside the fit.
     """
 
     command: str
@@ -176,6 +189,7 @@ class Application:
     written_form: Callable[[Asset], Asset] = as_fitted
     files: Callable[[Asset, InitialGuess, Config, Path, list[MethodResult]], list[dict] | None] = no_files
     runs_on_gpu: bool = False
+    engine_checked: bool = False
 
 
 @dataclass(frozen=True)
@@ -323,7 +337,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
                                             partial(draw, layers=MAX_LAYERS if uses_alpha(asset) else 1))
     written = WrittenModel(cfg.latent.alpha_mode, validation, draw,
                            forms=lambda model: [model] + [form for _, _, form in s.app.variants(model, cfg)],
-                           flip_share=validation_flip_share(cfg), every_form_gains=s.app.every_variant_gains)
+                           flip_share=validation_flip_share(cfg), every_form_gains=s.app.every_variant_gains,
+                           engine_draw=engine_draw(cfg) if s.app.engine_checked else None)
 
     def prepared(model: Asset) -> Asset:
         return reference.latent_start(training_start(model, cfg.latent.alpha_mode, cfg.latent.mask_anneal))
@@ -361,7 +376,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     record = run_record(s, cfg, asset, heldout, methods, fit, as_written, notes + guess.notes, interrupted, moving)
     record.device = device_label(device)
     record.motion, record.written, record.written_alpha = motion, written.scores, written.alpha
-    record.validation_metric = written.metric
+    record.validation_metric, record.written_model = written.metric, written.kept_label
     record.reference_coverage, record.start_distance = coverage, guess.start_distance
     reference.annotate(record, getattr(source, "nbytes", 0))
     metrics = write_outputs(s, cfg, export, as_written, guess, record,
@@ -570,9 +585,18 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
     with s.stage("alpha cutoff"):
         export, is_start = written.kept(written.finished(moved(fit.best.export(), CPU)), start)
     if is_start:
+        engine = ("" if written.engine_draw is None else f"; in an engine's draw {written.scores['ours, engine']:.2f} "
+                  f"against {written.scores['start, engine']:.2f}")
         notes.append(remark := f"the fit did not improve on its start as written (validation {written.metric} "
-                     f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB): model.glb is the start")
+                     f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB{engine}): model.glb is "
+                     f"the start")
         log.warning(remark)
+    if written.kept_label == BASE_COLOUR_OF_START:
+        notes.append(f"model.glb: the fitted model with the start's base colour and alpha, which gained more on the "
+                     f"start in the run's draw and an engine's (validation {written.scores[BASE_COLOUR_OF_START]:.2f} "
+                     f"and {written.scores[BASE_COLOUR_OF_START + ', engine']:.2f} dB, the fit's "
+                     f"{written.scores['ours']:.2f} and {written.scores['ours, engine']:.2f}, the start's "
+                     f"{written.scores['start']:.2f} and {written.scores['start, engine']:.2f})")
     if written.alpha.get("written"):
         notes.append(f"model.glb's alpha: {written.alpha['written']} (chosen on the validation views)")
     return fit, export

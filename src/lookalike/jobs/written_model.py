@@ -6,16 +6,48 @@ PSNR, or where FLIP weighs in (``optim.validation_flip_share``) a blend of PSNR 
 (``lookalike.report.metrics.perceptual_score``); a model scored in several forms (a displaced
 model at each tessellation level) scores the mean over them, or, where every form must gain, the
 least gain of a form over the start's same form. Without validation views, the fit's best state
-is written as it is chosen by the loop (nothing to compare on)."""
+is written as it is chosen by the loop (nothing to compare on).
+
+Where the run also draws its models as an engine does (``engine_draw``: one texture lookup and
+one alpha test per pixel at the engine's mip level, ``jobs.run.engine_draw``), the written model
+must gain on the start there too: of the fit and the fit with the start's base colour and alpha
+(``with_base_colour_of``: texels trained under a soft coverage ramp can be tuned to coverage the
+written alpha test does not draw), the one with the larger least gain over the start in the two
+draws is written, and the start where neither gains in both. Why: an alpha-tested model's score
+in our supersampled draw can rise while an engine, or a viewer built on one, draws it worse than
+its start; the engine draw ranks them as three.js does (``docs/benchmarks.md``)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+
+import torch
 
 from ..asset import Asset
 from ..fit.latent import Latent
 from ..report.heldout import AssetRenderer, HeldoutViews
 from .alpha_export import AlphaChoice, alpha_label, chosen_alpha, written_alpha
+
+BASE_COLOUR_OF_START = "ours with the start's base colour"
+"""The label of the fit with the start's base colour and alpha (``with_base_colour_of``)."""
+
+
+def with_base_colour_of(model: Asset, start: Asset) -> Asset | None:
+    """``model`` with ``start``'s base colour and alpha (each material's ``kd`` texture and alpha
+    cutoff), where the two share one atlas (the same triangles, UV sets and materials, their
+    base colour maps of one size: a fit of ``start`` that moved its vertices and texels);
+    ``None`` where they do not."""
+    mine, theirs = model.mesh, start.mesh
+    shared = (len(model.materials) == len(start.materials) and torch.equal(mine.t_pos_idx, theirs.t_pos_idx)
+              and len(mine.uv) == len(theirs.uv)
+              and all(torch.equal(a, b) for pair, other in zip(mine.uv, theirs.uv) for a, b in zip(pair, other))
+              and all(m.kd.data.shape == s.kd.data.shape for m, s in zip(model.materials, start.materials)))
+    if not shared:
+        return None
+    materials = [dataclasses.replace(m, kd=s.kd, alpha_cutoff=s.alpha_cutoff)
+                 for m, s in zip(model.materials, start.materials)]
+    return dataclasses.replace(model, materials=materials)
 
 
 class WrittenModel:
@@ -26,12 +58,18 @@ class WrittenModel:
     its tessellation levels; by default the model alone); ``flip_share``: FLIP's weight in the
     score (``HeldoutViews.validation_score``; 0: PSNR alone); ``every_form_gains``: score a
     model by ``min_k (s_k - s_k(start))``, its least gain over the start among its forms, so
-    that the state chosen lifts each form rather than their mean at one form's cost.
+    that the state chosen lifts each form rather than their mean at one form's cost;
+    ``engine_draw``: where given, ``kept`` also asks each candidate to gain on the start drawn
+    this way (module docstring).
 
     Attributes:
         choice: the alpha choice of the start, with which every state of the fit is scored.
         scores: ``{"start": score, "ours": score}`` of the written models on the validation
-            views (``score``), once ``kept`` has compared them.
+            views (``score``), once ``kept`` has compared them; with ``engine_draw`` also the
+            fit with the start's base colour (``BASE_COLOUR_OF_START``), and each model's
+            score in the engine's draw under ``"<key>, engine"``.
+        kept_label: which model ``kept`` returned: ``"ours"``, ``"start"`` or
+            ``BASE_COLOUR_OF_START``.
         alpha: ``{"start": label, "ours": label}``, how each writes its alpha
             (``alpha_export.alpha_label``), once chosen; ``"written"`` is added by ``kept``
             (the one of the model it returns).
@@ -41,9 +79,10 @@ class WrittenModel:
 
     def __init__(self, mode: str, validation: HeldoutViews | None, draw: AssetRenderer, annealed: bool = False,
                  forms: Callable[[Asset], list[Asset]] = lambda model: [model], flip_share: float = 0.0,
-                 every_form_gains: bool = False):
+                 every_form_gains: bool = False, engine_draw: AssetRenderer | None = None):
         self.mode, self.validation, self.draw, self.annealed, self.forms = mode, validation, draw, annealed, forms
-        self.flip_share, self.every_form_gains = flip_share, every_form_gains
+        self.flip_share, self.every_form_gains, self.engine_draw = flip_share, every_form_gains, engine_draw
+        self.kept_label = "ours"
         self.start_forms: list[float] | None = None
         self.choice = AlphaChoice()
         self.scores: dict[str, float] = {}
@@ -98,10 +137,25 @@ class WrittenModel:
 
     def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
         """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
-        the validation views (both as written): a fit that did not improve returns its start."""
-        is_start = False
-        if self.validation is not None:
-            self.scores = {"start": self.score(start), "ours": self.score(ours)}
-            is_start = self.scores["start"] >= self.scores["ours"]
-        self.alpha["written"] = self.alpha.get("start" if is_start else "ours")
-        return (start, True) if is_start else (ours, False)
+        the validation views (both as written): a fit that did not improve returns its start.
+        With ``engine_draw``, of ``ours`` and ``ours`` with the start's base colour, the one whose
+        least gain over the start in the run's draw and the engine's is the larger, where that
+        gain is positive (module docstring)."""
+        self.kept_label = "ours"
+        if self.validation is None:
+            self.alpha["written"] = self.alpha.get("ours")
+            return ours, False
+        candidates = {"ours": ours}
+        if self.engine_draw is not None and (recoloured := with_base_colour_of(ours, start)) is not None:
+            candidates[BASE_COLOUR_OF_START] = recoloured
+        self.scores = {key: self.score(model) for key, model in {"start": start, **candidates}.items()}
+        gains = {key: self.scores[key] - self.scores["start"] for key in candidates}
+        if self.engine_draw is not None:
+            engine = {key: self.validation.validation_score(model, self.engine_draw, self.flip_share)
+                      for key, model in {"start": start, **candidates}.items()}
+            self.scores.update({f"{key}, engine": score for key, score in engine.items()})
+            gains = {key: min(gain, engine[key] - engine["start"]) for key, gain in gains.items()}
+        best = max(gains, key=gains.get)
+        self.kept_label = best if gains[best] > 0 else "start"
+        self.alpha["written"] = self.alpha.get("ours" if self.kept_label == "ours" else "start")  # the start's kd
+        return ({"start": start, **candidates}[self.kept_label], self.kept_label == "start")

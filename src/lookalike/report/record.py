@@ -126,7 +126,9 @@ class RunRecord:
         motion: the animated comparison of an animated input, or ``None``.
         written: ``{"start": score, "ours": score}`` on the validation views of the start and
             of the fit's best model as written, by which the run chose what it wrote (empty
-            without validation views).
+            without validation views; where the run checks an engine's draw too, also the fit
+            with the start's base colour and each model's engine score, ``jobs.written_model``).
+        written_model: which of them the run wrote (``WrittenModel.kept_label``).
         written_alpha: how the start, ours and the model written (``"written"``) write their
             alpha (``jobs.alpha_export.alpha_label``: ``"cutoff 0.4"``, ``"dithered"``,
             ``"blended"``, or ``None`` without alpha); empty where not chosen.
@@ -170,6 +172,7 @@ class RunRecord:
     motion: Motion | None = None
     written: dict[str, float] = field(default_factory=dict)
     written_alpha: dict[str, str | None] = field(default_factory=dict)
+    written_model: str = "ours"
     levels: list[dict] | None = None
     reference_views: dict | None = None
     reference_label: str = "Reference"
@@ -213,7 +216,8 @@ class RunRecord:
             "validation": {"views": self.validation_views, "iterations": [int(i) for i in validation[:, 0]],
                            "metric": self.validation_metric,
                            scores: [float(v) for v in validation[:, 1]],
-                           "written": dict(self.written), "written_alpha": dict(self.written_alpha)},
+                           "written": dict(self.written), "written_alpha": dict(self.written_alpha),
+                           "written_model": self.written_model},
             "heldout": {
                 "views": self.num_views,
                 "silhouette_pixels": float(np.asarray(self.silhouette).mean()),
