@@ -139,7 +139,7 @@ def test_metrics_are_the_records_figures():
         assert metrics["heldout"][method.key]["label"] == method.label
     assert metrics["final_loss"] == 2.0 and metrics["heldout"]["views"] == 3
     assert metrics["validation"] == {"views": 4, "iterations": [0, 300], "metric": "PSNR", "psnr": [30.0, 33.0],
-                                     "written": {}, "written_alpha": {}}
+                                     "written": {}, "written_alpha": {}, "written_model": "ours"}
     record.validation_metric = "score (PSNR and FLIP, FLIP's share 0.5)"     # where FLIP weighs in, not a PSNR
     assert record.metrics()["validation"]["score"] == [30.0, 33.0] and "psnr" not in record.metrics()["validation"]
     assert metrics["seconds"]["total"] == 432.0 and metrics["seconds"]["optimisation"] == 375.0
