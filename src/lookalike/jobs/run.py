@@ -118,8 +118,7 @@ def engine_draw(cfg: Config) -> AssetRenderer:
     (``Application.engine_checked``): ``scoring_draw`` with one sample per pixel (one texture
     lookup and one alpha test each, as a rasterizer draws an alpha-tested material without alpha
     to coverage) at the engine's mip level (``ENGINE_FOOTPRINT``)."""
-    return partial(render_asset, resolution=cfg.render.resolution, msaa=1, layers=cfg.render.layers,
-                   footprint=ENGINE_FOOTPRINT, shadows=shadow_mapping(cfg))
+    return partial(scoring_draw(cfg), msaa=1, footprint=ENGINE_FOOTPRINT)
 
 
 def no_remarks(asset: Asset) -> list[str]:

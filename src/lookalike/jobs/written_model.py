@@ -145,17 +145,17 @@ class WrittenModel:
         if self.validation is None:
             self.alpha["written"] = self.alpha.get("ours")
             return ours, False
-        candidates = {"ours": ours}
+        models = {"start": start, "ours": ours}
         if self.engine_draw is not None and (recoloured := with_base_colour_of(ours, start)) is not None:
-            candidates[BASE_COLOUR_OF_START] = recoloured
-        self.scores = {key: self.score(model) for key, model in {"start": start, **candidates}.items()}
-        gains = {key: self.scores[key] - self.scores["start"] for key in candidates}
+            models[BASE_COLOUR_OF_START] = recoloured
+        self.scores = {key: self.score(model) for key, model in models.items()}
+        gains = {key: self.scores[key] - self.scores["start"] for key in models if key != "start"}
         if self.engine_draw is not None:
             engine = {key: self.validation.validation_score(model, self.engine_draw, self.flip_share)
-                      for key, model in {"start": start, **candidates}.items()}
+                      for key, model in models.items()}
             self.scores.update({f"{key}, engine": score for key, score in engine.items()})
             gains = {key: min(gain, engine[key] - engine["start"]) for key, gain in gains.items()}
         best = max(gains, key=gains.get)
         self.kept_label = best if gains[best] > 0 else "start"
         self.alpha["written"] = self.alpha.get("ours" if self.kept_label == "ours" else "start")  # the start's kd
-        return ({"start": start, **candidates}[self.kept_label], self.kept_label == "start")
+        return models[self.kept_label], self.kept_label == "start"
