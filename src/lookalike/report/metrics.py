@@ -11,11 +11,11 @@ covers), as the independent judge (``lookalike.jobs.judge_scores``) does.
 
 from __future__ import annotations
 
-import flip_evaluator
 import numpy as np
 import torch
 
 from ..colour import tonemap
+from .flip_error import flip_error_maps
 
 PSNR_CAP_DB = 100.0                # PSNR of identical images (MSE 0) is reported as this cap
 
@@ -106,8 +106,9 @@ def psnr(reference, test) -> float:
 
 
 def flip_views(reference, test, with_maps: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
-    """Mean FLIP error of each view (NVIDIA's ``flip-evaluator``, LDR mode, default 67 pixels
-    per degree) between the tone-mapped images, which it reads as sRGB.
+    """Mean FLIP error of each view (LDR FLIP at 67 pixels per degree,
+    ``lookalike.report.flip_error``, as NVIDIA's ``flip-evaluator`` computes it) between the
+    tone-mapped images, read as sRGB.
 
     Args:
         reference, test: ``[B, H, W, C>=3]`` (or ``[H, W, C]``) linear radiance.
@@ -116,17 +117,18 @@ def flip_views(reference, test, with_maps: bool = False) -> tuple[np.ndarray, np
     Returns:
         ``(mean [B] float64 in [0, 1], maps [B, H, W, 3] uint8 or None)``; 0 means identical.
     """
-    a, b = _pair(reference, test)
-    means, maps = [], []
-    for ref_view, test_view in zip(a, b):
-        error_map, mean, _ = flip_evaluator.evaluate(
-            np.ascontiguousarray(ref_view), np.ascontiguousarray(test_view), "LDR",
-            inputsRGB=True, applyMagma=with_maps, computeMeanError=True,
-        )
-        means.append(mean)
-        if with_maps:
-            maps.append(np.clip(np.round(error_map * 255), 0, 255).astype(np.uint8))
-    return np.asarray(means, dtype=np.float64), (np.stack(maps) if with_maps else None)
+    error = flip_error_maps(*_pair(reference, test))
+    means = error.mean(axis=(1, 2), dtype=np.float64)
+    return means, (magma(error) if with_maps else None)
+
+
+def magma(error: np.ndarray) -> np.ndarray:
+    """``[..., 3]`` uint8: values in [0, 1] through matplotlib's 256-entry magma map (FLIP's),
+    entry ``round(255 v)``."""
+    from matplotlib import colormaps
+
+    table = np.round(np.asarray(colormaps["magma"].colors) * 255).astype(np.uint8)
+    return table[np.clip(np.floor(error * 255 + 0.5), 0, 255).astype(np.int64)]
 
 
 SILHOUETTE_WIDTH_PX = 2
