@@ -53,14 +53,14 @@ from .simplify import build_initial_guess
 
 DISPLACE_DEFAULTS = Config(latent=LatentConfig(ratio=0.01),
                            optim=OptimConfig(lr_positions=0.0, lr_textures=0.0, lr_displacement=0.001,
-                                             lr_decades=2.0, validation_flip_share=0.5))
+                                             lr_decades=3.0, validation_flip_share=0.5))
 """Where a ``displace`` run's settings start: a base of 1 % of the input's triangles, fitted at
 levels 0 to 3 (1 to 64 times the base's triangles). The fit moves the heights alone, the base's
 vertices and the classic bake's maps held: with engine shading the maps shade every level alike,
 so what the levels ask of them differently is only where their geometry lies, and maps fitted to
 the coarse levels' misplaced surfaces blur the finest, while heights fitted for every level
 serve each (``docs/benchmarks.md``). The heights' rate starts at a fifth of the warm start's
-texel rate and falls two decades: Adam moves every texel by about its rate whatever its
+texel rate and falls three decades: Adam moves every texel by about its rate whatever its
 gradient, the finest level's start sits within a hundred-thousandth of the size of the input,
 and larger steps jitter it further than the coarse levels gain. States are chosen on
 PSNR and FLIP alike, since the finest levels' start is already close in PSNR and a fit can gain
