@@ -188,45 +188,61 @@ def test_the_written_model_is_the_start_only_where_ours_does_not_beat_it():
     assert WrittenModel("blend", None, draw=None).kept(ours, start) == (ours, False)
 
 
-def recoloured(asset: Asset, value: float) -> Asset:
-    """``asset`` with every texel of its base colour (colour and alpha) set to ``value``."""
-    return dataclasses.replace(asset, materials=[
-        dataclasses.replace(m, kd=dataclasses.replace(m.kd, data=torch.full_like(m.kd.data, value)))
-        for m in asset.materials])
+def recoloured(asset: Asset, value: float, alpha: float | None = None) -> Asset:
+    """``asset`` with every texel of its base colour set to ``value`` (its alpha too, or to
+    ``alpha`` where given)."""
+    def texels(kd):
+        data = torch.full_like(kd.data, value)
+        if alpha is not None:
+            data[..., 3] = alpha
+        return dataclasses.replace(kd, data=data)
+
+    return dataclasses.replace(asset, materials=[dataclasses.replace(m, kd=texels(m.kd)) for m in asset.materials])
 
 
 def test_the_fit_with_the_start_base_colour_keeps_the_fits_surface_and_the_starts_texels():
     from lookalike.jobs.written_model import with_base_colour_of
 
     start = recoloured(clumps(seed=1), 0.25)
+    start = dataclasses.replace(start, materials=[dataclasses.replace(m, alpha_cutoff=0.3) for m in start.materials])
     moved = start.mesh.v_pos + 0.01
-    ours = dataclasses.replace(recoloured(start, 0.75), mesh=dataclasses.replace(start.mesh, v_pos=moved))
+    ours = dataclasses.replace(recoloured(start, 0.75, alpha=0.9), mesh=dataclasses.replace(start.mesh, v_pos=moved))
+    ours = dataclasses.replace(ours, materials=[dataclasses.replace(m, alpha_cutoff=0.5) for m in ours.materials])
     mixed = with_base_colour_of(ours, start)
     assert torch.equal(mixed.mesh.v_pos, moved) and mixed.materials[0].kd is start.materials[0].kd
+    assert mixed.materials[0].alpha_cutoff == 0.3
+    rgb = with_base_colour_of(ours, start, alpha=False)       # the start's RGB under the fit's alpha
+    assert torch.equal(rgb.mesh.v_pos, moved) and rgb.materials[0].alpha_cutoff == 0.5
+    assert (rgb.materials[0].kd.data[..., :3] == 0.25).all() and (rgb.materials[0].kd.data[..., 3] == 0.9).all()
     assert with_base_colour_of(ours, clumps(leaves_per_clump=30, seed=1)) is None  # another atlas
 
 
 def test_the_written_model_must_gain_on_the_start_in_an_engines_draw_too():
-    from lookalike.jobs.written_model import BASE_COLOUR_OF_START, WrittenModel
+    from lookalike.jobs.written_model import BASE_COLOUR_OF_START, RGB_OF_START, WrittenModel
 
     start = recoloured(clumps(seed=1), 0.25)
-    ours = recoloured(start, 0.75)
+    ours = recoloured(start, 0.75, alpha=0.9)
     run_draw, engine_draw = "run", "engine"
-    # (run's draw, engine's draw) by base colour: the fit gains in ours and loses in the engine's
-    scores = {0.25: {"start": (20.0, 18.0), "ours": (21.0, 18.5)}, 0.75: {"ours": (22.0, 17.5)}}
+    # (run's draw, engine's draw) by the model's (RGB, alpha): the fit gains in ours and loses in the engine's
+    scores = {(0.25, 0.25): (20.0, 18.0), (0.75, 0.9): (22.0, 17.5), "mix": (21.0, 18.5), (0.25, 0.9): (20.5, 18.2)}
 
     class Views:
         def validation_score(self, asset, draw, flip_share):
-            value = float(asset.materials[0].kd.data[0, 0, 0])
-            key = "start" if asset.mesh is start.mesh and value == 0.25 and asset is start else "ours"
-            return scores[value][key][draw == engine_draw]
+            texel = asset.materials[0].kd.data[0, 0]
+            key = (float(texel[0]), round(float(texel[3]), 3))
+            key = "mix" if key == (0.25, 0.25) and asset is not start else key
+            return scores[key][draw == engine_draw]
 
     written = WrittenModel("blend", Views(), draw=run_draw, engine_draw=engine_draw)
     model, is_start = written.kept(ours, start)
-    assert not is_start and written.kept_label == BASE_COLOUR_OF_START
+    assert not is_start and written.kept_label == BASE_COLOUR_OF_START       # least gain +0.5, against +0.2
     assert model.materials[0].kd is start.materials[0].kd
     assert written.scores["ours, engine"] == 17.5 and written.scores[f"{BASE_COLOUR_OF_START}, engine"] == 18.5
-    scores[0.25]["ours"] = (21.0, 17.9)  # neither gains in both draws: the start
+    assert written.scores[f"{RGB_OF_START}, engine"] == 18.2
+    scores[(0.25, 0.9)] = (21.0, 18.8)                                        # the RGB mix gains most
+    model, is_start = written.kept(ours, start)
+    assert not is_start and written.kept_label == RGB_OF_START and (model.materials[0].kd.data[..., 3] == 0.9).all()
+    scores["mix"], scores[(0.25, 0.9)] = (21.0, 17.9), (19.0, 19.0)        # none gains in both draws: the start
     assert written.kept(ours, start) == (start, True) and written.kept_label == "start"
     assert WrittenModel("blend", Views(), draw=run_draw).kept(ours, start) == (ours, False)  # no engine's draw
 

@@ -72,7 +72,7 @@ from .reference_coverage import check_reference_coverage
 from .reference_kinds import RunReference, run_reference
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
-from .written_model import BASE_COLOUR_OF_START, WrittenModel
+from .written_model import MIXES, WrittenModel
 
 log = logging.getLogger(__name__)
 
@@ -590,12 +590,11 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
                      f"{written.scores['ours']:.2f} against {written.scores['start']:.2f} dB{engine}): model.glb is "
                      f"the start")
         log.warning(remark)
-    if written.kept_label == BASE_COLOUR_OF_START:
-        notes.append(f"model.glb: the fitted model with the start's base colour and alpha, which gained more on the "
-                     f"start in the run's draw and an engine's (validation {written.scores[BASE_COLOUR_OF_START]:.2f} "
-                     f"and {written.scores[BASE_COLOUR_OF_START + ', engine']:.2f} dB, the fit's "
-                     f"{written.scores['ours']:.2f} and {written.scores['ours, engine']:.2f}, the start's "
-                     f"{written.scores['start']:.2f} and {written.scores['start, engine']:.2f})")
+    if (mix := written.kept_label) in MIXES:
+        notes.append(f"model.glb: the fitted model with {MIXES[mix]}, which gained more on the start in the run's "
+                     f"draw and an engine's (validation {written.scores[mix]:.2f} and {written.scores[mix + ', engine']:.2f} "
+                     f"dB, the fit's {written.scores['ours']:.2f} and {written.scores['ours, engine']:.2f}, the "
+                     f"start's {written.scores['start']:.2f} and {written.scores['start, engine']:.2f})")
     if written.alpha.get("written"):
         notes.append(f"model.glb's alpha: {written.alpha['written']} (chosen on the validation views)")
     return fit, export

@@ -10,10 +10,11 @@ is written as it is chosen by the loop (nothing to compare on).
 
 Where the run also draws its models as an engine does (``engine_draw``: one texture lookup and
 one alpha test per pixel at the engine's mip level, ``jobs.run.engine_draw``), the written model
-must gain on the start there too: of the fit and the fit with the start's base colour and alpha
-(``with_base_colour_of``: texels trained under a soft coverage ramp can be tuned to coverage the
-written alpha test does not draw), the one with the larger least gain over the start in the two
-draws is written, and the start where neither gains in both. Why: an alpha-tested model's score
+must gain on the start there too: of the fit, the fit with the start's base colour and alpha,
+and the fit with the start's RGB under its own alpha (``with_base_colour_of``: texels trained
+under a soft coverage ramp can be tuned to coverage the written alpha test does not draw), the
+one with the largest least gain over the start in the two draws is written, and the start where
+none gains in both. Why: an alpha-tested model's score
 in our supersampled draw can rise while an engine, or a viewer built on one, draws it worse than
 its start; the engine draw ranks them as three.js does (``docs/benchmarks.md``)."""
 
@@ -24,30 +25,48 @@ from collections.abc import Callable
 
 import torch
 
-from ..asset import Asset
+from ..asset import Asset, Texture
 from ..fit.latent import Latent
 from ..report.heldout import AssetRenderer, HeldoutViews
 from .alpha_export import AlphaChoice, alpha_label, chosen_alpha, written_alpha
 
 BASE_COLOUR_OF_START = "ours with the start's base colour"
 """The label of the fit with the start's base colour and alpha (``with_base_colour_of``)."""
+RGB_OF_START = "ours with the start's RGB"
+"""The label of the fit with the start's RGB under its own alpha (``with_base_colour_of``)."""
+MIXES = {BASE_COLOUR_OF_START: "the start's base colour and alpha", RGB_OF_START: "the start's RGB under its own alpha"}
+"""What each mix of the fit with its start takes from the start, for the report's notes."""
 
 
-def with_base_colour_of(model: Asset, start: Asset) -> Asset | None:
-    """``model`` with ``start``'s base colour and alpha (each material's ``kd`` texture and alpha
-    cutoff), where the two share one atlas (the same triangles, UV sets and materials, their
-    base colour maps of one size: a fit of ``start`` that moved its vertices and texels);
-    ``None`` where they do not."""
+def with_base_colour_of(model: Asset, start: Asset, alpha: bool = True) -> Asset | None:
+    """``model`` with ``start``'s base colour: each material's ``kd`` RGB, and with ``alpha`` its
+    alpha and alpha cutoff too (else ``model``'s own), where the two share one atlas (the same
+    triangles, UV sets and materials, their base colour maps of one size, mips fitted in both or
+    in neither: a fit of ``start`` that moved its vertices and texels); ``None`` where they do
+    not."""
     mine, theirs = model.mesh, start.mesh
     shared = (len(model.materials) == len(start.materials) and torch.equal(mine.t_pos_idx, theirs.t_pos_idx)
               and len(mine.uv) == len(theirs.uv)
               and all(torch.equal(a, b) for pair, other in zip(mine.uv, theirs.uv) for a, b in zip(pair, other))
-              and all(m.kd.data.shape == s.kd.data.shape for m, s in zip(model.materials, start.materials)))
+              and all(m.kd.data.shape == s.kd.data.shape and (m.kd.mips is None) == (s.kd.mips is None)
+                      for m, s in zip(model.materials, start.materials)))
     if not shared:
         return None
-    materials = [dataclasses.replace(m, kd=s.kd, alpha_cutoff=s.alpha_cutoff)
-                 for m, s in zip(model.materials, start.materials)]
+    if alpha:
+        materials = [dataclasses.replace(m, kd=s.kd, alpha_cutoff=s.alpha_cutoff)
+                     for m, s in zip(model.materials, start.materials)]
+    else:
+        materials = [dataclasses.replace(m, kd=_rgb_of(s.kd, m.kd)) for m, s in zip(model.materials, start.materials)]
     return dataclasses.replace(model, materials=materials)
+
+
+def _rgb_of(colour: Texture, alpha: Texture) -> Texture:
+    """``alpha`` with ``colour``'s RGB, at every level (``[..., 4]`` texels)."""
+    def mixed(rgb: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+        return torch.cat([rgb[..., :3], a[..., 3:]], dim=-1)
+
+    mips = None if alpha.mips is None else [mixed(c, a) for c, a in zip(colour.mips, alpha.mips)]
+    return dataclasses.replace(alpha, data=mixed(colour.data, alpha.data), mips=mips)
 
 
 class WrittenModel:
@@ -66,10 +85,10 @@ class WrittenModel:
         choice: the alpha choice of the start, with which every state of the fit is scored.
         scores: ``{"start": score, "ours": score}`` of the written models on the validation
             views (``score``), once ``kept`` has compared them; with ``engine_draw`` also the
-            fit with the start's base colour (``BASE_COLOUR_OF_START``), and each model's
-            score in the engine's draw under ``"<key>, engine"``.
-        kept_label: which model ``kept`` returned: ``"ours"``, ``"start"`` or
-            ``BASE_COLOUR_OF_START``.
+            fit's mixes with the start's base colour (``MIXES``), and each model's score in the
+            engine's draw under ``"<key>, engine"``.
+        kept_label: which model ``kept`` returned: ``"ours"``, ``"start"`` or a key of
+            ``MIXES``.
         alpha: ``{"start": label, "ours": label}``, how each writes its alpha
             (``alpha_export.alpha_label``), once chosen; ``"written"`` is added by ``kept``
             (the one of the model it returns).
@@ -138,16 +157,17 @@ class WrittenModel:
     def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
         """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
         the validation views (both as written): a fit that did not improve returns its start.
-        With ``engine_draw``, of ``ours`` and ``ours`` with the start's base colour, the one whose
-        least gain over the start in the run's draw and the engine's is the larger, where that
-        gain is positive (module docstring)."""
+        With ``engine_draw``, of ``ours`` and its two mixes with the start's base colour
+        (``MIXES``), the one whose least gain over the start in the run's draw and the engine's
+        is the largest, where that gain is positive (module docstring)."""
         self.kept_label = "ours"
         if self.validation is None:
             self.alpha["written"] = self.alpha.get("ours")
             return ours, False
         models = {"start": start, "ours": ours}
-        if self.engine_draw is not None and (recoloured := with_base_colour_of(ours, start)) is not None:
-            models[BASE_COLOUR_OF_START] = recoloured
+        for label, alpha in ((BASE_COLOUR_OF_START, True), (RGB_OF_START, False)):
+            if self.engine_draw is not None and (mixed := with_base_colour_of(ours, start, alpha)) is not None:
+                models[label] = mixed
         self.scores = {key: self.score(model) for key, model in models.items()}
         gains = {key: self.scores[key] - self.scores["start"] for key in models if key != "start"}
         if self.engine_draw is not None:
@@ -157,5 +177,6 @@ class WrittenModel:
             gains = {key: min(gain, engine[key] - engine["start"]) for key, gain in gains.items()}
         best = max(gains, key=gains.get)
         self.kept_label = best if gains[best] > 0 else "start"
-        self.alpha["written"] = self.alpha.get("ours" if self.kept_label == "ours" else "start")  # the start's kd
+        alpha_of_start = self.kept_label in ("start", BASE_COLOUR_OF_START)
+        self.alpha["written"] = self.alpha.get("start" if alpha_of_start else "ours")
         return models[self.kept_label], self.kept_label == "start"
