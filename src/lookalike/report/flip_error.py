@@ -112,9 +112,7 @@ def flip_error_maps_python(reference, test, ppd: float = PIXELS_PER_DEGREE) -> n
     return (e_c ** (1 - e_f)).astype(np.float32)
 
 
-_RGB_TO_XYZ = np.array([[10135552 / 24577794, 8788810 / 24577794, 4435075 / 24577794],
-                        [2613072 / 12288897, 8788810 / 12288897, 887015 / 12288897],
-                        [1425312 / 73733382, 8788810 / 73733382, 70074185 / 73733382]])
+_RGB_TO_XYZ = np.array(flip_kernels.RGB_TO_XYZ)
 _WHITE = _RGB_TO_XYZ.sum(axis=1)
 """Linear sRGB to CIE XYZ (D65), and the white point, XYZ of RGB (1, 1, 1)."""
 
