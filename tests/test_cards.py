@@ -348,3 +348,30 @@ def test_bench_cards_tabulates_every_method_and_holds_each_case_to_the_bar():
     assert "IoU blender_decimated" in text and "KB cards" in text and "PSNR stochastic" in text and ": met (time budget 600 s" in text
     assert "Cycles, shadows" in text and "three.js, shadows" in text and "+3.00" in text and "nan" in text
     assert [case.name for case in bench.ASSETS][:3] == ["shrub-0.5pct", "shrub-2pct", "broadleaf-tree-0.5pct"]
+
+
+def test_bench_cards_keeps_the_cycles_scores_when_three_js_gives_no_answer(tmp_path, monkeypatch, caplog):
+    from lookalike.bench import cards as bench
+    from lookalike.errors import ExternalToolTimeout
+    from lookalike.jobs import judge_scores
+    from lookalike.settings import Config
+
+    models = {"decimated": None, "start": None, "cards": None}
+    cycles = {renderer: {key: {"psnr": 20.0, "flip": 0.1} for key in models}
+              for renderer in ("ours", "cycles", "cycles_no_shadows")}
+    monkeypatch.setattr(judge_scores, "heldout_views", lambda reference, count, seed: None)
+    monkeypatch.setattr(judge_scores, "judge_models", lambda *args, **kwargs: {"scores": json.loads(json.dumps(cycles))})
+
+    def no_answer(*args, **kwargs):
+        raise ExternalToolTimeout("three.js", "reference.glb", 148)
+
+    monkeypatch.setattr(judge_scores, "threejs_scores", no_answer)
+    files = {key: tmp_path / f"{key}.glb" for key in models}
+    with caplog.at_level("WARNING", logger="lookalike"):
+        scores = bench._judge(None, tmp_path / "reference.glb", models, files, Config(), tmp_path / "case" / "judge")
+    written = json.loads((tmp_path / "case" / "judge" / "judge.json").read_text())
+    assert written["scores"]["cycles"] == cycles["cycles"] and "no answer" in written["threejs_error"]
+    assert scores["cycles"]["cards"] == {"psnr": 20.0, "flip": 0.1}
+    assert all(np.isnan(scores[renderer]["cards"]["psnr"]) for renderer in ("three_shadows", "three"))
+    assert not bench.beats_bar(scores["three"]) and bench.beats_bar({**scores["cycles"], "decimated": {"psnr": 17.0, "flip": 0.2}})
+    assert "case is not judged in three.js" in caplog.text

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import math
 import tempfile
 from dataclasses import dataclass, field
@@ -35,6 +36,8 @@ from pathlib import Path
 
 from ._table import judged_table, runs_table
 from .quality import TIME_BUDGET_S, check_judge, output_root
+
+log = logging.getLogger(__name__)
 
 HELP = "approximate generated foliage with cards; compare with decimation, stochastic simplification and simplify"
 
@@ -183,9 +186,11 @@ def _case(case: CardsCase, source: Path, folder: Path, time_budget: float, reuse
 
 def beats_bar(scores: dict) -> bool:
     """Whether ``cards`` meets the bar in one renderer's ``scores`` (``{key: {"psnr", "flip"}}``,
-    NaN for a method not scored): at least each start scored, and every decimation scored + 2 dB
-    with a lower FLIP."""
+    NaN for a method not scored): ``cards`` scored, at least each start scored, and every
+    decimation scored + 2 dB with a lower FLIP."""
     cards = scores["cards"]
+    if math.isnan(cards["psnr"]):
+        return False
     decimations = [scores[key] for key in DECIMATIONS if not math.isnan(scores[key]["psnr"])]
     starts = [scores[key]["psnr"] for key in ("start", "leaf_texture") if not math.isnan(scores[key]["psnr"])]
     return all(cards["psnr"] >= start for start in starts) and all(
@@ -261,15 +266,27 @@ def _model_files(models: dict, folder: Path) -> dict[str, Path]:
 def _judge(reference, source: Path, models: dict, files: dict, cfg, folder: Path) -> dict:
     """Every method in ``models`` (its glb in ``files``) and the input rendered in Cycles and in
     three.js (shadows on and off each) and ours on the held-out views, the contact sheet and the
-    scores written into ``folder``: ``{renderer: {key: {"psnr", "flip"}}}``."""
-    from ..jobs.judge_scores import JUDGE_RESOLUTION, JudgedModel, heldout_views, judge_models, threejs_scores
+    scores written into ``folder``: ``{renderer: {key: {"psnr", "flip"}}}``. ``judge.json`` is
+    written once Cycles is done, so a three.js that fails or gives no answer (a busy machine)
+    costs only its own columns: they score ``NOT_RUN``, which fails the bar, and ``judge.json``
+    says why (``"threejs_error"``)."""
+    from ..errors import ExternalToolTimeout
+    from ..jobs.judge_scores import JUDGE_RESOLUTION, THREEJS_RENDERERS, JudgedModel, heldout_views, judge_models, \
+        threejs_scores
+    from ..webgl.three_views import WebglError
 
     folder.mkdir(parents=True, exist_ok=True)
     judged = [JudgedModel(key, label, files[key], models[key]) for key, label in METHODS if key in models]
     views = heldout_views(reference, cfg.views.heldout, cfg.views.heldout_seed)
     result = judge_models(reference, source, judged, views, JUDGE_RESOLUTION, cfg.render.target_spp,
                           cfg.render.latent_msaa, contact_sheet_path=folder / "views.png", layers=cfg.render.layers)
-    result["scores"].update(threejs_scores(source, judged, views))
+    (folder / "judge.json").write_text(json.dumps(result, indent=2))
+    try:
+        result["scores"].update(threejs_scores(source, judged, views))
+    except (WebglError, ExternalToolTimeout) as error:
+        log.warning("bench cards: %s is not judged in three.js: %s", folder.parent.name, error)
+        result["threejs_error"] = str(error)
+        result["scores"].update({renderer: {} for renderer in THREEJS_RENDERERS})
     (folder / "judge.json").write_text(json.dumps(result, indent=2))
     return {renderer: {key: {"psnr": scores[key]["psnr"] if key in scores else NOT_RUN,
                              "flip": scores[key]["flip"] if key in scores else NOT_RUN} for key, _ in METHODS}
