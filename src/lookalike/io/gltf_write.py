@@ -15,7 +15,8 @@ Material channels: base colour (+ alpha) as ``baseColorFactor`` or an sRGB PNG; 
 (R = 1, G = roughness, B = metalness) and as KHR_materials_specular ``specularTexture`` (A =
 ``1 - gamma``); a constant ``gamma != 0`` becomes ``specularFactor = 1 - gamma``. Note that glTF's
 specular factor scales only the dielectric lobe, while the paper's ``gamma`` also scales metals.
-1x1 (constant) textures are written as factors. An unlit material (``Material.unlit``) is a
+1x1 (constant) textures are written as factors (a normal map only where it is flat, ``(0, 0, 1)``:
+glTF has no normal factor, so a constant tilt stays a texture). An unlit material (``Material.unlit``) is a
 ``KHR_materials_unlit`` material whose base colour is its emission (clipped to [0, 1]); the
 asset's point lights are ``KHR_lights_punctual`` lights on nodes of their own. Emission is ``emissiveFactor``/``emissiveTexture``
 (sRGB), divided by its largest value where that exceeds 1, which KHR_materials_emissive_strength
@@ -285,7 +286,7 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
                 "specularFactor": float(np.clip(1 - gamma.flat[0], 0, 1))}
     if "KHR_materials_specular" in out.get("extensions", {}):
         builder.extensions.add("KHR_materials_specular")
-    if material.normal is not None and has_uv and constant_texel(material.normal) is None:
+    if material.normal is not None and has_uv and not _flat(material.normal):
         out["normalTexture"] = _texture_info(builder, material.normal, lambda data: data * 0.5 + 0.5, "normal")
     if material.emissive is not None:
         ke = constant_or_mean(material.emissive)
@@ -515,3 +516,10 @@ def write_glb(asset: Asset, path: Path, ktx2_only: bool = False) -> None:
     builder.doc["scenes"] = [{"nodes": roots}]
     builder.doc["scene"] = 0
     builder.write(Path(path))
+
+
+def _flat(normal: Texture) -> bool:
+    """Whether every texel of the tangent-space ``normal`` map is ``(0, 0, 1)`` (within 1e-6):
+    a map that changes nothing, left out of the file."""
+    value = constant_texel(normal)
+    return value is not None and bool(np.allclose(value, (0.0, 0.0, 1.0), atol=1e-6))
