@@ -227,28 +227,6 @@ def test_cycles_agrees_with_our_renderer_on_a_smooth_textured_sphere(tmp_path):
 
 
 @needs_blender
-def test_bump_shadowing_draws_a_coarse_normal_mapped_ball_as_cycles_does(tmp_path):
-    """A coarse ball whose normal map tilts every normal 37 degrees from its smooth normals:
-    Cycles darkens the map's light towards the terminator (``lookalike.shading.bump_shadowing``);
-    our views that shade as Cycles does agree with it only with the term."""
-    from lookalike.fit.training_views import view_sampler
-    from lookalike.blender.cycles import render_cycles_views
-    from lookalike.jobs.judge_scores import score_renders
-
-    tilt = torch.tensor([0.6, 0.0, 0.8]).expand(8, 8, 3).clone()
-    asset = Asset(mesh=uv_sphere(6, 12), materials=[Material(kd=Texture.constant([0.8, 0.8, 0.8, 1.0]),
-                                                            ks=Texture.constant(LAMBERTIAN), normal=Texture(tilt))])
-    glb = _save(asset, tmp_path / "ball.glb")
-    views = view_sampler(*asset.mesh.bounding_sphere())(np.random.default_rng(2), 4)
-    cycles = render_cycles_views(glb, views.camera, views.light, 64, (False,), samples=16).images[False]
-    model, scores = io.load(glb), {}
-    for horizon, bump in ((False, False), (True, False), (True, True)):
-        light = dataclasses.replace(views.light, horizon=torch.full((4,), horizon), bump_shadowing=bump)
-        scores[horizon, bump] = score_renders(cycles, render(model, views.camera, light, 64, spp=4))["psnr"]
-    assert scores[True, True] > max(scores[False, False], scores[True, False]) + 1.5, scores   # measured +4.5, +2.7
-
-
-@needs_blender
 def test_cycles_lights_by_an_environment_map_from_where_mitsuba_does(tmp_path, monkeypatch):
     """A grey ball under a map with a warm spot up one side and a blue one low on another:
     Cycles' world, turned by ``ENVIRONMENT_TURN``, lights it as Mitsuba's ``envmap`` does in our

@@ -183,10 +183,6 @@ class RenderConfig:
             surface faces away from it, as Cycles and most offline renderers shade, while the
             other views light by the shading normal alone, as real-time engines do. Fitting
             against both keeps the normal map right in both kinds of renderer.
-        horizon_bump_shadowing: the views that test the horizon also shade normal-mapped points
-            with Cycles' bump shadowing (``lookalike.shading.bump_shadowing``: no light where the
-            smooth surface under the map faces away from it, less towards that terminator), as
-            Cycles draws a coarse model whose normal map holds what its facets lack.
         layers: depth-peeled layers composited in every render of the models
             (``lookalike.shading.pipeline``): 1 shows the nearest surface only; alpha-
             textured foliage needs several (the paper peels 8). The reference peels
@@ -217,7 +213,6 @@ class RenderConfig:
     target_spp: int = 2
     latent_msaa: int = 2
     horizon_share: float = 0.5
-    horizon_bump_shadowing: bool = False
     layers: int = 1
     mip_footprint: str = "supersampled"
     device: str = "auto"

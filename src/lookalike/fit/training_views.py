@@ -91,17 +91,16 @@ class BatchSource(Protocol):
 
 def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0,
                  poses: PoseSampler | None = None, distance_spread: float = 0.0,
-                 fixed_light: PointLight | None = None, bump_shadowing: bool = False) -> ViewSampler:
+                 fixed_light: PointLight | None = None) -> ViewSampler:
     """``sample(rng, n) -> Views``: ``n`` random views of the sphere (``centre [3]``,
     ``radius``), drawn from ``rng`` (cameras first, then a cosine-distributed point light per
     view; ``lookalike.shading.view_sampling``); with ``horizon_share > 0``, then each view's
-    light tests the geometric horizon (``PointLight.horizon``) with that probability, and with
-    ``bump_shadowing`` shades normal maps as Cycles does there (``PointLight.bump_shadowing``); with
+    light tests the geometric horizon (``PointLight.horizon``) with that probability; with
     ``poses``, then a pose per view; with ``distance_spread``, cameras nearer and farther
     than the framing distance (``random_views``). With ``fixed_light`` (batch 1), every view is
     lit by it instead (a reference's fixed lighting; no light is drawn)."""
 
-    lights = light_sampler(centre, horizon_share, bump_shadowing) if fixed_light is None else fixed_lights(fixed_light)
+    lights = light_sampler(centre, horizon_share) if fixed_light is None else fixed_lights(fixed_light)
 
     def sample(rng: np.random.Generator, n: int) -> Views:
         camera = random_views(centre, radius, n, rng, distance_spread=distance_spread)
@@ -111,17 +110,15 @@ def view_sampler(centre: torch.Tensor, radius: float, horizon_share: float = 0.0
     return sample
 
 
-def light_sampler(centre: torch.Tensor, horizon_share: float = 0.0, bump_shadowing: bool = False) -> LightSampler:
+def light_sampler(centre: torch.Tensor, horizon_share: float = 0.0) -> LightSampler:
     """``sample(rng, camera) -> PointLight``: a cosine-distributed point light per camera
     (``lookalike.shading.view_sampling.random_lights``), testing the geometric horizon with
-    probability ``horizon_share`` (``PointLight.horizon``), with Cycles' bump shadowing there
-    where ``bump_shadowing`` (``PointLight.bump_shadowing``)."""
+    probability ``horizon_share`` (``PointLight.horizon``)."""
 
     def sample(rng: np.random.Generator, camera: Camera) -> PointLight:
         light = random_lights(camera, centre, rng)
         if horizon_share > 0:
             light.horizon = torch.from_numpy(rng.uniform(size=camera.batch_size) < horizon_share)
-            light.bump_shadowing = bump_shadowing
         return light
 
     return sample

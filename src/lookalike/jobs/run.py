@@ -513,12 +513,10 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: boo
                       if views.validation else None)
         training = view_sampler(centre, radius, cfg.render.horizon_share,
                                 poses=animated.training_poses(asset, cfg) if moving else None,
-                                distance_spread=cfg.views.distance_spread, fixed_light=light,
-                                bump_shadowing=cfg.render.horizon_bump_shadowing)
+                                distance_spread=cfg.views.distance_spread, fixed_light=light)
         if not views.pool_size:
             return heldout, validation, FreshViews(reference, training, size, spp)
-        relight = (light_sampler(centre, cfg.render.horizon_share, cfg.render.horizon_bump_shadowing)
-                   if views.relight else None)
+        relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
         pool = ViewPool(counted, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
                         refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
         return heldout, validation, pool

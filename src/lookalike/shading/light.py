@@ -25,14 +25,11 @@ class PointLight:
         intensity: ``[B, 3]`` float32 linear RGB radiant intensity.
         horizon: ``[B]`` bool, or ``None`` (all False): where True, a point whose geometric
             normal (facing the viewer) faces away from the light gets none of it.
-        bump_shadowing: in the views that test the horizon, normal-mapped points are also
-            shaded with Cycles' bump shadowing (``lookalike.shading.bump_shadowing``).
     """
 
     position: torch.Tensor
     intensity: torch.Tensor
     horizon: torch.Tensor | None = None
-    bump_shadowing: bool = False
 
     def illuminate(self, points: torch.Tensor, view: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Unit directions to the light and irradiance at normal incidence.
@@ -55,19 +52,12 @@ class PointLight:
         """``[N, 1]`` bool, True where the view's ``horizon`` test applies and the light lies
         below the geometric surface (``geometric_normal . direction <= 0``, both ``[N, 3]``);
         ``None`` where no view tests."""
-        tested = self.tests_horizon(view)
-        if tested is None:
-            return None
-        return tested & ((geometric_normal * direction).sum(dim=-1, keepdim=True) <= 0)
-
-    def tests_horizon(self, view: torch.Tensor) -> torch.Tensor | None:
-        """``[N, 1]`` bool: whether the view of each point (``view [N]`` int64) tests the
-        horizon; ``None`` where no view does."""
         if self.horizon is None or not bool(self.horizon.any()):
             return None
         if self.position.shape[0] == 1:
             view = torch.zeros_like(view)
-        return self.horizon.to(view.device)[view][:, None]
+        tested = self.horizon.to(view.device)[view][:, None]
+        return tested & ((geometric_normal * direction).sum(dim=-1, keepdim=True) <= 0)
 
     def __getitem__(self, index) -> "PointLight":
         """The lights selected by ``index`` (a slice or index tensor), still batched."""
@@ -76,8 +66,7 @@ class PointLight:
         if self.position.shape[0] == 1:
             return self
         return PointLight(position=self.position[index], intensity=self.intensity[index],
-                          horizon=None if self.horizon is None else self.horizon[index],
-                          bump_shadowing=self.bump_shadowing)
+                          horizon=None if self.horizon is None else self.horizon[index])
 
     @staticmethod
     def cat(lights: list["PointLight"]) -> "PointLight":
@@ -87,5 +76,4 @@ class PointLight:
             horizon = torch.cat([l.horizon if l.horizon is not None else torch.zeros(l.position.shape[0], dtype=torch.bool)
                                  for l in lights])
         return PointLight(position=torch.cat([l.position for l in lights]),
-                          intensity=torch.cat([l.intensity for l in lights]), horizon=horizon,
-                          bump_shadowing=any(l.bump_shadowing for l in lights))
+                          intensity=torch.cat([l.intensity for l in lights]), horizon=horizon)

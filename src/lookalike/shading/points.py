@@ -1,7 +1,6 @@
 """Shading the points of a G-buffer: their light-independent inputs (``SurfacePoints``: the
 normal-mapped shading normal facing the viewer, the material, the coverage that back faces
-and the alpha mode leave) and their radiance under a point light (with Cycles' bump shadowing
-where the light asks for it, ``lookalike.shading.bump_shadowing``)."""
+and the alpha mode leave) and their radiance under a point light."""
 
 from __future__ import annotations
 
@@ -10,7 +9,6 @@ from dataclasses import dataclass
 import torch
 
 from ..asset.normals import safe_normalize
-from .bump_shadowing import bump_shadowing
 from .camera import Camera
 from .gbuffer import GBuffer
 from .light import PointLight
@@ -38,9 +36,6 @@ class SurfacePoints:
         kd: ``[N, 3]`` linear base colour; ks: ``[N, 3]`` (gamma, roughness, metalness).
         emissive: ``[N, 3]`` linear emission, or ``None``.
         alpha: ``[N, 1]`` coverage (0 on culled back faces).
-        smooth_normal: ``[N, 3]`` unit interpolated vertex normal, flipped on back faces (bump
-            shadowing's).
-        mapped: ``[N]`` bool, whether the point's material has a normal map.
     """
 
     view: torch.Tensor
@@ -52,20 +47,16 @@ class SurfacePoints:
     ks: torch.Tensor
     emissive: torch.Tensor | None
     alpha: torch.Tensor
-    smooth_normal: torch.Tensor
-    mapped: torch.Tensor
 
 
 def surface_points(gb: GBuffer, surface: Surface, camera: Camera) -> SurfacePoints:
     """The light-independent shading inputs of the G-buffer's pixels (see ``SurfacePoints``)."""
     view_dir, front = facing_viewer(gb, camera)
     facing = torch.where(front, 1.0, -1.0).to(view_dir)
-    tangent, tangent_space, mapped = _normal_map_inputs(gb, surface)
-    normal = shading_normal(gb.normal, tangent, tangent_space, mapped, gb.geometric_normal, view_dir, facing[:, 0])
+    normal = shading_normal(gb.normal, *_normal_map_inputs(gb, surface), gb.geometric_normal, view_dir, facing[:, 0])
     return SurfacePoints(view=gb.view, position=gb.position, normal=normal, geometric_normal=gb.geometric_normal * facing,
                          view_dir=view_dir, kd=surface.kd[:, :3], ks=surface.ks, emissive=surface.emissive,
-                         alpha=visible_alpha(surface, front), smooth_normal=safe_normalize(gb.normal) * facing,
-                         mapped=mapped)
+                         alpha=visible_alpha(surface, front))
 
 
 def facing_viewer(gb: GBuffer, camera: Camera) -> tuple[torch.Tensor, torch.Tensor]:
@@ -100,25 +91,11 @@ def light_points(points: SurfacePoints, light: PointLight, transmittance: torch.
     ``transmittance [N, 1]`` where given (the share of the light that reaches each point past
     shadowing parts, ``lookalike.shading.shadow_maps``; exact, the radiance being linear in the
     light's irradiance), + emissive, no light where the view's horizon test finds the light
-    below the geometric surface; in those views, with ``light.bump_shadowing``, the normal-mapped
-    points' reflected light times ``bump_shadowing.bump_shadowing``."""
+    below the geometric surface."""
     radiance = lit_radiance(points.kd, points.ks, points.normal, points.view_dir, points.position,
                             points.geometric_normal, points.view, light)
     if transmittance is not None:
         radiance = radiance * transmittance
-    if light.bump_shadowing:
-        radiance = radiance * _bump_shadowing(points, light)
     if points.emissive is not None:
         radiance = radiance + points.emissive
     return torch.cat([radiance, points.alpha], dim=-1)
-
-
-def _bump_shadowing(points: SurfacePoints, light: PointLight) -> torch.Tensor | float:
-    """``[N, 1]``: ``bump_shadowing`` at the normal-mapped points of the views that test the
-    horizon, 1 elsewhere (1.0 where no point is tested)."""
-    tested = light.tests_horizon(points.view)
-    if tested is None:
-        return 1.0
-    tested = tested & points.mapped.bool()[:, None]
-    direction, _ = light.illuminate(points.position, points.view)
-    return torch.where(tested, bump_shadowing(points.smooth_normal, points.normal, direction), 1.0)

@@ -93,8 +93,7 @@ def capture_view(asset, camera: Camera, resolution, spp: int = 1, dtype: torch.d
     surface = sample_surface(asset.materials, asset.mesh.t_mat_idx, gb, texture_sampler(asset), getattr(asset, "source", None))
     points = surface_points(gb, surface, camera)
     stored = {f.name: getattr(points, f.name) for f in fields(SurfacePoints)}
-    stored = {name: value if value is None or not value.is_floating_point()
-              else value.to(torch.float32 if name in ("position", "normal") else dtype).clone()
+    stored = {name: value if value is None else value.to(torch.float32 if name in ("position", "normal") else dtype).clone()
               for name, value in stored.items() if name not in ("view", "view_dir")}
     stored["view"] = torch.zeros(1, dtype=torch.int64).expand(gb.pixel.shape[0])  # one view: no storage per sample
     stored["view_dir"] = None
