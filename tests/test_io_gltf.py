@@ -329,7 +329,6 @@ def test_glb_writes_constants_as_factors_and_unwelds_per_corner(tmp_path):
     assert position["min"] == [0, 0, 0] and position["max"] == [1, 1, 0] and position["count"] == 9
 
 
-
 def test_a_constant_normal_map_is_left_out_only_where_it_is_flat(tmp_path):
     from lookalike.asset import Texture
 
@@ -339,6 +338,7 @@ def test_a_constant_normal_map_is_left_out_only_where_it_is_flat(tmp_path):
         assert ("normalTexture" in json.loads(_glb_json(tmp_path / "n.glb"))["materials"][0]) == kept, value
     normal = io.load(tmp_path / "n.glb").materials[0].normal.data.reshape(-1, 3)
     assert (normal - torch.tensor(tilt)).abs().max() < 0.01                 # the plane's frame is ours: the tilt comes back
+
 
 def _glb_json(path: Path) -> str:
     data = path.read_bytes()

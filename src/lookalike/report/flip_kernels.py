@@ -19,10 +19,9 @@ RGB_TO_XYZ = ((10135552 / 24577794, 8788810 / 24577794, 4435075 / 24577794),
               (2613072 / 12288897, 8788810 / 12288897, 887015 / 12288897),
               (1425312 / 73733382, 8788810 / 73733382, 70074185 / 73733382))
 """Linear sRGB to CIE XYZ (D65); the white point is its rows' sums, XYZ of RGB (1, 1, 1)."""
-_M = RGB_TO_XYZ
-_WX, _WY, _WZ = (sum(row) for row in _M)
-_INV = tuple(map(tuple, np.linalg.inv(np.array(_M))))
-(_M00, _M01, _M02), (_M10, _M11, _M12), (_M20, _M21, _M22) = _M
+_WX, _WY, _WZ = (sum(row) for row in RGB_TO_XYZ)
+_INV = tuple(map(tuple, np.linalg.inv(np.array(RGB_TO_XYZ))))
+(_M00, _M01, _M02), (_M10, _M11, _M12), (_M20, _M21, _M22) = RGB_TO_XYZ
 (_I00, _I01, _I02), (_I10, _I11, _I12), (_I20, _I21, _I22) = _INV
 _DELTA3 = (6 / 29) ** 3
 _LINEAR_SLOPE = 1 / (3 * (6 / 29) ** 2)
