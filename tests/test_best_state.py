@@ -201,6 +201,14 @@ def test_where_every_form_must_gain_the_state_that_lifts_each_form_is_kept_over_
         best.validate(Picture("each"), iteration=1)
         assert best.state == {"name": kept}, every
     assert written.start_forms == [30.0, 40.0]
+
+    class Told(Picture):  # a latent that shares its steps among its forms by their gains
+        def observe_form_gains(self, gains):
+            self.gains = gains
+
+    told = Told("each")
+    assert written.validate(told) == pytest.approx(0.2)
+    assert told.gains == pytest.approx([0.3, 0.2])
     start, mean = Picture("start").export(), Picture("mean").export()
     assert written.kept(mean, start) == (start, True)
     assert written.score(Picture("each").export()) == pytest.approx(0.2)

@@ -263,6 +263,41 @@ def test_a_plane_displaced_by_a_known_height_field_is_recovered_from_renders():
     assert float(torch.corrcoef(torch.stack([fitted, expected]))[0, 1]) > 0.9
 
 
+def levels_latent(levels: tuple[int, ...]) -> DisplacedMesh:
+    """A ``DisplacedMesh`` of a flat plane fitted at ``levels``."""
+    material = Material(kd=Texture.constant([0.7, 0.7, 0.7, 1.0]), ks=Texture.constant([0.0, 0.5, 0.0]))
+    start = Displacement(Texture(torch.full((8, 8, 1), 0.5)), 0.1, 0.5, level=max(levels))
+    surface = TexturedMesh.from_asset(Asset(mesh=plane(3), materials=[material]), torch.tensor([0.5, 0.5, 0.0]), 0.8,
+                                      limits=config_from_dict({}).clamp, msaa=1, train_alpha=False)
+    return DisplacedMesh(surface, start, levels)
+
+
+def test_the_level_that_gains_least_gets_the_largest_share_of_the_image_loss():
+    """Before a validation four levels weigh alike, and a loss equal to the levels' average
+    weighs 1. Told the forms' gains (the finest level first: +0.6 dB at level 3, then +0.7,
+    +1.2, +1.6 at levels 0-2), level k's share is exp(-(g_k - g_min) / tau) normalised, the
+    loss of level 3 weighs K p_3, and the shares survive a resume."""
+    from lookalike.fit.displaced_mesh import LEVEL_GAIN_SPREAD
+
+    latent = levels_latent((0, 1, 2, 3))
+    assert latent.level_shares() == pytest.approx([0.25] * 4)
+    for _ in range(4):
+        assert latent.image_weight(2.0) == pytest.approx(1.0)
+        latent.at_progress(None)
+    latent.observe_form_gains([0.6, 0.7, 1.2, 1.6])
+    assert latent.level_gains == pytest.approx([0.7, 1.2, 1.6, 0.6])
+    raw = np.exp(-(np.array([0.7, 1.2, 1.6, 0.6]) - 0.6) / LEVEL_GAIN_SPREAD)
+    assert latent.level_shares() == pytest.approx(list(raw / raw.sum()))
+    assert np.argmax(latent.level_shares()) == 3 and np.argmin(latent.level_shares()) == 2
+    for _ in range(3):
+        latent.at_progress(None)
+    assert latent.level == 3
+    assert latent.image_weight(2.0) == pytest.approx(4 * raw[3] / raw.sum())
+    resumed = levels_latent((0, 1, 2, 3))
+    resumed.load_state_dict(latent.state_dict())
+    assert resumed.level_shares() == pytest.approx(latent.level_shares()) and resumed.level == 3
+
+
 def shaded_levels(shading: str) -> list[torch.Tensor]:
     """A flat plane with a smooth normal map (as baked for a plane) and a random displacement
     map, rendered from straight above at levels 0 to 3: ``[H, W, 4]`` images."""

@@ -2,17 +2,18 @@
 PBR maps, drawn subdivided and displaced (paper Sec. 5.1, ``lookalike.asset.displacement``),
 fitted so that the surface looks right at every one of its tessellation levels.
 
-Each step draws the next of ``levels`` in turn, so that every level gets an equal share of the
-steps; the base mesh holds the shape, the displacement the relief its edges can follow, the
-normal map the rest. On a UV seam a vertex takes the mean of its sides' heights; the
-regulariser ``seams``, ``mean (h_side - h_vertex)^2`` over the (vertex, UV) pairs, pulls the
-sides together, so that an engine or Blender, which read one side, sees (nearly) the same
-surface.
+Each step draws the next of ``levels`` in turn, its image loss weighed towards the level that
+gains least over the start (``DisplacedMesh.image_weight``); the base mesh holds the shape, the
+displacement the relief its edges can follow, the normal map the rest. On a UV seam a vertex
+takes the mean of its sides' heights; the regulariser ``seams``, ``mean (h_side - h_vertex)^2``
+over the (vertex, UV) pairs, pulls the sides together, so that an engine or Blender, which read
+one side, sees (nearly) the same surface.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import torch
 
@@ -29,6 +30,10 @@ from .texture_pyramid import TexturePyramid
 LEVEL_LOSS_EMA = 0.9
 """beta of each level's loss average m_k (``DisplacedMesh.image_weight``)."""
 
+LEVEL_GAIN_SPREAD = 0.5
+"""tau (dB) of the levels' shares ``softmax(-g / tau)`` by their gains over the start
+(``DisplacedMesh.image_weight``): a level 0.5 dB further ahead gets e^-1 the share."""
+
 SEAM_TOLERANCE = 0.002
 """The gap between the heights of a seam's two sides (in the map's [0, 1] units) that costs as
 much as a quarter of the image loss at the start (``regularizer_scales``)."""
@@ -43,7 +48,8 @@ class DisplacedMesh(torch.nn.Module):
     ``Displacement.shading``) and ``levels`` (the tessellation levels fitted);
     ``level_index`` picks the level the next render draws (saved, so
     that a resumed run goes on with the same one); ``level_losses`` are the levels' loss
-    averages that balance them (``image_weight``).
+    averages that balance them, ``level_gains`` the levels' last validated gains over the start
+    (``observe_form_gains``) that share the steps among them (``image_weight``).
 
     Args:
         surface: the base mesh and its maps.
@@ -62,10 +68,12 @@ class DisplacedMesh(torch.nn.Module):
         self.levels = tuple(sorted(levels))
         self.level_index = 0
         self.level_losses: list[float | None] = [None] * len(self.levels)
+        self.level_gains: list[float] | None = None
 
     def get_extra_state(self) -> dict:
         return {"displacement_scale": self.displacement_scale, "shading": self.shading, "levels": list(self.levels),
-                "level_index": self.level_index, "level_losses": list(self.level_losses)}
+                "level_index": self.level_index, "level_losses": list(self.level_losses),
+                "level_gains": self.level_gains}
 
     def set_extra_state(self, state: dict) -> None:
         self.displacement_scale = state["displacement_scale"]
@@ -73,17 +81,35 @@ class DisplacedMesh(torch.nn.Module):
         self.levels = tuple(state["levels"])
         self.level_index = state["level_index"]
         self.level_losses = list(state["level_losses"])
+        self.level_gains = state.get("level_gains")
 
     def image_weight(self, loss: float) -> float:
-        """The factor of the current level's image loss ``L_k``: ``mean_j m_j / m_k``, with
+        """The factor of the current level's image loss ``L_k``: ``K p_k mean_j m_j / m_k``, with
         ``m_k = LEVEL_LOSS_EMA m_k + (1 - LEVEL_LOSS_EMA) L_k`` each level's loss average (the
-        levels seen so far), so that the step descends ``mean_j m_j log L_k``: every level
-        gains alike in dB, where plain losses let the coarse levels, whose errors are the
-        largest, pull the shared maps away from the fine ones."""
+        levels seen so far) and ``p = softmax(-g / LEVEL_GAIN_SPREAD)`` the shares of the ``K``
+        levels by their validated gains over the start ``g`` (uniform before the first), so that
+        the step descends ``sum_k p_k mean_j m_j log L_k``: the levels gain in dB, where plain
+        losses let the coarse levels, whose errors are the largest, pull the shared heights away
+        from the fine ones, and the level that gains least gets most of the steps, since the
+        model is worth its least gain."""
         k, m = self.level_index, self.level_losses
         m[k] = loss if m[k] is None else LEVEL_LOSS_EMA * m[k] + (1 - LEVEL_LOSS_EMA) * loss
         known = [value for value in m if value is not None]
-        return sum(known) / len(known) / max(m[k], 1e-12)
+        return len(self.levels) * self.level_shares()[k] * sum(known) / len(known) / max(m[k], 1e-12)
+
+    def level_shares(self) -> list[float]:
+        """``p_k``, the levels' shares of the image loss (``image_weight``)."""
+        if self.level_gains is None:
+            return [1 / len(self.levels)] * len(self.levels)
+        low = min(self.level_gains)
+        weights = [math.exp(-(gain - low) / LEVEL_GAIN_SPREAD) for gain in self.level_gains]
+        return [weight / sum(weights) for weight in weights]
+
+    def observe_form_gains(self, gains: list[float]) -> None:
+        """The validated gains over the start of the model's forms in ``Application.variants``'
+        order, the finest level first and then the coarser ones in order (``displace``'s
+        ``level_variants``), kept by level as ``level_gains``."""
+        self.level_gains = [float(gain) for gain in gains[1:] + gains[:1]]
 
     @property
     def level(self) -> int:

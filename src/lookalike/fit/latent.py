@@ -58,7 +58,9 @@ class Latent(Protocol):
         ...
 
     # Optional: ``image_weight(loss: float) -> float``, the factor of this step's image loss
-    # (``lookalike.fit.objective``), for a latent drawn in several forms in turn.
+    # (``lookalike.fit.objective``), for a latent drawn in several forms in turn; and
+    # ``observe_form_gains(gains: list[float])``, told each form's validated gain over the start
+    # (``lookalike.jobs.written_model.WrittenModel.validate``), to share the steps among them.
 
     def regularizers(self) -> dict[str, torch.Tensor]:
         """Scalar regulariser terms by name (differentiable)."""

@@ -119,9 +119,12 @@ class WrittenModel:
         return [self.validation.validation_score(form, self.draw, self.flip_share) for form in self.forms(asset)]
 
     def score(self, asset: Asset) -> float:
-        """The validation score of ``asset`` (as it is): the mean of its ``form_scores``, or with
-        ``every_form_gains`` (once the start is scored) their least gain over the start's."""
-        scores = self.form_scores(asset)
+        """The validation score of ``asset`` (as it is): ``combined`` of its ``form_scores``."""
+        return self.combined(self.form_scores(asset))
+
+    def combined(self, scores: list[float]) -> float:
+        """One score of a model's ``form_scores``: their mean, or with ``every_form_gains``
+        (once the start is scored) their least gain over the start's."""
         if self.every_form_gains and self.start_forms is not None:
             return min(score - start for score, start in zip(scores, self.start_forms))
         return sum(scores) / len(scores)
@@ -143,10 +146,15 @@ class WrittenModel:
         """The loop's validator: the state of ``latent`` as written with the start's choice;
         where the fit trains the alpha test in (``annealed``), the better of that and its own
         cutoff (parts thinner than the cutoff's coverage, hair or grass blades, vanish at it
-        and show only dithered or at a lower cutoff)."""
+        and show only dithered or at a lower cutoff). With ``every_form_gains``, a latent that
+        has ``observe_form_gains`` is told each form's gain over the start (of the better)."""
         model = latent.export()
         choices = {self.choice, AlphaChoice()} if self.annealed else {self.choice}
-        return max(self.score(written_alpha(model, self.mode, choice)) for choice in choices)
+        scores = max((self.form_scores(written_alpha(model, self.mode, choice)) for choice in choices),
+                     key=self.combined)
+        if self.every_form_gains and self.start_forms is not None and hasattr(latent, "observe_form_gains"):
+            latent.observe_form_gains([score - start for score, start in zip(scores, self.start_forms)])
+        return self.combined(scores)
 
     def finished(self, best: Asset) -> Asset:
         """The fit's best model as written, its alpha choice made again for it."""
