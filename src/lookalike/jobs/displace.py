@@ -14,9 +14,9 @@ suits the levels near it best, so they are baked at the middle one (``docs/bench
 latent (``lookalike.fit.displaced_mesh``) fits the heights (by default; the base positions and
 maps too where their learning rates are set), each step at the next of
 ``latent.tessellation_levels``, the levels' losses balanced and the steps shared towards the
-level that gains least, its states chosen on the least gain
-over the start among the levels (so that every level gains). The report scores every level beside the start at that level and the classic
-decimate + bake at the same triangle count. Outputs besides the run's (``model.glb`` is the finest level):
+level that gains least, its states chosen on the least gain over the start among the levels (so
+that every level gains). The report scores every level beside the start at that level and the
+classic decimate + bake at the same triangle count. Outputs besides the run's (``model.glb`` is the finest level):
 ``base.glb`` (the base mesh and its maps, the displacement map in the material's ``extras``),
 ``displacement.png`` (16-bit heights; also ``.exr`` where the ``OpenEXR`` package is installed)
 and ``lodK.glb``, level K tessellated and displaced, for engines without tessellation
