@@ -95,6 +95,15 @@ def _interrupt_when(ready) -> threading.Thread:
 
 
 @pytest.fixture
+def ctrl_c_raises():
+    """SIGINT raises ``KeyboardInterrupt`` for the test, as in a terminal: a process started in
+    the background by a shell (``cmd &``) begins with SIGINT ignored."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.fixture
 def quick_basisu(monkeypatch):
     from lookalike.io import ktx2
 
@@ -205,7 +214,7 @@ def test_a_hanging_browser_is_killed_at_its_deadline_with_the_session_it_started
     assert len(runs) == 2 and len(browsers) == 2 and all(_gone(int(pid)) for pid in runs + browsers)
 
 
-def test_ctrl_c_while_a_tool_runs_kills_it_and_what_it_started(tmp_path, monkeypatch, quick_gltfpack):
+def test_ctrl_c_while_a_tool_runs_kills_it_and_what_it_started(tmp_path, monkeypatch, quick_gltfpack, ctrl_c_raises):
     """A tool in a session of its own does not get the terminal's Ctrl-C: the caller kills it."""
     from lookalike.io import meshopt
 
@@ -219,7 +228,7 @@ def test_ctrl_c_while_a_tool_runs_kills_it_and_what_it_started(tmp_path, monkeyp
     assert len(runs) == 1 and all(_gone(int(pid)) for pid in runs + children)
 
 
-def test_ctrl_c_while_encoder_threads_wait_kills_every_encoder_at_once(tmp_path, monkeypatch, quick_basisu):
+def test_ctrl_c_while_encoder_threads_wait_kills_every_encoder_at_once(tmp_path, monkeypatch, quick_basisu, ctrl_c_raises):
     """The levels' encoders wait in worker threads, which Ctrl-C does not reach: the main thread
     kills them all and waits for none."""
     from lookalike.io import ktx2
