@@ -1,6 +1,7 @@
 """Hard edges survive simplification: decimation splits its normals at creases, the bake decodes
 in the split frames, the latent keeps the slots and recomputes the normals from its moving
-positions, and the exported model carries them; a sphere stays smooth throughout."""
+positions, and the exported model carries them; a sphere stays smooth throughout. A model fitted
+on smooth normals is written on crease normals, shading as it did."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from io_factory import box, covered_texels
+from io_factory import box, bumpy_normal_map, covered_texels
 from lookalike import io
 from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.normals import face_normals, safe_normalize
@@ -18,7 +19,8 @@ from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate
 from lookalike.init.projection_bake import bake
-from lookalike.init.initial_guess import Ranges, initial_guess
+from lookalike.init.initial_guess import Ranges, initial_guess, smooth_shaded
+from lookalike.io.normal_frames import on_crease_normals
 from mesh_factory import icosphere
 
 
@@ -112,3 +114,39 @@ def test_exported_model_keeps_the_hard_edges(cube, tmp_path, shape):
         assert written.num_vertices == 8 and written.num_normals == 24 and (counts == 3).all()
     else:
         assert written.num_normals == written.num_vertices and (counts == 1).all()
+
+
+def with_bumps(model: Asset) -> Asset:
+    """``model`` with a bumpy normal map in place of its own."""
+    material = model.materials[0]
+    bumps = dataclasses.replace(material.normal, data=bumpy_normal_map(material.normal.data.shape[0]))
+    return dataclasses.replace(model, materials=[dataclasses.replace(material, normal=bumps)])
+
+
+def test_a_model_on_smooth_normals_is_written_on_crease_normals_shading_as_it_did(cube):
+    """The 12-triangle cube shaded smooth (its corner normals lean 55 degrees from the faces)
+    under a bumpy map: on crease normals, the map re-expressed, it draws the same picture; the
+    map as it was on those normals draws another."""
+    from lookalike.report.metrics import psnr
+    from lookalike.shading.camera import Camera
+    from lookalike.shading.light import PointLight
+    from lookalike.shading.pipeline import render
+
+    asset, low = cube
+    smooth = with_bumps(smooth_shaded(asset, start_of(asset, low, 64), 64))
+    assert (normals_per_position(smooth.mesh) == 1).all()
+    written = on_crease_normals(smooth)
+    assert torch.equal(normals_per_position(written.mesh), faces_met(low))
+    eyes = torch.tensor([[3.0, 1.2, 0.8], [-1.0, 2.6, 1.9], [0.7, -1.5, -3.0]])
+    cameras = Camera.looking_at(eyes, torch.zeros(3, 3), fovy=np.radians(45.0))
+    light = PointLight(eyes * 1.5 + torch.tensor([1.0, 1.5, 0.0]), torch.full((3, 3), 20.0))
+    picture = render(smooth, cameras, light, 96)
+    unconverted = dataclasses.replace(written, materials=smooth.materials)
+    assert psnr(picture, render(written, cameras, light, 96)) > 40.0
+    assert psnr(picture, render(unconverted, cameras, light, 96)) < 30.0
+
+
+def test_a_model_already_on_crease_normals_is_written_as_it_is(cube):
+    asset, low = cube
+    start = with_bumps(start_of(asset, low))
+    assert on_crease_normals(start) is start

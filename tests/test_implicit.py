@@ -12,6 +12,7 @@ import torch
 from field_factory import box_field, sphere_field, sphere_volume, write_fields
 from lookalike import io
 from lookalike.asset.implicit import axes_points, field_mesh, field_normals, grid_axes, narrow_band_values
+from lookalike.asset.normals import crease_normal_index, split_at_both
 from lookalike.bench.implicit import FIELDS
 from lookalike.cli import main
 from lookalike.errors import AssetError, UserCodeError
@@ -193,6 +194,8 @@ def test_the_settings_know_a_field_by_the_suffixes_its_readers_take(tmp_path):
 
 @pytest.mark.slow
 def test_a_short_run_on_a_field_beats_marching_cubes_then_decimation(tmp_path):
+    """It is offered the start on smooth normals beside the usual one, and whichever it takes,
+    its model is written with normals split at every crease."""
     from lookalike.jobs.simplify import simplify
     from lookalike.settings import config_from_dict
     python, _ = write_fields(tmp_path)
@@ -202,6 +205,11 @@ def test_a_short_run_on_a_field_beats_marching_cubes_then_decimation(tmp_path):
                       progress=False)
     heldout = result.metrics["heldout"]
     assert heldout["ours"]["psnr"] > heldout["decimated"]["psnr"] + 1.0
+    assert "the classic bake on smooth normals" in result.report.read_text()
+    written = io.load(result.model).mesh
+    slots = written.normals()[1]
+    split = split_at_both(slots, crease_normal_index(written.v_pos, written.t_pos_idx))
+    assert len(split.unique()) == len(slots.unique())  # split at every crease already
 
 
 def test_the_sphere_start_is_a_sphere_of_the_count_and_its_laplacian_is_absolute():

@@ -16,6 +16,7 @@ from lookalike.asset.normals import (
     crease_normal_index_python,
     face_normals,
     safe_normalize,
+    split_at_both,
     split_normals,
     split_normals_python,
     weld_normals,
@@ -121,3 +122,15 @@ def test_weld_normals_matches_its_loop_twin():
     fast, slow = weld_normals(t_pos_idx, corner), weld_normals_python(t_pos_idx, corner)
     assert torch.equal(fast[1], slow[1]) and torch.equal(fast[0], slow[0])
     assert fast[0].shape[0] < 900
+
+
+def test_split_at_both_shares_a_slot_only_where_both_share_one():
+    one = torch.tensor([[0, 0, 1], [1, 2, 2]])
+    other = torch.tensor([[5, 5, 5], [7, 7, 3]])
+    split = split_at_both(one, other)
+    assert split.tolist() == [[0, 0, 1], [2, 3, 4]]
+    for a in range(6):
+        for b in range(6):
+            same = split.reshape(-1)[a] == split.reshape(-1)[b]
+            assert bool(same) == bool(one.reshape(-1)[a] == one.reshape(-1)[b] and other.reshape(-1)[a] == other.reshape(-1)[b])
+    assert torch.equal(split_at_both(one, one), one)

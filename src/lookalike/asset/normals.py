@@ -181,6 +181,18 @@ def crease_normal_index(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
     return torch.from_numpy(_first_occurrence_labels(group).reshape(-1, 3)).to(t_pos_idx.device)
 
 
+def split_at_both(t_nrm_idx: torch.Tensor, other: torch.Tensor) -> torch.Tensor:
+    """Normal slots split wherever either of two slot assignments splits: two corners share a
+    slot where they share one in ``t_nrm_idx`` and in ``other`` (both ``[T, 3]`` int64 over the
+    same triangles); numbered in the order their first corner occurs.
+
+    Returns:
+        ``[T, 3]`` int64 on the device of ``t_nrm_idx``.
+    """
+    pair = t_nrm_idx.cpu().reshape(-1).numpy() * (int(other.max()) + 1) + other.cpu().reshape(-1).numpy()
+    return torch.from_numpy(_first_occurrence_labels(pair).reshape(-1, 3)).to(t_nrm_idx.device)
+
+
 def crease_normal_index_python(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
                                crease_angle: float = DEFAULT_CREASE_ANGLE) -> torch.Tensor:
     """Loop twin of ``crease_normal_index`` (same arguments and result), to test it against."""

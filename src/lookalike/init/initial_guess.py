@@ -102,7 +102,7 @@ class InitialGuess:
         with no alternatives left; a classic bake the start was stays scored, as the comparison
         ``"baked"``, and so does a start of another kind, called ``usual``, as
         ``"usual_start"``; the start's distance becomes the alternative's."""
-        replaced = "the classic bake" if self.bake is not None else usual_start(usual)
+        replaced = self.own_start(usual)
         if self.bake is not None:
             self.comparisons.append(("baked", "Classic bake", self.baked))
         elif usual is not None:
@@ -111,6 +111,11 @@ class InitialGuess:
         self.start_label = label[:1].upper() + label[1:]
         self.start_distance = self.alternative_distances.get(label)
         self.notes.append(f"started from {label}: it scored higher on the validation views than {replaced}")
+
+    def own_start(self, usual: str | None = None) -> str:
+        """How a note names the application's own start, called ``usual``: the classic bake
+        where it is one."""
+        return "the classic bake" if self.bake is not None else usual_start(usual)
 
     def __getstate__(self) -> dict:
         """Pickled (in checkpoints) with the comparisons as ``.glb`` bytes, as a user receives
@@ -335,6 +340,15 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
         start = Asset(mesh=mesh, materials=[_material(kd, ks, normal, asset, emissive=emissive, occlusion=occlusion)],
                       source=asset.source)
     return InitialGuess(start=start, baseline=decimation_baseline(asset, low_poly), bake=baked, notes=[])
+
+
+def smooth_shaded(asset: Asset, start: Asset, size: int) -> Asset:
+    """``start``'s mesh and atlas shaded smooth (one normal slot per position, as Blender's
+    decimate + bake writes a model), with the classic bake of ``asset`` onto it: at a hard edge
+    the normal map, not the slots, turns the normal, so the turn lies where the surface's own
+    edge does, not on the low-poly edge (which decimation places a little beside it)."""
+    mesh = dataclasses.replace(start.mesh, t_nrm_idx=start.mesh.t_pos_idx.clone())
+    return initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=True).start
 
 
 def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,

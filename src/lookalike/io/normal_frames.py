@@ -5,7 +5,8 @@ on the mesh's shading normals, ``Mesh.normals``). Files use another frame on the
 mesh read from a file keeps the file's normals): the TANGENT attribute where present, else
 MikkTSpace of the mesh as stored (what Blender always does and what the glTF specification
 prescribes). Readers convert file -> ours, writers ours -> MikkTSpace of the written mesh;
-``on_own_normals`` moves a map from authored normals onto the geometry's own.
+``on_own_normals`` moves a map from authored normals onto the geometry's own, and
+``on_crease_normals`` from smooth normals onto normals split at the geometry's creases.
 
 Frames are given per triangle corner and interpolated, and values re-expressed, as
 ``lookalike.asset.frames`` describes. Texels no triangle covers take the mean of converted
@@ -24,6 +25,7 @@ from numba import njit
 
 from ..asset import Asset, Material, Mesh
 from ..asset.frames import corner_normals, corner_uvs, frame_at, our_corner_frame, reexpress_texels, unit
+from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index, split_at_both
 from ..asset.uv_raster import apply_uv_transform, dilate, rasterize_uv
 from ..kernel_cache import CACHE
 from .mikktspace import mikktspace_tangents
@@ -179,6 +181,29 @@ def on_own_normals(asset: Asset) -> Asset:
     mesh = asset.mesh
     if mesh.v_nrm is None:
         return asset
-    own = replace(mesh, v_nrm=None)
-    return replace(asset, mesh=own,
-                   materials=_convert(mesh, asset.materials, lambda uv_set: our_corner_frame(own, uv_set), to_ours=False))
+    return _reframed(asset, replace(mesh, v_nrm=None))
+
+
+def on_crease_normals(asset: Asset, crease_angle: float = DEFAULT_CREASE_ANGLE) -> Asset:
+    """``asset`` shading as it does, on normals split at its geometry's creases: its normal
+    slots split further wherever two triangles meet at more than ``crease_angle`` degrees
+    (``crease_normal_index``, ``split_at_both``), the authored normals dropped, and every normal
+    map re-expressed onto the new frames as ``on_own_normals`` does. A model fitted on smooth
+    normals (Blender's pipeline shades its decimation so) leans its normals up to 45 degrees
+    from the facets at a hard edge; renderers that test the light against the facets (Cycles'
+    bump shadowing) draw those texels black, where on crease normals the map holds the lean and
+    they agree with a rasterizer. Returned as it is where no slot splits and no normal is
+    authored."""
+    mesh = asset.mesh
+    slots = mesh.t_pos_idx if mesh.t_nrm_idx is None else mesh.t_nrm_idx
+    split = split_at_both(slots, crease_normal_index(mesh.v_pos, mesh.t_pos_idx, crease_angle))
+    if mesh.v_nrm is None and int(split.max()) + 1 == len(torch.unique(slots)):
+        return asset
+    return _reframed(asset, replace(mesh, v_nrm=None, t_nrm_idx=split))
+
+
+def _reframed(asset: Asset, own: Mesh) -> Asset:
+    """``asset`` on ``own`` (its mesh with other shading normals), every normal map re-expressed
+    from our frame on its mesh into ours on ``own``, texel by texel."""
+    return replace(asset, mesh=own, materials=_convert(asset.mesh, asset.materials,
+                                                       lambda uv_set: our_corner_frame(own, uv_set), to_ours=False))

@@ -20,6 +20,7 @@ from ..asset.pose import Poses
 from ..errors import ConfigError
 from ..fit.from_settings import shadow_mapping
 from ..fit.reference import FieldReference, MeshReference, PathTracedReference, Reference, SkinnedReference
+from ..io.normal_frames import on_crease_normals
 from ..report.heldout import AssetRenderer
 from ..report.record import RunRecord
 from ..settings import Config
@@ -79,9 +80,14 @@ class RunReference:
 
 class FieldInput(RunReference):
     """An implicit surface sphere-traced (``FieldReference``): its outline is the field's, not
-    its marching-cubes mesh's."""
+    its marching-cubes mesh's. Its model is written on normals split at its creases, the normal
+    map re-expressed onto them (``io.normal_frames.on_crease_normals``): a fit that started on
+    smooth normals (``jobs.simplify``) shades as fitted, in a rasterizer and in Cycles alike."""
 
     draws_input = False
+
+    def written(self, model: Asset) -> Asset:
+        return on_crease_normals(model)
 
 
 class PathTracedInput(RunReference):

@@ -48,7 +48,7 @@ from ..fit.reference import Reference, reference_on
 from ..fit.skinned_mesh import SkinnedMesh
 from ..fit.textured_mesh import TexturedMesh, constant_channels, render_asset
 from ..fit.training_views import FreshViews, ViewPool, light_sampler, view_sampler
-from ..init.initial_guess import InitialGuess, target_triangle_count, usual_start, uses_alpha
+from ..init.initial_guess import InitialGuess, target_triangle_count, uses_alpha
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..limits import MAX_LAYERS, MAX_WORKERS
@@ -481,7 +481,7 @@ def take_best_start(guess: InitialGuess, score: Callable[[Asset], float] | None,
         guess.take_start(best[1], best[2], usual)
     else:
         others = ", ".join(f"{label} ({value:.2f} dB)" for value, label, _ in scores)
-        guess.notes.append(f"started from {usual_start(usual)}: it scored higher on the validation views "
+        guess.notes.append(f"started from {guess.own_start(usual)}: it scored higher on the validation views "
                            f"({own:.2f} dB) than {others}")
         guess.alternatives = []
 

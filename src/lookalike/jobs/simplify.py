@@ -17,7 +17,8 @@ from .. import io
 from ..asset import Asset
 from ..asset.parts import aggregate_traits
 from ..init.decimate import decimate_reported
-from ..init.initial_guess import InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh
+from ..init.initial_guess import (InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh,
+                                  smooth_shaded)
 from ..init.sphere_start import tessellated_sphere
 from ..phases import phase
 from ..settings import Config
@@ -30,7 +31,11 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     ``latent.init = "sphere"``, a tessellated sphere of ``count`` triangles around the input
     (its bounding sphere) with the input's mean material, beside plain decimation as the
     baseline; else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures, how
-    far it strays from the input as the guess's ``start_distance``."""
+    far it strays from the input as the guess's ``start_distance``. Where the input is an
+    implicit surface and the start a bake, the same mesh baked on smooth normals
+    (``smooth_shaded``) is offered as an alternative start (``jobs.run.take_best_start``): a
+    field's hard edges are where decimation strays most, and its model is written on crease
+    normals either way (``jobs.reference_kinds.FieldInput``)."""
     size = cfg.latent.texture_size
     if cfg.io.init_mesh:
         lod = io.load(cfg.io.init_mesh)
@@ -45,8 +50,16 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
         guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
         return dataclasses.replace(guess, baseline=decimation_baseline(asset, decimated),
                                    notes=["started from a tessellated sphere around the input (--init sphere)"])
-    return dataclasses.replace(initial_guess(asset, decimated, cfg.latent.init, size, ranges, rng),
-                               start_distance=report.as_dict())
+    guess = dataclasses.replace(initial_guess(asset, decimated, cfg.latent.init, size, ranges, rng),
+                                start_distance=report.as_dict())
+    if asset.field is not None and guess.bake is not None:
+        guess.alternatives.append((SMOOTH_START, smooth_shaded(asset, guess.start, size)))
+        guess.alternative_distances[SMOOTH_START] = guess.start_distance
+    return guess
+
+
+SMOOTH_START = "the classic bake on smooth normals"
+"""The label of the alternative start of a field (``smooth_shaded``)."""
 
 
 def aggregate_remarks(asset: Asset) -> list[str]:
