@@ -378,3 +378,18 @@ def test_every_example_field_has_a_surface_that_traces_and_its_distances_are_a_b
     assert float(surface.distance(on_bounds).min()) > 0.0, "the bounds cut the surface"
     kd, ks = surface.channels(mesh.v_pos)
     assert bool(torch.isfinite(kd).all() and torch.isfinite(ks).all())
+
+
+def test_a_python_fields_pool_is_refreshed_as_its_tracing_costs(tmp_path):
+    """Sphere tracing a Python field costs many times what drawing its marching-cubes mesh does:
+    its pool is refreshed every 16 steps, the mesh's every 2 (the defaults)."""
+    import dataclasses
+
+    from lookalike.jobs.reference_kinds import run_reference
+    from lookalike.settings import Config, refresh_interval
+    python, _ = write_fields(tmp_path)
+    field = io.load(python)
+    mesh = dataclasses.replace(field, field=None)
+    cfg = Config()
+    assert [refresh_interval(cfg, run_reference(asset, cfg, False).drawn_triangles(asset))
+            for asset in (field, mesh)] == [16, 2]

@@ -32,6 +32,11 @@ FIELD_MARGIN = 1.0 / 64
 """An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
 (which marching cubes places within a cube of the surface)."""
 
+TRACED_FIELD_TRIANGLES = 2_000_000
+"""Triangles whose rasterization costs about what sphere tracing a view of a Python field does
+(``docs/benchmarks.md``): with the default ``views.refresh_triangles`` its pool is refreshed
+every 16 steps instead of every 2, where refreshing took over half of every step."""
+
 
 class RunReference:
     """A reference as a run uses it: ``renderer`` draws the views (``lookalike.fit.reference``);
@@ -54,6 +59,11 @@ class RunReference:
         """The model the latent starts as (and the start the written model is compared with),
         given the run's ``start``."""
         return start
+
+    def drawn_triangles(self, asset: Asset) -> int:
+        """How many triangles drawing one view of the reference costs as much as, which sets how
+        often the training views' pool is refreshed (``settings.refresh_interval``): the input's."""
+        return asset.mesh.num_triangles
 
     def baseline_draw(self, draw: AssetRenderer) -> tuple[AssetRenderer, str]:
         """How the baselines are drawn, given how ours is (``draw``), and the words added to
@@ -85,6 +95,12 @@ class FieldInput(RunReference):
     smooth normals (``jobs.simplify``) shades as fitted, in a rasterizer and in Cycles alike."""
 
     draws_input = False
+
+    def drawn_triangles(self, asset: Asset) -> int:
+        """A Python field is sphere traced in torch, on the CPU, at the cost of rasterizing
+        ``TRACED_FIELD_TRIANGLES``; a GLSL field in OpenGL, about as fast as its marching-cubes
+        mesh draws."""
+        return TRACED_FIELD_TRIANGLES if asset.field.kind == "python" else asset.mesh.num_triangles
 
     def written(self, model: Asset) -> Asset:
         return on_crease_normals(model)

@@ -329,7 +329,7 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         guess, checkpointer = starting_point(s, cfg, asset, moving)
     with s.stage("reference views"):
         heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress,
-                                                       device)
+                                                       device, reference.drawn_triangles(asset))
     draw = scoring_draw(cfg)
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
@@ -496,11 +496,13 @@ def start_as_written(written: WrittenModel, prepared: Callable[[Asset], Asset]) 
 
 
 def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool, progress: bool = False,
-                    device=CPU) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
+                    device=CPU, drawn_triangles: int | None = None
+                    ) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
     """The held-out views (the report's), the validation views (``None`` without) and the
-    training views' source: a pool of reference images refreshed as the steps go, or fresh
-    renders at every step; with ``progress``, a bar counts the views rendered up front; the
-    models scored on the held-out and validation views are drawn on ``device``."""
+    training views' source: a pool of reference images refreshed as the steps go (as often as a
+    view of ``drawn_triangles``, by default the input's, allows: ``settings.refresh_interval``),
+    or fresh renders at every step; with ``progress``, a bar counts the views rendered up front;
+    the models scored on the held-out and validation views are drawn on ``device``."""
     centre, radius = reference.bounding_sphere()
     light = reference.fixed_light
     sampler = view_sampler(centre, radius, poses=animated.heldout_poses(asset) if moving else None, fixed_light=light)
@@ -518,7 +520,8 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: boo
             return heldout, validation, FreshViews(reference, training, size, spp)
         relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
         pool = ViewPool(counted, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                        refresh_interval(cfg, asset.mesh.num_triangles), size, spp, relight)
+                        refresh_interval(cfg, drawn_triangles or asset.mesh.num_triangles), size, spp,
+                        relight)
         return heldout, validation, pool
     finally:
         counted.close()
