@@ -328,8 +328,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         reference.renderer = reference_on(reference.renderer, device)
         guess, checkpointer = starting_point(s, cfg, asset, moving)
     with s.stage("reference views"):
-        heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving, s.options.progress,
-                                                       device, reference.drawn_triangles(asset))
+        heldout, validation, source = reference_views(cfg, asset, reference.renderer, moving,
+                                                       reference.drawn_triangles(asset), s.options.progress, device)
     draw = scoring_draw(cfg)
     with s.stage("scoring the input's coverage"):
         coverage = check_reference_coverage(reference, asset, [v for v in (heldout, validation) if v is not None],
@@ -495,12 +495,11 @@ def start_as_written(written: WrittenModel, prepared: Callable[[Asset], Asset]) 
     return lambda start: written.score(written_alpha(prepared(start), written.mode, AlphaChoice()))
 
 
-def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool, progress: bool = False,
-                    device=CPU, drawn_triangles: int | None = None
-                    ) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
+def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: bool, drawn_triangles: int,
+                    progress: bool = False, device=CPU) -> tuple[HeldoutViews, HeldoutViews | None, ViewPool | FreshViews]:
     """The held-out views (the report's), the validation views (``None`` without) and the
     training views' source: a pool of reference images refreshed as the steps go (as often as a
-    view of ``drawn_triangles``, by default the input's, allows: ``settings.refresh_interval``),
+    view of ``drawn_triangles`` (``RunReference.drawn_triangles``) allows: ``settings.refresh_interval``),
     or fresh renders at every step; with ``progress``, a bar counts the views rendered up front;
     the models scored on the held-out and validation views are drawn on ``device``."""
     centre, radius = reference.bounding_sphere()
@@ -520,8 +519,7 @@ def reference_views(cfg: Config, asset: Asset, reference: Reference, moving: boo
             return heldout, validation, FreshViews(reference, training, size, spp)
         relight = light_sampler(centre, cfg.render.horizon_share) if views.relight else None
         pool = ViewPool(counted, training, views.pool_size, (cfg.optim.seed, POOL_STREAM),
-                        refresh_interval(cfg, drawn_triangles or asset.mesh.num_triangles), size, spp,
-                        relight)
+                        refresh_interval(cfg, drawn_triangles), size, spp, relight)
         return heldout, validation, pool
     finally:
         counted.close()
