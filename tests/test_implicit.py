@@ -19,6 +19,7 @@ from lookalike.errors import AssetError, UserCodeError
 from lookalike.fit.reference import FieldReference
 from lookalike.init import decimate
 from lookalike.init.field_surface import FieldSurface
+from lookalike.io.field_asset import finer_field_mesh
 from lookalike.report.metrics import psnr
 from lookalike.shading.sphere_tracing import HIT_FRACTION, primary_rays, sphere_trace
 from lookalike.shading.view_sampling import random_lights, random_views
@@ -255,7 +256,7 @@ def test_a_lod_chain_takes_a_field(tmp_path):
                               base=LEVEL.defaults)
     rows = lod(glsl if gl_available() else python, tmp_path / "chain", [Level(200, 32)], config=config,
                progress=False)
-    assert rows[0]["triangles"] == 200 and (tmp_path / "chain" / "lods.glb").is_file() and rows[0]["psnr"] > 10.0
+    assert abs(rows[0]["triangles"] - 200) <= 2 and (tmp_path / "chain" / "lods.glb").is_file() and rows[0]["psnr"] > 10.0
 
 
 def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_path):
@@ -266,9 +267,11 @@ def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_pa
     asset = io.load(path)
     values = sorted(tuple(round(x, 2) for x in m.ks.data.reshape(-1).tolist()) for m in asset.materials)
     assert values == [(0.0, 0.3, 1.0), (0.0, 0.7, 0.0)]
-    up = asset.mesh.v_pos[asset.mesh.t_pos_idx].mean(dim=1)[:, 1] > 0.05
-    metal = torch.tensor([float(m.ks.data.reshape(-1)[2]) for m in asset.materials])[asset.mesh.t_mat_idx]
-    assert bool((metal[up] == 1.0).all())
+    metalness = torch.tensor([float(m.ks.data.reshape(-1)[2]) for m in asset.materials])
+    for mesh in (asset.mesh, finer_field_mesh(asset, 200, 8)):          # the start's mesh shares the palette
+        centroid_y = mesh.v_pos[mesh.t_pos_idx].mean(dim=1)[:, 1]
+        metal = metalness[mesh.t_mat_idx]
+        assert bool((metal[centroid_y > 0.05] == 1.0).all()) and bool((metal[centroid_y < -0.05] == 0.0).all())
 
 
 CONSTANT_MATERIAL_FIELD = '''

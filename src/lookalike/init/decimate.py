@@ -2,16 +2,20 @@
 it strays from the input.
 
 Positions are welded first (so that UV-seam duplicates do not open cracks). Then each setting of
-``CANDIDATES`` brings the mesh to the count: the maintained ``fast-simplification`` library
-(edge collapses by quadric error, Garland and Heckbert 1997, each vertex placed where its error
-is least) with and without frozen borders (with its threshold growing faster, ``FASTER``, where
-it stops above the count), and meshoptimizer's ``meshopt_simplify`` (quadric collapses onto
-existing vertices, open borders collapsed only along themselves). Each result is cleaned of
-degenerate triangles and zero-volume fins. Among those that land on the count (within
+``CANDIDATES`` brings the mesh to the count: our own edge collapse in strict order of quadric
+error (``lookalike.init.quadric_collapse``, Garland and Heckbert 1997, each vertex placed where
+its error is least, refusing only collapses that turn a face over or change the topology); the
+maintained ``fast-simplification`` library (the same error, collapses in rounds under a growing
+threshold) with and without frozen borders (with its threshold growing faster, ``FASTER``,
+where it stops above the count); and meshoptimizer's ``meshopt_simplify`` (quadric collapses
+onto existing vertices, open borders collapsed only along themselves). Each result is cleaned
+of degenerate triangles and zero-volume fins. Among those that land on the count (within
 ``_NEARLY``), the one that strays least from the input is kept: no shard (the guard, below)
 first, then the least far area, then the least mean of the sampled two-sided surface distance
 (``lookalike.init.surface_distance``, ``CHOICE_SAMPLES`` points each way). Which setting
-wins depends on the input: frozen borders keep open sheets whole but stall on meshes that are
+wins depends on the input: the strict order keeps curves and corners on smooth and
+hard-surface meshes alike, and goes on where fast-simplification stalls (the staircases of
+fine marching cubes); frozen borders keep open sheets whole but stall on meshes that are
 mostly border; fast-simplification's faster ``agg`` settings reach the count where the slower
 stop above it, and leave shards on many small open parts; meshoptimizer reaches the count on
 those whole, but keeps vertices where they were and so strays a little more on smooth scans
@@ -52,6 +56,7 @@ from ..asset.mesh import Mesh
 from ..asset.parts import triangle_parts
 from ..asset.normals import DEFAULT_CREASE_ANGLE, crease_normal_index
 from ..errors import ConfigError
+from .quadric_collapse import quadric_collapse
 from .surface_distance import SurfaceDistance, SurfaceGauge
 from .transfer import transfer_attributes
 from .triangle_kernels import triangle_areas, triangle_areas_python
@@ -59,14 +64,16 @@ from .weld import weld_tolerance, weld_vertices
 
 FAST_SIMPLIFICATION = "fast-simplification"
 MESHOPTIMIZER = "meshoptimizer"
+QUADRIC_COLLAPSE = "quadric collapse"
 
 
 @dataclass(frozen=True)
 class Setting:
-    """One way to simplify: ``simplifier`` (``FAST_SIMPLIFICATION`` or ``MESHOPTIMIZER``),
-    whether border vertices are frozen (fast-simplification's ``preserve_border``,
-    meshoptimizer's ``SIMPLIFY_LOCK_BORDER``), and fast-simplification's ``agg`` (how fast its
-    error threshold grows: low values keep the shape better but may stop above the count)."""
+    """One way to simplify: ``simplifier`` (``QUADRIC_COLLAPSE``, ``FAST_SIMPLIFICATION`` or
+    ``MESHOPTIMIZER``), whether border vertices are frozen (fast-simplification's
+    ``preserve_border``, meshoptimizer's ``SIMPLIFY_LOCK_BORDER``; the quadric collapse weights
+    its borders instead), and fast-simplification's ``agg`` (how fast its error threshold grows:
+    low values keep the shape better but may stop above the count)."""
 
     simplifier: str
     preserve_border: bool = False
@@ -83,6 +90,9 @@ class Setting:
         """Simplify ``unit [V, 3]`` (unit bounding-box diagonal) / ``t_pos_idx [T, 3]`` towards
         ``request`` triangles: ``(triangles returned, v_pos [V', 3], t_pos_idx [T', 3])``, the
         latter cleaned (``clean_triangles``)."""
+        if self.simplifier == QUADRIC_COLLAPSE:
+            out_pos, out_idx = quadric_collapse(unit, t_pos_idx, request)
+            return len(out_idx), *clean_triangles(out_pos, out_idx)
         if self.simplifier == FAST_SIMPLIFICATION:
             out_pos, out_idx = fast_simplification.simplify(unit, t_pos_idx, target_count=request, agg=self.agg,
                                                              preserve_border=self.preserve_border)
@@ -95,7 +105,7 @@ class Setting:
         return count // 3, *clean_triangles(unit, out[:count].reshape(-1, 3).astype(np.int64))
 
 
-CANDIDATES = (Setting(FAST_SIMPLIFICATION, False, 3.0), Setting(FAST_SIMPLIFICATION, True, 3.0),
+CANDIDATES = (Setting(QUADRIC_COLLAPSE), Setting(FAST_SIMPLIFICATION, False, 3.0), Setting(FAST_SIMPLIFICATION, True, 3.0),
               Setting(MESHOPTIMIZER))
 """The settings tried on every input (a frozen border is skipped where the mesh has none: it
 changes nothing there)."""
@@ -437,7 +447,9 @@ def decimate_reported(mesh: Mesh, triangles: int,
             ``1e-5`` of the bounding-box diagonal).
         triangles: the target count, ``0 < triangles < mesh.num_triangles``. The result has
             exactly this many triangles unless fins or degenerate triangles had to be removed
-            after the last correction run (then within ``_NEARLY`` = 2), or unless the input is
+            after the last correction run, or the count's parity cannot be reached (a collapse
+            inside a surface removes two triangles, one on an open border one: a closed
+            surface's count stays even), then within ``_NEARLY`` = 2; or unless the input is
             many disjoint parts that cannot be reduced to it: then its smallest parts are
             dropped until it fits (``largest_parts``), and it may have a few fewer; the guard
             may remove a few more (``DecimationReport.removed``).

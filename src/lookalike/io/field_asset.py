@@ -7,13 +7,13 @@ from pathlib import Path
 
 import torch
 
-from ..asset import Asset, Material, Texture
+from ..asset import Asset, Material, Mesh, Texture
 from ..asset.implicit import ImplicitSurface, field_mesh
 from ..errors import AssetError
 
 FIELD_CELLS = 160
-"""Marching-cubes cubes along the bounds' longest side: the asset's mesh (what plain decimation
-and the classic bake start from) resolves detail down to about 1/160 of the object."""
+"""Marching-cubes cubes along the bounds' longest side: the asset's mesh resolves detail down to
+about 1/160 of the object (a start is decimated from a finer one: ``finer_field_mesh``)."""
 
 PALETTE_STEPS = 64
 """Roughness and metalness of the asset's triangles are rounded to multiples of 1 / this (a
@@ -52,6 +52,18 @@ def field_asset(surface: ImplicitSurface, path: Path, cells: int = FIELD_CELLS, 
         raise AssetError(path, f"the field is {e}") from None
     materials, mesh.t_mat_idx = palette_materials(surface, mesh)
     return Asset(mesh=mesh, materials=materials, field=surface)
+
+
+def finer_field_mesh(asset: Asset, cells: int, block: int) -> Mesh:
+    """The field of ``asset`` (read by ``field_asset``) meshed again at ``cells`` cubes
+    (``field_mesh``, evaluated near the surface in blocks of ``block``), each triangle given the
+    material of the asset's palette closest to the field's (roughness, metalness) at its
+    centroid: the asset's materials serve both meshes."""
+    mesh = field_mesh(asset.field, cells, block)
+    _, ks = asset.field.channels(mesh.v_pos[mesh.t_pos_idx].mean(dim=1))
+    palette = torch.stack([m.ks.data.reshape(-1)[1:3] for m in asset.materials])
+    mesh.t_mat_idx = torch.cdist(ks[:, 1:3], palette).argmin(dim=1)
+    return mesh
 
 
 def checked_distances(values, points: torch.Tensor, path: Path) -> torch.Tensor:

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import io
-from ..asset import Asset
+from ..io.field_asset import finer_field_mesh
+from ..asset import Asset, Mesh
 from ..asset.parts import aggregate_traits
 from ..init.decimate import decimate_reported
 from ..init.initial_guess import (InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh,
@@ -44,7 +45,7 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
     rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
     with phase("decimation"):
-        decimated, report = decimate_reported(asset.mesh, count)
+        decimated, report = decimate_reported(decimation_input(asset), count)
     if cfg.latent.init == "sphere":
         centre, radius = asset.mesh.bounding_sphere()
         guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
@@ -60,6 +61,21 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
 
 SMOOTH_START = "the classic bake on smooth normals"
 """The label of the alternative start of a field (``smooth_shaded``)."""
+FIELD_START_CELLS = 640
+"""Marching cubes across an implicit surface's bounds for the mesh its start is decimated from."""
+FIELD_START_BLOCK = 8
+"""... evaluated near the surface only, in blocks of this many cubes."""
+
+
+def decimation_input(asset: Asset) -> Mesh:
+    """The mesh decimated for the start: the input's own, or for an implicit surface its
+    marching cubes at ``FIELD_START_CELLS`` (``io.field_asset.finer_field_mesh``): the mesh a
+    field is loaded with is coarser, its hard edges rounded off and its chords inside its
+    curves, and a decimation of it keeps those; one of the finer mesh places its vertices on the
+    field's corners and curves (``docs/benchmarks.md``)."""
+    if asset.field is None:
+        return asset.mesh
+    return finer_field_mesh(asset, FIELD_START_CELLS, FIELD_START_BLOCK)
 
 
 def aggregate_remarks(asset: Asset) -> list[str]:
