@@ -146,3 +146,21 @@ def test_an_open_border_stays_where_it_was():
     border = np.unique(edges[counts == 1])
     on_edge = np.minimum.reduce([out_v[border, 0], 1 - out_v[border, 0], out_v[border, 1], 1 - out_v[border, 1]])
     assert len(out_f) in (99, 100) and np.abs(on_edge).max() < 1e-3
+
+
+def test_a_fields_decimation_offers_the_collapse_and_only_a_fields():
+    """``FIELD_CANDIDATES`` runs the collapse beside the libraries (on a finely gridded cube it
+    lands on the count, on the corners); ``CANDIDATES`` does not offer it."""
+    import torch
+
+    from lookalike.asset import Mesh
+    from lookalike.init.decimate import CANDIDATES, FIELD_CANDIDATES, QUADRIC_COLLAPSE, decimate_reported
+
+    v, f = _cube(12)
+    mesh = Mesh(v_pos=torch.from_numpy(v).float(), t_pos_idx=torch.from_numpy(f))
+    _, report = decimate_reported(mesh, 12, settings=FIELD_CANDIDATES)
+    assert any(c["setting"] == QUADRIC_COLLAPSE and c["triangles"] == 12 and c["mean"] < 1e-6
+               for c in report.candidates)
+    _, usual = decimate_reported(mesh, 12)
+    assert all(c["setting"] != QUADRIC_COLLAPSE for c in usual.candidates)
+    assert all(s.simplifier != QUADRIC_COLLAPSE for s in CANDIDATES)

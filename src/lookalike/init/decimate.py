@@ -2,20 +2,20 @@
 it strays from the input.
 
 Positions are welded first (so that UV-seam duplicates do not open cracks). Then each setting of
-``CANDIDATES`` brings the mesh to the count: our own edge collapse in strict order of quadric
-error (``lookalike.init.quadric_collapse``, Garland and Heckbert 1997, each vertex placed where
-its error is least, refusing only collapses that turn a face over or change the topology); the
-maintained ``fast-simplification`` library (the same error, collapses in rounds under a growing
-threshold) with and without frozen borders (with its threshold growing faster, ``FASTER``,
+``CANDIDATES`` brings the mesh to the count (for a field's fine marching cubes,
+``FIELD_CANDIDATES``: first our own edge collapse in strict order of quadric error,
+``lookalike.init.quadric_collapse``, each vertex placed where its error is least, refusing only
+collapses that turn a face over or change the topology): the maintained ``fast-simplification``
+library (edge collapses by quadric error, Garland and Heckbert 1997, in rounds under a growing
+threshold, each vertex placed where its error is least) with and without frozen borders (with its threshold growing faster, ``FASTER``,
 where it stops above the count); and meshoptimizer's ``meshopt_simplify`` (quadric collapses
 onto existing vertices, open borders collapsed only along themselves). Each result is cleaned
 of degenerate triangles and zero-volume fins. Among those that land on the count (within
 ``_NEARLY``), the one that strays least from the input is kept: no shard (the guard, below)
 first, then the least far area, then the least mean of the sampled two-sided surface distance
 (``lookalike.init.surface_distance``, ``CHOICE_SAMPLES`` points each way). Which setting
-wins depends on the input: the strict order keeps curves and corners on smooth and
-hard-surface meshes alike, and goes on where fast-simplification stalls (the staircases of
-fine marching cubes); frozen borders keep open sheets whole but stall on meshes that are
+wins depends on the input: the strict order goes on where fast-simplification stalls (the
+staircases of fine marching cubes) and places vertices on a field's corners; frozen borders keep open sheets whole but stall on meshes that are
 mostly border; fast-simplification's faster ``agg`` settings reach the count where the slower
 stop above it, and leave shards on many small open parts; meshoptimizer reaches the count on
 those whole, but keeps vertices where they were and so strays a little more on smooth scans
@@ -105,10 +105,13 @@ class Setting:
         return count // 3, *clean_triangles(unit, out[:count].reshape(-1, 3).astype(np.int64))
 
 
-CANDIDATES = (Setting(QUADRIC_COLLAPSE), Setting(FAST_SIMPLIFICATION, False, 3.0), Setting(FAST_SIMPLIFICATION, True, 3.0),
+CANDIDATES = (Setting(FAST_SIMPLIFICATION, False, 3.0), Setting(FAST_SIMPLIFICATION, True, 3.0),
               Setting(MESHOPTIMIZER))
 """The settings tried on every input (a frozen border is skipped where the mesh has none: it
 changes nothing there)."""
+FIELD_CANDIDATES = (Setting(QUADRIC_COLLAPSE),) + CANDIDATES
+"""The settings tried on an implicit surface's fine marching cubes (``jobs.simplify``): our
+quadric collapse too, measured so far on fields only (``docs/benchmarks.md``)."""
 FASTER = {Setting(FAST_SIMPLIFICATION, False, 3.0): Setting(FAST_SIMPLIFICATION, False, 5.0),
           Setting(FAST_SIMPLIFICATION, True, 3.0): Setting(FAST_SIMPLIFICATION, True, 5.0)}
 """A candidate's next setting, tried where it stops above the count: fast-simplification's
@@ -437,8 +440,8 @@ def decimate(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_AN
     return _decimate(mesh, triangles, crease_angle, whole_input=False)[0]
 
 
-def decimate_reported(mesh: Mesh, triangles: int,
-                      crease_angle: float = DEFAULT_CREASE_ANGLE) -> tuple[Mesh, DecimationReport]:
+def decimate_reported(mesh: Mesh, triangles: int, crease_angle: float = DEFAULT_CREASE_ANGLE,
+                      settings: tuple[Setting, ...] = CANDIDATES) -> tuple[Mesh, DecimationReport]:
     """Simplify ``mesh`` to ``triangles`` triangles by quadric error, keeping its attributes,
     choosing among the settings by how far each strays from the input (module docstring).
 
@@ -455,6 +458,7 @@ def decimate_reported(mesh: Mesh, triangles: int,
             may remove a few more (``DecimationReport.removed``).
         crease_angle: dihedral angle in degrees above which an edge of the result is hard
             (``lookalike.asset.normals.crease_normal_index``).
+        settings: the candidates (``CANDIDATES``, or ``FIELD_CANDIDATES``).
 
     Returns:
         ``(mesh, report)``: a welded ``Mesh`` (``v_pos [V, 3]`` float32, ``t_pos_idx [T, 3]``
@@ -466,10 +470,11 @@ def decimate_reported(mesh: Mesh, triangles: int,
     Raises:
         ConfigError: the target is not a positive whole number below the input's count.
     """
-    return _decimate(mesh, triangles, crease_angle, whole_input=True)
+    return _decimate(mesh, triangles, crease_angle, whole_input=True, settings=settings)
 
 
-def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool) -> tuple[Mesh, DecimationReport]:
+def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool,
+              settings: tuple[Setting, ...] = CANDIDATES) -> tuple[Mesh, DecimationReport]:
     """``decimate_reported``; ``whole_input``: measure a large input's result against the whole
     input too (else against its coarse mesh)."""
     started = time.monotonic()
@@ -487,7 +492,7 @@ def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool
     bound = GUARD * feature_size(float(triangle_areas(w_pos, w_idx).sum()), triangles)
     tried, distance, shards = [], None, 0
     if len(w_idx) > triangles:
-        tried = try_settings(w_pos, w_idx, triangles, gauge)
+        tried = try_settings(w_pos, w_idx, triangles, gauge, settings)
         chosen = choose(tried, triangles, gauge, bound)
         w_pos, w_idx, setting = chosen.v_pos, chosen.t_pos_idx, chosen.setting.label
         distance, shards = chosen.distance, chosen.shards

@@ -17,7 +17,7 @@ from .. import io
 from ..io.field_asset import finer_field_mesh
 from ..asset import Asset, Mesh
 from ..asset.parts import aggregate_traits
-from ..init.decimate import decimate_reported
+from ..init.decimate import CANDIDATES, FIELD_CANDIDATES, decimate_reported
 from ..init.initial_guess import (InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh,
                                   smooth_shaded)
 from ..init.sphere_start import tessellated_sphere
@@ -45,7 +45,8 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
     rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
     with phase("decimation"):
-        decimated, report = decimate_reported(decimation_input(asset), count)
+        decimated, report = decimate_reported(decimation_input(asset), count,
+                                              settings=CANDIDATES if asset.field is None else FIELD_CANDIDATES)
     if cfg.latent.init == "sphere":
         centre, radius = asset.mesh.bounding_sphere()
         guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
