@@ -2,28 +2,29 @@
 it strays from the input.
 
 Positions are welded first (so that UV-seam duplicates do not open cracks). Then each setting of
-``CANDIDATES`` brings the mesh to the count (for a field's fine marching cubes,
-``FIELD_CANDIDATES``: first our own edge collapse in strict order of quadric error,
-``lookalike.init.quadric_collapse``, each vertex placed where its error is least, refusing only
-collapses that turn a face over or change the topology): the maintained ``fast-simplification``
-library (edge collapses by quadric error, Garland and Heckbert 1997, in rounds under a growing
-threshold, each vertex placed where its error is least) with and without frozen borders (with its threshold growing faster, ``FASTER``,
-where it stops above the count); and meshoptimizer's ``meshopt_simplify`` (quadric collapses
-onto existing vertices, open borders collapsed only along themselves). Each result is cleaned
-of degenerate triangles and zero-volume fins. Among those that land on the count (within
-``_NEARLY``), the one that strays least from the input is kept: no shard (the guard, below)
-first, then the least far area, then the least mean of the sampled two-sided surface distance
-(``lookalike.init.surface_distance``, ``CHOICE_SAMPLES`` points each way). Which setting
-wins depends on the input: the strict order goes on where fast-simplification stalls (the
-staircases of fine marching cubes) and places vertices on a field's corners; frozen borders keep open sheets whole but stall on meshes that are
-mostly border; fast-simplification's faster ``agg`` settings reach the count where the slower
-stop above it, and leave shards on many small open parts; meshoptimizer reaches the count on
-those whole, but keeps vertices where they were and so strays a little more on smooth scans
-(``lookalike bench decimate``, ``docs/benchmarks.md``). The slowest settings
-(``FALLBACKS``) are tried only where none of these reaches the count. UVs, materials, vertex
-colours and skin weights are then carried over from the input (``transfer``), and normals split
-at creases sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (normal slots only:
-the values follow the positions).
+``CANDIDATES`` brings the mesh to the count: the maintained ``fast-simplification`` library
+(edge collapses by quadric error, Garland and Heckbert 1997, in rounds under a growing
+threshold, each vertex placed where its error is least) with and without frozen borders (with
+its threshold growing faster, ``FASTER``, where it stops above the count), and meshoptimizer's
+``meshopt_simplify`` (quadric collapses onto existing vertices, open borders collapsed only
+along themselves). A field's fine marching cubes get ``FIELD_CANDIDATES``: our own edge
+collapse in strict order of quadric error first (``lookalike.init.quadric_collapse``, each
+vertex placed where its error is least, refusing only collapses that turn a face over or change
+the topology). Each result is cleaned of degenerate triangles and zero-volume fins. Among those
+that land on the count (within ``_NEARLY``), the one that strays least from the input is kept:
+no shard (the guard, below) first, then the least far area, then the least mean of the sampled
+two-sided surface distance (``lookalike.init.surface_distance``, ``CHOICE_SAMPLES`` points each
+way). Which setting wins depends on the input: the strict order goes on where
+fast-simplification stalls (the staircases of fine marching cubes) and places vertices on a
+field's corners; frozen borders keep open sheets whole but stall on meshes that are mostly
+border; fast-simplification's faster ``agg`` settings reach the count where the slower stop
+above it, and leave shards on many small open parts; meshoptimizer reaches the count on those
+whole, but keeps vertices where they were and so strays a little more on smooth scans
+(``lookalike bench decimate``, ``docs/benchmarks.md``). The slowest settings (``FALLBACKS``)
+are tried only where none of these reaches the count. UVs, materials, vertex colours and skin
+weights are then carried over from the input (``transfer``), and normals split at creases
+sharper than ``lookalike.asset.normals.DEFAULT_CREASE_ANGLE`` (normal slots only: the values
+follow the positions).
 
 The guard. No triangle of the result may lie farther from the input than ``GUARD`` times the
 count's feature size ``s = sqrt(4 A / (sqrt(3) n))``, the edge of an equilateral triangle of the

@@ -347,7 +347,8 @@ def _collapse(pos, faces, quadrics, edges, target, min_double_area):
             if entries == capacity:
                 capacity *= 2
                 cost, lo, hi = _grown(cost, capacity), _grown(lo, capacity), _grown(hi, capacity)
-                stamp_lo, stamp_hi, heap = _grown(stamp_lo, capacity), _grown(stamp_hi, capacity), _grown(heap, capacity)
+                stamp_lo, stamp_hi = _grown(stamp_lo, capacity), _grown(stamp_hi, capacity)
+                heap = _grown(heap, capacity)
             a, b = min(u, w), max(u, w)
             cost[entries] = _edge_cost(quadrics[a] + quadrics[b], pos[a], pos[b])
             lo[entries], hi[entries] = a, b
@@ -377,9 +378,9 @@ def _compacted(pos: np.ndarray, faces: np.ndarray, face_alive: np.ndarray) -> tu
 def quadric_collapse(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int) -> tuple[np.ndarray, np.ndarray]:
     """Collapse edges of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` (welded, no degenerate faces) in
     order of quadric error until at most ``triangles`` faces are left (one fewer where the last
-    collapse was inside the surface: it removes two faces), or no edge can be collapsed. Returns ``(v_pos [V', 3] float64,
-    t_pos_idx [T', 3] int64)``, unreferenced vertices dropped, faces in input order.
-    :func:`quadric_collapse_python` is the twin."""
+    collapse was inside the surface: it removes two faces), or no edge can be collapsed.
+    Returns ``(v_pos [V', 3] float64, t_pos_idx [T', 3] int64)``, unreferenced vertices dropped,
+    faces in input order. :func:`quadric_collapse_python` is the twin."""
     pos, faces, quadrics, edges, min_double_area = _prepared(v_pos, t_pos_idx)
     if len(faces) <= triangles:
         return _compacted(pos, faces, np.ones(len(faces), bool))

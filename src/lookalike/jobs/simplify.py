@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import io
-from ..io.field_asset import finer_field_mesh
 from ..asset import Asset, Mesh
 from ..asset.parts import aggregate_traits
 from ..init.decimate import CANDIDATES, FIELD_CANDIDATES, decimate_reported
 from ..init.initial_guess import (InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh,
                                   smooth_shaded)
 from ..init.sphere_start import tessellated_sphere
+from ..io.field_asset import finer_field_mesh
 from ..phases import phase
 from ..settings import Config
 from .run import TEXTURE_STREAM, Application, keywords_doc, run
@@ -31,8 +31,9 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     """The user's mesh (``cfg.io.init_mesh``) with its own textures or a bake; for
     ``latent.init = "sphere"``, a tessellated sphere of ``count`` triangles around the input
     (its bounding sphere) with the input's mean material, beside plain decimation as the
-    baseline; else our decimation to ``count`` triangles with ``cfg.latent.init``'s textures, how
-    far it strays from the input as the guess's ``start_distance``. Where the input is an
+    baseline; else our decimation (of ``decimation_input``; for a field, among
+    ``FIELD_CANDIDATES``) to ``count`` triangles with ``cfg.latent.init``'s textures, how far it
+    strays from the input as the guess's ``start_distance``. Where the input is an
     implicit surface and the start a bake, the same mesh baked on smooth normals
     (``smooth_shaded``) is offered as an alternative start (``jobs.run.take_best_start``): a
     field's hard edges are where decimation strays most, and its model is written on crease
