@@ -16,7 +16,7 @@ import numpy as np
 from .. import io
 from ..asset import Asset, Mesh
 from ..asset.parts import aggregate_traits
-from ..init.decimate import CANDIDATES, FIELD_CANDIDATES, decimate_reported
+from ..init.decimate import CANDIDATES, FIELD_CANDIDATES, Setting, decimate_reported
 from ..init.initial_guess import (InitialGuess, Ranges, decimation_baseline, initial_guess, initial_guess_from_mesh,
                                   smooth_shaded)
 from ..init.sphere_start import tessellated_sphere
@@ -31,9 +31,9 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     """The user's mesh (``cfg.io.init_mesh``) with its own textures or a bake; for
     ``latent.init = "sphere"``, a tessellated sphere of ``count`` triangles around the input
     (its bounding sphere) with the input's mean material, beside plain decimation as the
-    baseline; else our decimation (of ``decimation_input``; for a field, among
-    ``FIELD_CANDIDATES``) to ``count`` triangles with ``cfg.latent.init``'s textures, how far it
-    strays from the input as the guess's ``start_distance``. Where the input is an
+    baseline; else our decimation (of ``decimation_input``, among its candidates) to ``count``
+    triangles with ``cfg.latent.init``'s textures, how far it strays from the input as the
+    guess's ``start_distance``. Where the input is an
     implicit surface and the start a bake, the same mesh baked on smooth normals
     (``smooth_shaded``) is offered as an alternative start (``jobs.run.take_best_start``): a
     field's hard edges are where decimation strays most, and its model is written on crease
@@ -46,8 +46,8 @@ def build_initial_guess(asset: Asset, cfg: Config, count: int | None) -> Initial
     ranges = Ranges(kd=clamp.kd, ks=(clamp.gamma, clamp.roughness, clamp.metalness))
     rng = np.random.default_rng((cfg.optim.seed, TEXTURE_STREAM))
     with phase("decimation"):
-        decimated, report = decimate_reported(decimation_input(asset), count,
-                                              settings=CANDIDATES if asset.field is None else FIELD_CANDIDATES)
+        source, settings = decimation_input(asset)
+        decimated, report = decimate_reported(source, count, settings=settings)
     if cfg.latent.init == "sphere":
         centre, radius = asset.mesh.bounding_sphere()
         guess = initial_guess(asset, tessellated_sphere(centre, radius, count), "average", size, ranges, rng)
@@ -69,15 +69,16 @@ FIELD_START_BLOCK = 8
 """... evaluated near the surface only, in blocks of this many cubes."""
 
 
-def decimation_input(asset: Asset) -> Mesh:
-    """The mesh decimated for the start: the input's own, or for an implicit surface its
-    marching cubes at ``FIELD_START_CELLS`` (``io.field_asset.finer_field_mesh``): the mesh a
-    field is loaded with is coarser, its hard edges rounded off and its chords inside its
-    curves, and a decimation of it keeps those; one of the finer mesh places its vertices on the
-    field's corners and curves (``docs/benchmarks.md``)."""
+def decimation_input(asset: Asset) -> tuple[Mesh, tuple[Setting, ...]]:
+    """The mesh decimated for the start and the decimation's candidates: the input's own mesh
+    and ``CANDIDATES``, or for an implicit surface its marching cubes at ``FIELD_START_CELLS``
+    (``io.field_asset.finer_field_mesh``) and ``FIELD_CANDIDATES``: the mesh a field is loaded
+    with is coarser, its hard edges rounded off and its chords inside its curves, and a
+    decimation of it keeps those; one of the finer mesh places its vertices on the field's
+    corners and curves (``docs/benchmarks.md``)."""
     if asset.field is None:
-        return asset.mesh
-    return finer_field_mesh(asset, FIELD_START_CELLS, FIELD_START_BLOCK)
+        return asset.mesh, CANDIDATES
+    return finer_field_mesh(asset, FIELD_START_CELLS, FIELD_START_BLOCK), FIELD_CANDIDATES
 
 
 def aggregate_remarks(asset: Asset) -> list[str]:
