@@ -164,3 +164,28 @@ def test_a_fields_decimation_offers_the_collapse_and_only_a_fields():
     _, usual = decimate_reported(mesh, 12)
     assert all(c["setting"] != QUADRIC_COLLAPSE for c in usual.candidates)
     assert all(s.simplifier != QUADRIC_COLLAPSE for s in CANDIDATES)
+
+
+def test_a_fields_large_input_is_coarsened_by_the_collapse_too(monkeypatch):
+    """The coarse pass of a large input runs the collapse where it is a candidate (``coarse_setting``),
+    fast-simplification's first setting elsewhere; the cube still lands on its corners."""
+    import sys
+
+    import torch
+
+    from lookalike.asset import Mesh
+    from lookalike.init.decimate import CANDIDATES, FIELD_CANDIDATES, QUADRIC_COLLAPSE, SCHEDULE, decimate_reported
+
+    decimation = sys.modules["lookalike.init.decimate"]
+    coarse_pass, passes = decimation._coarse_pass, []
+    monkeypatch.setattr(decimation, "COARSE_ABOVE", 400)
+    monkeypatch.setattr(decimation, "COARSE_TRIANGLES", 200)
+    monkeypatch.setattr(decimation, "_coarse_pass", lambda *args: passes.append(args[3]) or coarse_pass(*args))
+    v, f = _cube(12)                                                    # 1,728 triangles
+    mesh = Mesh(v_pos=torch.from_numpy(v).float(), t_pos_idx=torch.from_numpy(f))
+    out, report = decimate_reported(mesh, 12, settings=FIELD_CANDIDATES)
+    assert [s.simplifier for s in passes] == [QUADRIC_COLLAPSE]
+    assert out.num_triangles == 12 and report.mean < 1e-6
+    passes.clear()
+    decimate_reported(mesh, 12, settings=CANDIDATES)
+    assert passes == [SCHEDULE[0]]

@@ -38,9 +38,10 @@ corners of its shards are moved to their closest points on the input, and triang
 lie beyond the bound (spanning empty space) are removed.
 
 Landing on the exact count takes several runs of a setting, each over the whole input; on a
-large input (over ``COARSE_ABOVE`` triangles) one run first brings it to ``COARSE_TRIANGLES``,
-and every setting runs, and is measured, from there, so that the whole input is decimated once;
-``decimate_reported`` then measures the result against the whole input once more.
+large input (over ``COARSE_ABOVE`` triangles) one run first brings it to ``COARSE_TRIANGLES``
+(``coarse_setting``), and every setting runs, and is measured, from there, so that the whole
+input is decimated once; ``decimate_reported`` then measures the result against the whole input
+once more.
 """
 
 from __future__ import annotations
@@ -129,7 +130,7 @@ SCHEDULE = tuple(Setting(FAST_SIMPLIFICATION, frozen, agg) for frozen in (True, 
                  for agg in (3.0, 5.0, 7.0, 10.0))
 """The settings of fast-simplification in the order the first decimation tried them, taking the
 first that reached the count (``lookalike bench decimate`` compares with it); the coarse pass
-of a large input uses its first."""
+of a large input uses its first (``coarse_setting``)."""
 GUARD = 1.0
 """No triangle of a result may lie farther from the input than this many feature sizes of its
 count (module docstring)."""
@@ -356,11 +357,19 @@ def repair_shards(gauge: SurfaceGauge, v_pos: np.ndarray, t_pos_idx: np.ndarray,
     return v_pos, gauge.triangle_distances(v_pos, t_pos_idx, bound) <= bound, len(corners)
 
 
-def _coarse_pass(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int):
-    """One quadric decimation of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` towards ``triangles``
-    (``SCHEDULE``'s first setting, the count not exact), cleaned; in the input's units."""
+def coarse_setting(settings: tuple[Setting, ...]) -> Setting:
+    """The setting of a large input's coarse pass: the quadric collapse where it is among the
+    candidates (a field's fine marching cubes: fast-simplification's coarse pass rounds their
+    corners off, and the collapse cannot take back what it lost: twice the distance from the
+    field at the count, ``docs/benchmarks.md``), else ``SCHEDULE``'s first."""
+    return Setting(QUADRIC_COLLAPSE) if Setting(QUADRIC_COLLAPSE) in settings else SCHEDULE[0]
+
+
+def _coarse_pass(v_pos: np.ndarray, t_pos_idx: np.ndarray, triangles: int, setting: Setting):
+    """One decimation of ``v_pos [V, 3]`` / ``t_pos_idx [T, 3]`` by ``setting`` towards
+    ``triangles`` (the count not exact), cleaned; in the input's units."""
     centre, scale = unit_frame(v_pos)
-    _, out_pos, out_idx = SCHEDULE[0].run((v_pos - centre) / scale, t_pos_idx, triangles)
+    _, out_pos, out_idx = setting.run((v_pos - centre) / scale, t_pos_idx, triangles)
     return out_pos * scale + centre, out_idx
 
 
@@ -486,7 +495,7 @@ def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool
     coarse = max(COARSE_TRIANGLES, 20 * triangles)
     coarsened = len(w_idx) > max(COARSE_ABOVE, 2 * coarse)
     if coarsened:
-        w_pos, w_idx = _coarse_pass(w_pos, w_idx, coarse)
+        w_pos, w_idx = _coarse_pass(w_pos, w_idx, coarse, coarse_setting(settings))
     measuring = time.monotonic()
     gauge = SurfaceGauge(w_pos, w_idx)
     measured = time.monotonic() - measuring
