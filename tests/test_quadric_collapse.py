@@ -42,6 +42,16 @@ def _cube(n: int) -> tuple[np.ndarray, np.ndarray]:
     return v[first], inverse.reshape(-1)[f]
 
 
+def _cube_mesh(n: int):
+    """``_cube(n)`` as a ``lookalike.asset.Mesh``."""
+    import torch
+
+    from lookalike.asset import Mesh
+
+    v, f = _cube(n)
+    return Mesh(v_pos=torch.from_numpy(v).float(), t_pos_idx=torch.from_numpy(f))
+
+
 def _edge_uses(f: np.ndarray) -> np.ndarray:
     edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     return np.unique(edges, axis=0, return_counts=True)[1]
@@ -151,13 +161,9 @@ def test_an_open_border_stays_where_it_was():
 def test_a_fields_decimation_offers_the_collapse_and_only_a_fields():
     """``FIELD_CANDIDATES`` runs the collapse beside the libraries (on a finely gridded cube it
     lands on the count, on the corners); ``CANDIDATES`` does not offer it."""
-    import torch
-
-    from lookalike.asset import Mesh
     from lookalike.init.decimate import CANDIDATES, FIELD_CANDIDATES, QUADRIC_COLLAPSE, decimate_reported
 
-    v, f = _cube(12)
-    mesh = Mesh(v_pos=torch.from_numpy(v).float(), t_pos_idx=torch.from_numpy(f))
+    mesh = _cube_mesh(12)
     _, report = decimate_reported(mesh, 12, settings=FIELD_CANDIDATES)
     assert any(c["setting"] == QUADRIC_COLLAPSE and c["triangles"] == 12 and c["mean"] < 1e-6
                for c in report.candidates)
@@ -171,9 +177,6 @@ def test_a_fields_large_input_is_coarsened_by_the_collapse_too(monkeypatch):
     fast-simplification's first setting elsewhere; the cube still lands on its corners."""
     import sys
 
-    import torch
-
-    from lookalike.asset import Mesh
     from lookalike.init.decimate import CANDIDATES, FIELD_CANDIDATES, QUADRIC_COLLAPSE, SCHEDULE, decimate_reported
 
     decimation = sys.modules["lookalike.init.decimate"]
@@ -181,8 +184,7 @@ def test_a_fields_large_input_is_coarsened_by_the_collapse_too(monkeypatch):
     monkeypatch.setattr(decimation, "COARSE_ABOVE", 400)
     monkeypatch.setattr(decimation, "COARSE_TRIANGLES", 200)
     monkeypatch.setattr(decimation, "_coarse_pass", lambda *args: passes.append(args[3]) or coarse_pass(*args))
-    v, f = _cube(12)                                                    # 1,728 triangles
-    mesh = Mesh(v_pos=torch.from_numpy(v).float(), t_pos_idx=torch.from_numpy(f))
+    mesh = _cube_mesh(12)                                               # 1,728 triangles
     out, report = decimate_reported(mesh, 12, settings=FIELD_CANDIDATES)
     assert [s.simplifier for s in passes] == [QUADRIC_COLLAPSE]
     assert out.num_triangles == 12 and report.mean < 1e-6
