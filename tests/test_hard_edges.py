@@ -19,7 +19,7 @@ from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate
 from lookalike.init.projection_bake import bake
-from lookalike.init.initial_guess import Ranges, initial_guess, smooth_shaded
+from lookalike.init.initial_guess import Ranges, initial_guess, initial_guess_from_mesh, smooth_shaded
 from lookalike.io.normal_frames import on_crease_normals
 from mesh_factory import icosphere
 
@@ -144,6 +144,35 @@ def test_a_model_on_smooth_normals_is_written_on_crease_normals_shading_as_it_di
     unconverted = dataclasses.replace(written, materials=smooth.materials)
     assert psnr(picture, render(written, cameras, light, 96)) > 40.0
     assert psnr(picture, render(unconverted, cameras, light, 96)) < 30.0
+
+
+def test_a_users_lod_on_its_own_smooth_normals_starts_drawing_what_it_draws(cube):
+    """A user's LOD as Blender writes one: the cube shaded smooth, its normals authored in the
+    file, a bumpy map made on them. The start offered on its own positions keeps the map,
+    re-expressed onto crease normals, and draws what the LOD draws; the map read on those
+    frames as it was draws another picture (the start was 15 dB off a user's LOD)."""
+    from lookalike.report.metrics import psnr
+    from lookalike.shading.camera import Camera
+    from lookalike.shading.light import PointLight
+    from lookalike.shading.pipeline import render
+
+    asset, low = cube
+    smooth = with_bumps(smooth_shaded(asset, start_of(asset, low, 64), 64))
+    v_nrm, t_nrm_idx = smooth.mesh.normals()
+    lod = dataclasses.replace(smooth, mesh=dataclasses.replace(smooth.mesh, v_nrm=v_nrm, t_nrm_idx=t_nrm_idx))
+    guess = initial_guess_from_mesh(asset, lod, "lod.glb", 64)
+    (label, given), = guess.alternatives
+    assert label == "lod.glb on its own positions" and guess.baseline is lod
+    assert guess.own_start() == "lod.glb fitted onto the input's surface"
+    assert torch.equal(given.mesh.v_pos, lod.mesh.v_pos)
+    assert torch.equal(normals_per_position(given.mesh), faces_met(low))
+    assert torch.equal(guess.start.mesh.t_nrm_idx, given.mesh.t_nrm_idx)   # the fitted start keeps the slots too
+    eyes = torch.tensor([[3.0, 1.2, 0.8], [-1.0, 2.6, 1.9], [0.7, -1.5, -3.0]])
+    cameras = Camera.looking_at(eyes, torch.zeros(3, 3), fovy=np.radians(45.0))
+    light = PointLight(eyes * 1.5 + torch.tensor([1.0, 1.5, 0.0]), torch.full((3, 3), 20.0))
+    picture = render(lod, cameras, light, 96)
+    assert psnr(picture, render(given, cameras, light, 96)) > 40.0
+    assert psnr(picture, render(dataclasses.replace(given, materials=lod.materials), cameras, light, 96)) < 30.0
 
 
 def test_a_model_already_on_crease_normals_is_written_as_it_is(cube):

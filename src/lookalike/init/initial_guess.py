@@ -30,6 +30,7 @@ from ..asset.normals import crease_normal_index, face_normals
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from ..io.glb_bytes import from_glb_bytes, to_glb_bytes
+from ..io.normal_frames import on_crease_normals
 from ..phases import phase
 from .projection_bake import BakeResult, bake
 from .conform import CONFORM_ROUNDS, SETTLE_ROUNDS, UNFOLD_PASSES, conform_to_surface, reattach_detached_parts
@@ -85,6 +86,9 @@ class InitialGuess:
         alternative_distances: ``start_distance`` of each alternative, by its label.
         start_label: the report's label of the start where an alternative was taken
             (``take_start``), else ``None`` (the application's own).
+        own_label: how notes name ``start`` beside its alternatives where it is neither the
+            classic bake nor the application's usual start (a user's mesh fitted onto the
+            surface), else ``None``.
     """
 
     start: Asset
@@ -96,6 +100,7 @@ class InitialGuess:
     start_distance: dict | None = None
     alternative_distances: dict[str, dict] = field(default_factory=dict)
     start_label: str | None = None
+    own_label: str | None = None
 
     def take_start(self, label: str, start: Asset, usual: str | None = None) -> None:
         """Start from ``start`` (``label``: what it is, also its label in the report) instead,
@@ -114,8 +119,10 @@ class InitialGuess:
 
     def own_start(self, usual: str | None = None) -> str:
         """How a note names the application's own start, called ``usual``: the classic bake
-        where it is one."""
-        return "the classic bake" if self.bake is not None else usual_start(usual)
+        where it is one, else ``own_label`` where set."""
+        if self.bake is not None:
+            return "the classic bake"
+        return self.own_label or usual_start(usual)
 
     def __getstate__(self) -> dict:
         """Pickled (in checkpoints) with the comparisons as ``.glb`` bytes, as a user receives
@@ -125,7 +132,8 @@ class InitialGuess:
 
     def __setstate__(self, state: dict) -> None:
         comparisons = [(key, label, from_glb_bytes(data)) for key, label, data in state.get("comparisons", [])]
-        self.__dict__.update({"start_distance": None, "alternative_distances": {}, "start_label": None, **state,
+        self.__dict__.update({"start_distance": None, "alternative_distances": {}, "start_label": None,
+                              "own_label": None, **state,
                               "comparisons": comparisons})
 
     @property
@@ -359,34 +367,58 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
     where the fit's small steps can refine it): its own UVs and textures where it has one
     textured material and its UV set 0 is an atlas (``uv_overlap`` at most
     ``UV_OVERLAP_LIMIT``), resampled to ``size``; else the classic bake of ``asset``, onto its
-    UVs where they are an atlas, else onto a fresh one. Its shading normals are split at the
-    creases of the fitted shape, as our decimation's are (``start_mesh``): the normals it came
-    with belong to its old shape. The baseline is ``lod`` as given. ``on_surface``: ``lod`` is a
-    model fitted to this input, decimated, so ``SETTLE_ROUNDS`` rounds without unfolding put it
-    back (a chain's level starting from the level above, where the full fit would take most of a
-    small level's budget). Either way the fitted mesh then passes the decimation's guard against
-    shards (``guarded_fit``), and its distance from the input is the guess's ``start_distance``."""
+    UVs where they are an atlas, else onto a fresh one. The baseline is ``lod`` as given.
+
+    Shading normals: a kept normal map was made on ``lod``'s own normals (Blender bakes on its
+    smooth ones), and read on other frames it tilts every texel, so it is first re-expressed onto
+    ``lod``'s slots split at its creases (``io.normal_frames.on_crease_normals``), which the start
+    keeps; a bake's normals are split at the creases of the fitted shape, as our decimation's
+    are (``start_mesh``). Where the maps are kept, the fit onto the surface also moves texels
+    against the geometry they were painted for (a good LOD leaves out small holes, which the fit
+    pulls it into), so ``lod`` on its own positions is offered as an alternative start
+    (``alternatives``: the run takes whichever scores higher on its validation views).
+
+    ``on_surface``: ``lod`` is a model fitted to this input, decimated, so ``SETTLE_ROUNDS``
+    rounds without unfolding put it back (a chain's level starting from the level above, where
+    the full fit would take most of a small level's budget); no alternative is offered. Either
+    way the fitted mesh then passes the decimation's guard against shards (``guarded_fit``), and
+    its distance from the input is the guess's ``start_distance``."""
     rounds, unfold = (SETTLE_ROUNDS, 0) if on_surface else (CONFORM_ROUNDS, UNFOLD_PASSES)
-    with phase("fit onto the surface"):
-        mesh, welded = reattach_detached_parts(lod.mesh)
-        mesh = dataclasses.replace(conform_to_surface(mesh, asset.mesh, rounds=rounds, unfold_passes=unfold),
-                                   t_nrm_idx=None)
-        mesh, distance = guarded_fit(mesh, asset.mesh, f"{lod_name}, fitted onto the input's surface")
-    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation, fitted onto the input's surface"
-             + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else "")]
-    overlap = uv_overlap(mesh) if mesh.uv else None
+    overlap = uv_overlap(lod.mesh) if lod.mesh.uv else None
     atlas = overlap is not None and overlap <= UV_OVERLAP_LIMIT
+    kept = atlas and reusable_source_material(lod, lod.mesh) is not None and lod.materials[0].kd.data.shape[0] > 1
+    own = on_crease_normals(lod) if kept else lod
+    with phase("fit onto the surface"):
+        mesh, welded = reattach_detached_parts(own.mesh)
+        mesh = conform_to_surface(mesh, asset.mesh, rounds=rounds, unfold_passes=unfold)
+        if not kept:
+            mesh = dataclasses.replace(mesh, t_nrm_idx=None)
+        mesh, distance = guarded_fit(mesh, asset.mesh, f"{lod_name}, fitted onto the input's surface")
+    fitted = f"{lod_name} fitted onto the input's surface"
+    notes = [f"started from the low-poly mesh {lod_name} instead of our decimation"
+             + ("" if kept and not on_surface else ", fitted onto the input's surface")
+             + (f"; {welded} detached part{'s were' if welded > 1 else ' was'} welded back" if welded else "")]
     if overlap is not None and not atlas:
         notes.append(f"{lod_name}: {overlap:.0%} of its UV texels are covered more than once, "
                      "so a fresh atlas was unwrapped and baked")
-    textured = reusable_source_material(lod, mesh) is not None and lod.materials[0].kd.data.shape[0] > 1
-    if atlas and textured:
-        guess = initial_guess(dataclasses.replace(lod, mesh=mesh), mesh, "source", size, Ranges(),
-                              np.random.default_rng(0))
-        notes.append(f"kept {lod_name}'s UVs and textures")
-        return InitialGuess(start=guess.start, baseline=lod, bake=None, notes=notes, start_distance=distance)
-    guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
-    return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes, start_distance=distance)
+    if not kept:
+        guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
+        return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes, start_distance=distance)
+    notes.append(f"kept {lod_name}'s UVs and textures")
+    guess = InitialGuess(start=_kept_start(own, mesh, size), baseline=lod, bake=None, notes=notes,
+                         start_distance=distance, own_label=fitted)
+    if not on_surface:
+        given, given_distance = guarded_fit(own.mesh, asset.mesh, f"{lod_name} as given")
+        label = f"{lod_name} on its own positions"
+        guess.alternatives.append((label, _kept_start(own, given, size)))
+        guess.alternative_distances[label] = given_distance
+    return guess
+
+
+def _kept_start(lod: Asset, mesh: Mesh, size: int) -> Asset:
+    """The start on ``mesh`` (``lod``'s, moved or not) with ``lod``'s UVs and maps resampled to ``size``."""
+    return initial_guess(dataclasses.replace(lod, mesh=mesh), mesh, "source", size, Ranges(),
+                         np.random.default_rng(0)).start
 
 
 def guarded_fit(mesh: Mesh, surface: Mesh, of: str) -> tuple[Mesh, dict]:
