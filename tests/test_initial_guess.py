@@ -188,6 +188,10 @@ def test_a_users_mesh_with_overlapping_uvs_gets_a_fresh_atlas_and_the_bake():
     assert uv_overlap(guess.start.mesh) <= UV_OVERLAP_LIMIT
     assert torch.equal(guess.start.materials[0].kd.data, guess.baked.materials[0].kd.data)
     assert any("fresh atlas" in note for note in guess.notes)
+    (label, given), = guess.alternatives                 # baked the same way on the mesh as it came
+    assert label == "lod.glb on its own positions" and torch.equal(given.mesh.v_pos, lod_mesh.v_pos)
+    assert uv_overlap(given.mesh) <= UV_OVERLAP_LIMIT and given.materials[0].kd.data.shape[0] == 256
+    assert guess.own_start() == "lod.glb fitted onto the input's surface"
 
 
 def test_a_model_fitted_to_the_input_is_settled_back_onto_its_surface_in_a_few_rounds(monkeypatch):
@@ -202,7 +206,7 @@ def test_a_model_fitted_to_the_input_is_settled_back_onto_its_surface_in_a_few_r
     monkeypatch.setattr(initial_guess_module, "conform_to_surface",
                         lambda *args, **kw: rounds.append((kw["rounds"], kw["unfold_passes"])) or fit(*args, **kw))
     settled = initial_guess_from_mesh(asset, lod, "the level above", 256, on_surface=True)
-    assert rounds == [(SETTLE_ROUNDS, 0)]
+    assert rounds == [(SETTLE_ROUNDS, 0)] and settled.alternatives == []
     own = max(surface_distances(lod_mesh, asset.mesh))
     assert min(surface_distances(lifted, asset.mesh)) > 2 * own
     assert max(surface_distances(settled.start.mesh, asset.mesh)) < 1.5 * own

@@ -86,9 +86,9 @@ class InitialGuess:
         alternative_distances: ``start_distance`` of each alternative, by its label.
         start_label: the report's label of the start where an alternative was taken
             (``take_start``), else ``None`` (the application's own).
-        own_label: how notes name ``start`` beside its alternatives where it is neither the
-            classic bake nor the application's usual start (a user's mesh fitted onto the
-            surface), else ``None``.
+        own_label: how notes name ``start`` beside its alternatives where neither "the classic
+            bake" nor the application's usual start says what it is (a user's mesh fitted onto
+            the surface), else ``None``.
     """
 
     start: Asset
@@ -118,11 +118,11 @@ class InitialGuess:
         self.notes.append(f"started from {label}: it scored higher on the validation views than {replaced}")
 
     def own_start(self, usual: str | None = None) -> str:
-        """How a note names the application's own start, called ``usual``: the classic bake
-        where it is one, else ``own_label`` where set."""
-        if self.bake is not None:
-            return "the classic bake"
-        return self.own_label or usual_start(usual)
+        """How a note names the application's own start, called ``usual``: ``own_label`` where
+        set, else the classic bake where it is one."""
+        if self.own_label is not None:
+            return self.own_label
+        return "the classic bake" if self.bake is not None else usual_start(usual)
 
     def __getstate__(self) -> dict:
         """Pickled (in checkpoints) with the comparisons as ``.glb`` bytes, as a user receives
@@ -373,10 +373,11 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
     smooth ones), and read on other frames it tilts every texel, so it is first re-expressed onto
     ``lod``'s slots split at its creases (``io.normal_frames.on_crease_normals``), which the start
     keeps; a bake's normals are split at the creases of the fitted shape, as our decimation's
-    are (``start_mesh``). Where the maps are kept, the fit onto the surface also moves texels
-    against the geometry they were painted for (a good LOD leaves out small holes, which the fit
-    pulls it into), so ``lod`` on its own positions is offered as an alternative start
-    (``alternatives``: the run takes whichever scores higher on its validation views).
+    are (``start_mesh``). The fit onto the surface also pulls a good LOD into the small holes it
+    left out, moving its texels against the geometry they were painted for, and a bake onto it
+    sees those holes too, so ``lod`` on its own positions, with its maps or baked the same way,
+    is offered as an alternative start (``alternatives``: the run takes whichever scores higher
+    on its validation views).
 
     ``on_surface``: ``lod`` is a model fitted to this input, decimated, so ``SETTLE_ROUNDS``
     rounds without unfolding put it back (a chain's level starting from the level above, where
@@ -394,23 +395,30 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
         if not kept:
             mesh = dataclasses.replace(mesh, t_nrm_idx=None)
         mesh, distance = guarded_fit(mesh, asset.mesh, f"{lod_name}, fitted onto the input's surface")
-    fitted = f"{lod_name} fitted onto the input's surface"
+    fitted = (f"{lod_name} fitted onto the input's surface"
+              + (f" after welding {welded} detached part{'s' if welded > 1 else ''} back" if welded else ""))
     notes = [f"started from the low-poly mesh {lod_name} instead of our decimation"
-             + ("" if kept and not on_surface else ", fitted onto the input's surface")
-             + (f"; {welded} detached part{'s were' if welded > 1 else ' was'} welded back" if welded else "")]
+             + (f": {fitted}" if on_surface else "")]
     if overlap is not None and not atlas:
         notes.append(f"{lod_name}: {overlap:.0%} of its UV texels are covered more than once, "
                      "so a fresh atlas was unwrapped and baked")
-    if not kept:
-        guess = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
-        return InitialGuess(start=guess.start, baseline=lod, bake=guess.bake, notes=notes, start_distance=distance)
-    notes.append(f"kept {lod_name}'s UVs and textures")
-    guess = InitialGuess(start=_kept_start(own, mesh, size), baseline=lod, bake=None, notes=notes,
-                         start_distance=distance, own_label=fitted)
+    if kept:
+        notes.append(f"kept {lod_name}'s UVs and textures")
+        guess = InitialGuess(start=_kept_start(own, mesh, size), baseline=lod, bake=None, notes=notes,
+                             start_distance=distance, own_label=fitted)
+    else:
+        made = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
+        guess = InitialGuess(start=made.start, baseline=lod, bake=made.bake, notes=notes, start_distance=distance,
+                             own_label=fitted)
     if not on_surface:
-        given, given_distance = guarded_fit(own.mesh, asset.mesh, f"{lod_name} as given")
+        as_given = own.mesh if kept else dataclasses.replace(own.mesh, v_nrm=None, t_nrm_idx=None)
+        given, given_distance = guarded_fit(as_given, asset.mesh, f"{lod_name} as given")
+        if kept:
+            start = _kept_start(own, given, size)
+        else:
+            start = initial_guess(asset, given, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas).start
         label = f"{lod_name} on its own positions"
-        guess.alternatives.append((label, _kept_start(own, given, size)))
+        guess.alternatives.append((label, start))
         guess.alternative_distances[label] = given_distance
     return guess
 
