@@ -404,29 +404,26 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
                      "so a fresh atlas was unwrapped and baked")
     if kept:
         notes.append(f"kept {lod_name}'s UVs and textures")
-        guess = InitialGuess(start=_kept_start(own, mesh, size), baseline=lod, bake=None, notes=notes,
-                             start_distance=distance, own_label=fitted)
-    else:
-        made = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
-        guess = InitialGuess(start=made.start, baseline=lod, bake=made.bake, notes=notes, start_distance=distance,
-                             own_label=fitted)
+    start, baked = _start_on(mesh, asset, own if kept else None, size, atlas)
+    guess = InitialGuess(start=start, baseline=lod, bake=baked, notes=notes, start_distance=distance, own_label=fitted)
     if not on_surface:
         as_given = own.mesh if kept else dataclasses.replace(own.mesh, v_nrm=None, t_nrm_idx=None)
         given, given_distance = guarded_fit(as_given, asset.mesh, f"{lod_name} as given")
-        if kept:
-            start = _kept_start(own, given, size)
-        else:
-            start = initial_guess(asset, given, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas).start
         label = f"{lod_name} on its own positions"
-        guess.alternatives.append((label, start))
+        guess.alternatives.append((label, _start_on(given, asset, own if kept else None, size, atlas)[0]))
         guess.alternative_distances[label] = given_distance
     return guess
 
 
-def _kept_start(lod: Asset, mesh: Mesh, size: int) -> Asset:
-    """The start on ``mesh`` (``lod``'s, moved or not) with ``lod``'s UVs and maps resampled to ``size``."""
-    return initial_guess(dataclasses.replace(lod, mesh=mesh), mesh, "source", size, Ranges(),
-                         np.random.default_rng(0)).start
+def _start_on(mesh: Mesh, asset: Asset, kept: Asset | None, size: int, atlas: bool) -> tuple[Asset, BakeResult | None]:
+    """A user's mesh's start on ``mesh`` (its positions, fitted or not) and its bake: the maps
+    of ``kept`` (the user's model) resampled to ``size`` on its UVs, else the classic bake of
+    ``asset`` onto its UVs where they are an ``atlas``, else onto a fresh one."""
+    if kept is not None:
+        return initial_guess(dataclasses.replace(kept, mesh=mesh), mesh, "source", size, Ranges(),
+                             np.random.default_rng(0)).start, None
+    made = initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=atlas)
+    return made.start, made.bake
 
 
 def guarded_fit(mesh: Mesh, surface: Mesh, of: str) -> tuple[Mesh, dict]:
