@@ -388,9 +388,10 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
     overlap = uv_overlap(lod.mesh) if lod.mesh.uv else None
     atlas = overlap is not None and overlap <= UV_OVERLAP_LIMIT
     kept = atlas and reusable_source_material(lod, lod.mesh) is not None and lod.materials[0].kd.data.shape[0] > 1
-    own = on_crease_normals(lod) if kept else lod
+    source = on_crease_normals(lod) if kept else None
+    own_mesh = lod.mesh if source is None else source.mesh
     with phase("fit onto the surface"):
-        mesh, welded = reattach_detached_parts(own.mesh)
+        mesh, welded = reattach_detached_parts(own_mesh)
         mesh = conform_to_surface(mesh, asset.mesh, rounds=rounds, unfold_passes=unfold)
         if not kept:
             mesh = dataclasses.replace(mesh, t_nrm_idx=None)
@@ -404,13 +405,13 @@ def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,
                      "so a fresh atlas was unwrapped and baked")
     if kept:
         notes.append(f"kept {lod_name}'s UVs and textures")
-    start, baked = _start_on(mesh, asset, own if kept else None, size, atlas)
+    start, baked = _start_on(mesh, asset, source, size, atlas)
     guess = InitialGuess(start=start, baseline=lod, bake=baked, notes=notes, start_distance=distance, own_label=fitted)
     if not on_surface:
-        as_given = own.mesh if kept else dataclasses.replace(own.mesh, v_nrm=None, t_nrm_idx=None)
+        as_given = own_mesh if kept else dataclasses.replace(own_mesh, v_nrm=None, t_nrm_idx=None)
         given, given_distance = guarded_fit(as_given, asset.mesh, f"{lod_name} as given")
         label = f"{lod_name} on its own positions"
-        guess.alternatives.append((label, _start_on(given, asset, own if kept else None, size, atlas)[0]))
+        guess.alternatives.append((label, _start_on(given, asset, source, size, atlas)[0]))
         guess.alternative_distances[label] = given_distance
     return guess
 
