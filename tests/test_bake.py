@@ -4,6 +4,7 @@ the ``lookalike bake`` job."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,7 @@ from lookalike.asset.uv_raster import sample_bilinear
 from lookalike.cli import main
 from lookalike.errors import ConfigError
 from lookalike.init import unwrap
-from lookalike.init.projection_bake import atlas_texels, bake, box_filter, project_along_normals
+from lookalike.init.projection_bake import atlas_texels, bake, box_filter, locate_on_reference, project_along_normals
 from lookalike.jobs.bake import bake_asset
 from lookalike.init import raycast
 from lookalike.init.raycast import RayCaster, intersect_python
@@ -325,3 +326,45 @@ def test_supersampling_averages_detail_finer_than_a_texel_instead_of_aliasing_it
         return float(np.std(normal[covered.rows, covered.cols, :2]))
 
     assert grain(4) < 0.6 * grain(1)
+
+
+@pytest.mark.parametrize("subdivisions", [0, 1])
+def test_a_faceted_low_poly_bakes_a_smooth_reference_without_seams_at_its_hard_edges(subdivisions):
+    """A flat-shaded icosahedron (its edges split its normals) baked from a smooth sphere: rays
+    along the smooth normal reach the sphere point under each texel, so the decoded normals are
+    the sphere's radial ones everywhere, edges included. Rays along each face's own normal would
+    read points tilted towards that face's normal (by 3.3 degrees on the icosahedron), jumping across each edge."""
+    low = unwrap(icosphere(subdivisions), texture_size=128)
+    low = dataclasses.replace(low, t_nrm_idx=torch.arange(3 * low.num_triangles).reshape(-1, 3))  # flat-shaded
+    reference = Asset(mesh=icosphere(6), materials=[Material()])
+    result = bake(reference, low, texture_size=128, cage=0.5, samples=1)
+    texels = atlas_texels(low, 128)
+    got = world_normals(result.material.normal, texels)
+    radial = texels.position / np.linalg.norm(texels.position, axis=-1, keepdims=True)
+    angle = np.degrees(np.arccos(np.clip((got * radial).sum(-1), -1, 1)))
+    facet = np.degrees(np.arccos(np.clip((texels.normal * radial).sum(-1), -1, 1)))
+    assert facet.max() > 15                                     # the facets' own normals are far off
+    assert angle.max() < 0.5
+
+
+def test_a_texel_bakes_the_nearer_hit_of_its_smooth_and_its_own_normal_line():
+    """A flat-shaded tent (two faces meeting at 90 degrees) over a reference plane ``d`` above
+    its left face: the left face's own normal reaches the plane in ``d``, its smooth normal
+    (tilted up to 45 degrees near the ridge) only in up to ``sqrt(2) d``; the nearer is taken."""
+    d = 0.05
+    v = torch.tensor([[-1.0, -1, 0], [0, -1, 1], [1, -1, 0], [-1, 1, 0], [0, 1, 1], [1, 1, 0]])
+    tent = Mesh(v_pos=v, t_pos_idx=torch.tensor([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]]))
+    low = unwrap(tent, texture_size=64)
+    low = dataclasses.replace(low, t_nrm_idx=torch.arange(3 * low.num_triangles).reshape(-1, 3))
+    left = torch.tensor([-1.0, 0.0, 1.0]) / math.sqrt(2)
+    along = torch.tensor([1.0, 0.0, 1.0]) / math.sqrt(2)
+    corners = [d * left + s * 2.0 * along + torch.tensor([-0.5, t * 2.0, 0.5]) for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    plane = Asset(mesh=Mesh(v_pos=torch.stack(corners), t_pos_idx=torch.tensor([[0, 1, 2], [0, 2, 3]])),
+                  materials=[Material(double_sided=True)])
+    texels = atlas_texels(low, 64)
+    points = locate_on_reference(plane, texels, cage=0.2)
+    on_left = texels.position[:, 0] < -0.01
+    assert points.hit[on_left].all()
+    assert np.abs(points.offset[on_left] - d).max() < 1e-6
+    smooth_reach = d / (texels.smooth[on_left] * texels.normal[on_left]).sum(-1)
+    assert smooth_reach.max() > 1.3 * d                           # the smooth line alone would reach further

@@ -2,21 +2,29 @@
 high-poly reference (what Simplygon, Substance, Marmoset or Blender's "selected to active" do).
 
 For every atlas sample (``SAMPLES_PER_AXIS``^2 sub-texels per texel of UV set 0 of the low-poly
-mesh; ``lookalike.asset.uv_raster``) the low-poly surface point ``p`` and its interpolated unit shading normal ``n`` (our tangent frame ``t, b, n``,
-``lookalike.asset.frames``, on the low-poly mesh's split normals, the frame the renderer decodes the
-map in; so at a hard edge each side casts along its own normal, as Blender's bake without a cage
-does) are found. Two rays leave ``p``: along ``+n`` and along ``-n``, each reaching ``cage`` (default ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box
-diagonal). Each starts ``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p``
-itself is found. Only surfaces seen from outside count, as a viewer looking down ``-n`` would
-see them: a ray passes through the back of a triangle (face normal ``. n <= 0``) whose material
-is one-sided, since the renderer culls it (``first_seen``). The hit closest to ``p`` (smallest
-``|signed distance|``) of either ray wins; on a tie the outward (``+n``) hit wins. Texels whose
-rays both miss take the closest point of the reference (``lookalike.init.closest_point``).
+mesh; ``lookalike.asset.uv_raster``) the low-poly surface point ``p``, its interpolated unit shading
+normal ``n`` (our tangent frame ``t, b, n``, ``lookalike.asset.frames``, on the low-poly mesh's
+split normals: the frame the renderer decodes the map in) and its smooth normal ``c`` (the
+positions' angle-weighted normals interpolated, whatever splits the shading normals:
+``ray_directions``) are found. Each of the two lines through ``p``, along ``c`` and along ``n``,
+casts two rays: along ``+d`` and along ``-d``, each reaching ``cage`` (default
+``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box diagonal). Each starts
+``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p`` itself is found. Only
+surfaces seen from outside count, as a viewer looking down ``-d`` would see them: a ray passes
+through the back of a triangle (face normal ``. d <= 0``) whose material is one-sided, since
+the renderer culls it (``first_seen``). On each line the hit closest to ``p`` (smallest
+``|signed distance|``) wins, on a tie the outward one; of the two lines the closer hit wins, on
+a tie ``c``'s. Rays along ``c`` fan continuously across a hard edge of the low-poly mesh, so the
+texels beside it read the reference under them, as Blender's bake of a smooth-shaded mesh does;
+along each side's own ``n`` alone they read the neighbouring face's normal there, a seam of
+highlights along every hard edge. The line along ``n`` keeps a texel on its own part where
+``c`` leans off into another (thin or overlapping parts). Texels whose rays all miss take the
+closest point of the reference (``lookalike.init.closest_point``).
 
 At that point the reference's material and shading normal ``s`` (``ReferenceSurface``; for an
 implicit surface's marching-cubes mesh, the field's own, ``FieldSurface``) are read;
-where the point's triangle faces away from ``n`` (a double-sided surface seen from behind, or a
-closest point) ``s`` is flipped, as the renderer flips it. The baked normal map holds
+where the point's triangle faces away from the winning line's direction (a double-sided surface
+seen from behind, or a closest point) ``s`` is flipped, as the renderer flips it. The baked normal map holds
 ``normalize(s.t, s.b, s.n)``, so that our renderer's
 ``normalize(x t + y b + z n)`` gives back ``s``; base colour + alpha, (gamma, roughness,
 metalness), emission and ambient occlusion are copied. Each texel stands for a patch of the low-poly surface
@@ -41,7 +49,7 @@ from ..asset.asset import Asset
 from ..asset.frames import our_corner_frame, texel_frames
 from ..asset.material import Material, Texture
 from ..asset.mesh import Mesh
-from ..asset.normals import face_normals, safe_normalize
+from ..asset.normals import angle_weighted_normals, face_normals, safe_normalize
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from .atlas import merged_modes
@@ -79,6 +87,7 @@ class AtlasTexels:
         triangle: ``[K]`` int64 low-poly triangle covering it; barycentric ``[K, 3]`` float64.
         position: ``[K, 3]`` float64 surface point; tangent, bitangent, normal ``[K, 3]`` float64
             our orthonormal tangent frame there.
+        smooth: ``[K, 3]`` float64 unit smooth normal there (``c`` of the module docstring).
         footprint: ``[K]`` float64 world-space size of the texel on the surface.
     """
 
@@ -90,6 +99,7 @@ class AtlasTexels:
     tangent: np.ndarray
     bitangent: np.ndarray
     normal: np.ndarray
+    smooth: np.ndarray
     footprint: np.ndarray
 
 
@@ -111,7 +121,24 @@ def atlas_texels(low: Mesh, size: int) -> AtlasTexels:
     tangent, bitangent, normal = texel_frames(*our_corner_frame(low, 0), tri, bary)
     return AtlasTexels(rows=rows, cols=cols, triangle=tri, barycentric=bary,
                        position=np.einsum("kc,kcd->kd", bary, corners[tri]),
-                       tangent=tangent, bitangent=bitangent, normal=normal, footprint=footprint[tri])
+                       tangent=tangent, bitangent=bitangent, normal=normal,
+                       smooth=smooth_normals(v_pos, t_pos_idx, tri, bary, normal), footprint=footprint[tri])
+
+
+def smooth_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray, tri: np.ndarray, bary: np.ndarray,
+                   normal: np.ndarray) -> np.ndarray:
+    """``[K, 3]`` unit smooth normals ``c`` of the mesh ``v_pos [V, 3]``, ``t_pos_idx [T, 3]`` at
+    points ``tri [K]``, ``bary [K, 3]``: ``c = normalize(sum_k bary_k m_k)``, ``m`` the
+    angle-weighted normals of the positions (``angle_weighted_normals``; coincident vertices
+    merged, so neither a split of the shading normals nor a file's seam parts them); the points'
+    shading normals ``normal [K, 3]`` where the sum vanishes or faces away from them."""
+    welded, position = np.unique(v_pos, axis=0, return_inverse=True)
+    merged = position.reshape(-1)[t_pos_idx]
+    smooth = angle_weighted_normals(torch.from_numpy(welded), torch.from_numpy(merged)).numpy()
+    cast = np.einsum("kc,kcd->kd", bary, smooth[merged[tri]])
+    length = np.linalg.norm(cast, axis=-1, keepdims=True)
+    usable = (length > 1e-6) & ((cast * normal).sum(-1, keepdims=True) > 0)
+    return np.where(usable, cast / np.maximum(length, 1e-6), normal)
 
 
 def default_cage(reference: Mesh) -> float:
@@ -226,21 +253,27 @@ class BakePoints:
 
 
 def locate_on_reference(reference: Asset, texels: AtlasTexels, cage: float) -> BakePoints:
-    """The reference point each texel bakes: the nearest hit along its normal line within
-    ``cage`` that is seen from outside (``project_along_normals``), else the closest point."""
+    """The reference point each texel bakes: the nearest hit within ``cage`` that is seen from
+    outside along its smooth normal's line or its shading normal's (``project_along_normals``;
+    the smooth one on a tie), else the closest point."""
     mesh = reference.mesh
     v_pos = mesh.v_pos.detach().double().numpy()
     t_pos_idx = mesh.t_pos_idx.numpy()
     face_normal = safe_normalize(face_normals(mesh.v_pos.detach().double(), mesh.t_pos_idx)).numpy()
     double_sided = np.array([m.double_sided for m in reference.materials], bool)
     one_sided = ~double_sided[mesh.t_mat_idx.numpy()]
-    hits, offset = project_along_normals(RayCaster(v_pos, t_pos_idx), texels.position, texels.normal, cage,
-                                         face_normal, one_sided)
-    triangle, bary, hit = hits.triangle.copy(), hits.barycentric.copy(), hits.hit
+    caster = RayCaster(v_pos, t_pos_idx)
+    smooth, offset = project_along_normals(caster, texels.position, texels.smooth, cage, face_normal, one_sided)
+    own, own_offset = project_along_normals(caster, texels.position, texels.normal, cage, face_normal, one_sided)
+    take_own = np.abs(own_offset) < np.abs(offset)
+    triangle = np.where(take_own, own.triangle, smooth.triangle)
+    bary = np.where(take_own[:, None], own.barycentric, smooth.barycentric)
+    offset, direction = np.where(take_own, own_offset, offset), np.where(take_own[:, None], texels.normal, texels.smooth)
+    hit = triangle >= 0
     if not hit.all():
         closest = SurfaceQuery(v_pos, t_pos_idx).closest(texels.position[~hit])
         triangle[~hit], bary[~hit], offset[~hit] = closest.triangle, closest.barycentric, closest.distance
-    back = (face_normal[triangle] * texels.normal).sum(-1) < 0
+    back = (face_normal[triangle] * direction).sum(-1) < 0
     return BakePoints(triangle, bary, offset, hit, back)
 
 
