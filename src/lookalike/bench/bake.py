@@ -6,7 +6,8 @@ Figures (medians over ``repeats``, wall and process CPU seconds; the CPU time is
 machine's load cannot inflate):
 
 - ``raycast_wall_s`` / ``raycast_cpu_s``: finding the reference point of every texel
-  (``locate_on_reference``: BVH build, two rays per texel, closest-point fallback).
+  (``locate_on_reference``: BVH build, two rays along each of a texel's two lines,
+  closest-point fallback).
 - ``bake_wall_s`` / ``bake_cpu_s``: the whole ``bake`` call (texels, rays, closest-point
   fallback, material and normal lookups, filling uncovered texels).
 - ``texels``: atlas texels covered (xatlas fills about half of the square);

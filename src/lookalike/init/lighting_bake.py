@@ -4,16 +4,16 @@ leaves the high-poly reference, path traced under the run's lighting (what Blend
 light-mapped asset).
 
 Each atlas sample finds its reference point as the projection bake does
-(``lookalike.init.projection_bake``: rays along the low-poly normal within the cage, else the
-closest point), and holds the mean radiance leaving that point over cosine-weighted directions
-about the reference triangle's outward normal (``lookalike.shading.surface_radiance``: what a
-view from any side sees there, shadows, bounced light and emission included); samples are
-box-filtered to texels and uncovered texels take their nearest covered one's value. The result
-is sharp at the texel, not the view's pixel, and its noise is ``1 / sqrt(S)`` of one sample's
-for ``S`` samples per texel, averaged over directions rather than learnt from noisy pictures.
-The samples are a budget for the whole atlas (``SAMPLE_BUDGET``), so a small atlas, whose texels
-each cover many pixels, gets more of them per texel; its cost is then about the same at every
-texture size.
+(``lookalike.init.projection_bake``: the nearer hit along the low-poly smooth and shading normals
+within the cage, else the closest point), and holds the mean radiance leaving that point over
+cosine-weighted directions about the reference triangle's outward normal
+(``lookalike.shading.surface_radiance``: what a view from any side sees there, shadows, bounced
+light and emission included); samples are box-filtered to texels and uncovered texels take their
+nearest covered one's value. The result is sharp at the texel, not the view's pixel, and its noise
+is ``1 / sqrt(S)`` of one sample's for ``S`` samples per texel, averaged over directions rather
+than learnt from noisy pictures. The samples are a budget for the whole atlas (``SAMPLE_BUDGET``),
+so a small atlas, whose texels each cover many pixels, gets more of them per texel; its cost is
+then about the same at every texture size.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ mesh; ``lookalike.asset.uv_raster``) the low-poly surface point ``p``, its inter
 normal ``n`` (our tangent frame ``t, b, n``, ``lookalike.asset.frames``, on the low-poly mesh's
 split normals: the frame the renderer decodes the map in) and its smooth normal ``c`` (the
 positions' angle-weighted normals interpolated, whatever splits the shading normals:
-``ray_directions``) are found. Each of the two lines through ``p``, along ``c`` and along ``n``,
+``smooth_normals``) are found. Each of the two lines through ``p``, along ``c`` and along ``n``,
 casts two rays: along ``+d`` and along ``-d``, each reaching ``cage`` (default
 ``DEFAULT_CAGE_FRACTION`` of the reference's bounding-box diagonal). Each starts
 ``START_OFFSET * cage`` behind ``p``, so a reference surface through ``p`` itself is found. Only
@@ -135,10 +135,10 @@ def smooth_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray, tri: np.ndarray, ba
     welded, position = np.unique(v_pos, axis=0, return_inverse=True)
     merged = position.reshape(-1)[t_pos_idx]
     smooth = angle_weighted_normals(torch.from_numpy(welded), torch.from_numpy(merged)).numpy()
-    cast = np.einsum("kc,kcd->kd", bary, smooth[merged[tri]])
-    length = np.linalg.norm(cast, axis=-1, keepdims=True)
-    usable = (length > 1e-6) & ((cast * normal).sum(-1, keepdims=True) > 0)
-    return np.where(usable, cast / np.maximum(length, 1e-6), normal)
+    interpolated = np.einsum("kc,kcd->kd", bary, smooth[merged[tri]])
+    length = np.linalg.norm(interpolated, axis=-1, keepdims=True)
+    usable = (length > 1e-6) & ((interpolated * normal).sum(-1, keepdims=True) > 0)
+    return np.where(usable, interpolated / np.maximum(length, 1e-6), normal)
 
 
 def default_cage(reference: Mesh) -> float:
