@@ -163,13 +163,13 @@ def test_thin_open_blades_half_the_assets_size_fire_but_wide_quads_as_long_do_no
 def test_per_part_statistics_match_a_loop_over_parts():
     """The vectorised boundary edges and principal extents agree with each part's own, part by part."""
     from lookalike.asset.parts import AGGREGATE_SMALL, AGGREGATE_THIN, _corner_parts, _open_parts, \
-        _small_or_thin_parts, _welded
+        _small_or_thin_parts, welded_corners
 
     rng = np.random.default_rng(3)
     pieces = armour(30) + armour(30, open_top=True, seed=1) + grass(40)[1:] + leaves(30) + [sphere(0.3, 1)]
     pieces = [pieces[i] for i in rng.permutation(len(pieces))]
     asset = merged(pieces)
-    positions, corner = _welded(asset.mesh.v_pos.numpy(), asset.mesh.t_pos_idx.numpy())
+    positions, corner = welded_corners(asset.mesh.v_pos.numpy(), asset.mesh.t_pos_idx.numpy())
     part = _corner_parts(corner)
     parts = int(part.max()) + 1
     assert parts == len(pieces)

@@ -333,7 +333,8 @@ def test_a_faceted_low_poly_bakes_a_smooth_reference_without_seams_at_its_hard_e
     """A flat-shaded icosahedron (its edges split its normals) baked from a smooth sphere: rays
     along the smooth normal reach the sphere point under each texel, so the decoded normals are
     the sphere's radial ones everywhere, edges included. Rays along each face's own normal would
-    read points tilted towards that face's normal (by 3.3 degrees on the icosahedron), jumping across each edge."""
+    read points tilted towards that face's normal (by 3.3 degrees on the icosahedron), jumping
+    across each edge."""
     low = unwrap(icosphere(subdivisions), texture_size=128)
     low = dataclasses.replace(low, t_nrm_idx=torch.arange(3 * low.num_triangles).reshape(-1, 3))  # flat-shaded
     reference = Asset(mesh=icosphere(6), materials=[Material()])

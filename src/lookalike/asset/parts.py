@@ -25,10 +25,10 @@ def triangle_parts(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
     t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
     if len(t_pos_idx) == 0:
         return np.zeros(0, dtype=np.int64)
-    return _corner_parts(_welded(v_pos, t_pos_idx)[1])
+    return _corner_parts(welded_corners(v_pos, t_pos_idx)[1])
 
 
-def _welded(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def welded_corners(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The distinct positions ``[C, 3]`` of ``v_pos`` and each triangle's corners among them,
     ``[T, 3]`` int64 (equal ``v_pos`` rows are one corner)."""
     positions, corner = np.unique(np.asarray(v_pos), axis=0, return_inverse=True)
@@ -36,7 +36,7 @@ def _welded(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def _corner_parts(corner: np.ndarray) -> np.ndarray:
-    """``triangle_parts`` of triangles given by their welded corners ``[T, 3]`` (``_welded``)."""
+    """``triangle_parts`` of triangles given by their welded corners ``[T, 3]`` (``welded_corners``)."""
     count = int(corner.max()) + 1
     edges = np.concatenate([corner[:, [0, 1]], corner[:, [1, 2]]])
     graph = scipy.sparse.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(count, count))
@@ -122,7 +122,7 @@ def survey_parts(asset, least_parts: int = 1) -> PartSurvey | None:
     tri = mesh.t_pos_idx.detach().cpu().numpy().astype(np.int64)
     if len(tri) == 0:
         return None
-    positions, corner = _welded(mesh.v_pos.detach().cpu().numpy(), tri)
+    positions, corner = welded_corners(mesh.v_pos.detach().cpu().numpy(), tri)
     part = _corner_parts(corner)
     parts = int(part.max()) + 1
     if parts < least_parts:

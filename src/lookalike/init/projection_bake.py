@@ -50,6 +50,7 @@ from ..asset.frames import our_corner_frame, texel_frames
 from ..asset.material import Material, Texture
 from ..asset.mesh import Mesh
 from ..asset.normals import angle_weighted_normals, face_normals, safe_normalize
+from ..asset.parts import welded_corners
 from ..asset.uv_raster import rasterize_uv
 from ..errors import ConfigError
 from .atlas import merged_modes
@@ -132,8 +133,7 @@ def smooth_normals(v_pos: np.ndarray, t_pos_idx: np.ndarray, tri: np.ndarray, ba
     angle-weighted normals of the positions (``angle_weighted_normals``; coincident vertices
     merged, so neither a split of the shading normals nor a file's seam parts them); the points'
     shading normals ``normal [K, 3]`` where the sum vanishes or faces away from them."""
-    welded, position = np.unique(v_pos, axis=0, return_inverse=True)
-    merged = position.reshape(-1)[t_pos_idx]
+    welded, merged = welded_corners(v_pos, t_pos_idx)
     smooth = angle_weighted_normals(torch.from_numpy(welded), torch.from_numpy(merged)).numpy()
     interpolated = np.einsum("kc,kcd->kd", bary, smooth[merged[tri]])
     length = np.linalg.norm(interpolated, axis=-1, keepdims=True)
@@ -268,7 +268,8 @@ def locate_on_reference(reference: Asset, texels: AtlasTexels, cage: float) -> B
     take_own = np.abs(own_offset) < np.abs(offset)
     triangle = np.where(take_own, own.triangle, smooth.triangle)
     bary = np.where(take_own[:, None], own.barycentric, smooth.barycentric)
-    offset, direction = np.where(take_own, own_offset, offset), np.where(take_own[:, None], texels.normal, texels.smooth)
+    offset = np.where(take_own, own_offset, offset)
+    direction = np.where(take_own[:, None], texels.normal, texels.smooth)
     hit = triangle >= 0
     if not hit.all():
         closest = SurfaceQuery(v_pos, t_pos_idx).closest(texels.position[~hit])
