@@ -12,13 +12,14 @@ from mesh_factory import icosphere
 from test_conform import surface_distances
 
 import lookalike.init.initial_guess as initial_guess_module
-from lookalike.asset import Asset, Material, Texture
+from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.normals import vertex_normals
 from lookalike.errors import ConfigError
 from lookalike.settings import ClampConfig
 from lookalike.fit.textured_mesh import TexturedMesh
 from lookalike.init import decimate, unwrap
 from lookalike.init.conform import SETTLE_ROUNDS
+from lookalike.init.transfer import transfer_attributes
 from lookalike.init.initial_guess import (
     UV_CHECK_SIZE,
     UV_OVERLAP_LIMIT,
@@ -107,6 +108,28 @@ def test_the_baseline_keeps_the_inputs_materials_without_normal_maps():
     baseline = decimation_baseline(asset, decimated)
     assert baseline.mesh is decimated and baseline.materials[0].normal is None
     assert baseline.materials[0].kd is asset.materials[0].kd and asset.materials[0].normal is not None
+
+
+def test_a_baseline_coloured_at_its_vertices_draws_each_triangle_in_its_corners_material():
+    """A field's palette: brass metal around a dark paint disc. The big triangle's centroid and
+    one shrunk corner lie on the paint, so the transfer's vote gives it the paint; its corners'
+    colours are brass, and brass lit as paint is the pale smear. The baseline gives it brass."""
+    n = 40
+    x, y = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1), indexing="ij")
+    v_pos = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    cell = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    t_pos_idx = np.concatenate([np.stack([cell, cell + n + 1, cell + n + 2], 1), np.stack([cell, cell + n + 2, cell + 1], 1)])
+    paint = np.linalg.norm(v_pos[t_pos_idx].mean(1)[:, :2] - 1 / 3, axis=1) < 0.3
+    on_paint = np.linalg.norm(v_pos[:, :2] - 1 / 3, axis=1) < 0.3
+    colour = np.where(on_paint[:, None], [0.08, 0.07, 0.07, 1.0], [0.78, 0.58, 0.22, 1.0])
+    source = Mesh(v_pos=torch.tensor(v_pos, dtype=torch.float32), t_pos_idx=torch.tensor(t_pos_idx),
+                  v_color=torch.tensor(colour, dtype=torch.float32), t_mat_idx=torch.tensor(paint.astype(np.int64)))
+    brass = Material(kd=Texture.constant([1.0, 1.0, 1.0, 1.0]), ks=Texture.constant([0.0, 0.3, 1.0]))
+    paint_material = Material(kd=Texture.constant([1.0, 1.0, 1.0, 1.0]), ks=Texture.constant([0.0, 0.7, 0.3]))
+    asset = Asset(mesh=source, materials=[brass, paint_material])
+    decimated = transfer_attributes(source, np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    assert decimated.t_mat_idx.tolist() == [1]
+    assert decimation_baseline(asset, decimated).mesh.t_mat_idx.tolist() == [0]
 
 
 def test_bake_init_starts_from_the_classic_bake():

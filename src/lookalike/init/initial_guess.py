@@ -36,6 +36,7 @@ from .projection_bake import BakeResult, bake
 from .conform import CONFORM_ROUNDS, SETTLE_ROUNDS, UNFOLD_PASSES, conform_to_surface, reattach_detached_parts
 from .decimate import GUARD, check_triangle_target, feature_size, repair_shards
 from .surface_distance import SurfaceGauge
+from .transfer import corner_materials
 from .triangle_kernels import triangle_areas
 from .trunk_and_cards import triangle_subset
 from .unwrap import unwrap
@@ -449,6 +450,11 @@ def guarded_fit(mesh: Mesh, surface: Mesh, of: str) -> tuple[Mesh, dict]:
 
 def decimation_baseline(asset: Asset, decimated: Mesh) -> Asset:
     """Plain decimation as users know it: the ``decimated`` mesh with the input's own materials
-    (through its carried-over UVs where the input has them) and no normal maps."""
+    (through its carried-over UVs where the input has them) and no normal maps. Where the input's
+    colours are at its vertices and it has several materials (a field's palette), each triangle
+    takes the material of its corners (``lookalike.init.transfer.corner_materials``), whose
+    colours it draws."""
     materials = [dataclasses.replace(m, normal=None) for m in asset.materials]
+    if asset.mesh.v_color is not None and len(asset.materials) > 1:
+        decimated = dataclasses.replace(decimated, t_mat_idx=corner_materials(asset.mesh, decimated))
     return Asset(mesh=decimated, materials=materials, source=asset.source)

@@ -72,7 +72,7 @@ def surface_patches_python(w_idx: np.ndarray, t_mat_idx: np.ndarray, corner_uv: 
 
 
 def _vote(labels: np.ndarray) -> np.ndarray:
-    """Majority of each row of ``labels [N, 4]``; ties go to the earliest column (the centroid)."""
+    """Majority of each row of ``labels [N, K]``; ties go to the earliest column."""
     agree = (labels[:, :, None] == labels[:, None, :]).sum(axis=-1)
     return labels[np.arange(len(labels)), agree.argmax(axis=1)]
 
@@ -149,6 +149,20 @@ def transfer_attributes(source: Mesh, v_pos: np.ndarray, t_pos_idx: np.ndarray,
         v_joints=tensor(v_joints, torch.int64),
         v_weights=tensor(v_weights, torch.float32),
     )
+
+
+def corner_materials(source: Mesh, mesh: Mesh) -> torch.Tensor:
+    """``[T]`` int64: for each triangle of ``mesh`` (near the surface of ``source``), the material
+    that most of its corners' closest points on ``source`` have, where all three differ the one at
+    its centroid's closest point. A triangle whose colours are its corners' (``v_color``) is then
+    drawn in the material those colours came from: a vote by area can give a large triangle the
+    material of a patch that none of its corners touches, and its corners' colours lit as another
+    material draw pale or dark smears."""
+    query = SurfaceQuery(source.v_pos.detach().cpu().numpy().astype(np.float64), source.t_pos_idx.cpu().numpy())
+    corners = mesh.v_pos.detach().cpu().numpy().astype(np.float64)[mesh.t_pos_idx.cpu().numpy()]     # [T, 3, 3]
+    voters = np.concatenate([corners, corners.mean(axis=1, keepdims=True)], axis=1)                    # [T, 4, 3]
+    labels = source.t_mat_idx.cpu().numpy()[query.closest(voters.reshape(-1, 3)).triangle].reshape(-1, 4)
+    return torch.as_tensor(_vote(labels), dtype=torch.int64, device=mesh.t_pos_idx.device)
 
 
 def _interpolate(values: np.ndarray, corner_idx: np.ndarray, bary: np.ndarray) -> np.ndarray:
