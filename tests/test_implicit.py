@@ -105,6 +105,26 @@ def test_marching_cubes_and_decimation_of_a_sphere_is_watertight_with_its_volume
     assert volume == pytest.approx(sphere_volume(0.5), rel=0.02)
 
 
+def corner_spread_degrees(mesh) -> torch.Tensor:
+    """``[T]`` the largest angle between two corners' shading normals of each triangle."""
+    v_nrm, t_nrm_idx = mesh.normals()
+    corner = torch.nn.functional.normalize(v_nrm[t_nrm_idx], dim=-1)
+    return torch.rad2deg(torch.arccos((corner * corner.roll(1, dims=1)).sum(-1).amin(dim=1).clamp(-1, 1)))
+
+
+def test_marching_cubes_shades_a_crease_as_sharp_as_the_field_and_a_smooth_surface_smooth():
+    """Across the box's edges, where marching cubes rounds the crease within a cube, no triangle
+    interpolates between the faces' normals (its corners share one face's); the sphere keeps a
+    normal per vertex."""
+    box = field_mesh(box_field((0.41, 0.263, 0.307)), 24)
+    v_nrm, t_nrm_idx = box.normals()
+    assert corner_spread_degrees(box).max() < 1.0
+    assert (v_nrm[t_nrm_idx].abs().amax(dim=-1) > np.cos(np.radians(1.0))).all()          # a face's normal
+    assert t_nrm_idx.unique().numel() > box.num_vertices                                 # the creases' own slots
+    sphere = field_mesh(sphere_field(0.5), 24)
+    assert torch.equal(sphere.t_nrm_idx, sphere.t_pos_idx) and corner_spread_degrees(sphere).max() < 15.0
+
+
 @pytest.mark.parametrize("field", [sphere_field(0.5), box_field()], ids=["sphere", "box"])
 def test_a_field_evaluated_near_its_surface_only_gives_the_mesh_of_the_whole_grid(field):
     axes, h = grid_axes(field.lo, field.hi, 64, 4)

@@ -387,6 +387,27 @@ def test_blender_decimate_keeps_the_leaf_texture_whole(tmp_path):
     assert torch.equal(kept[0].kd.data, io.load(reference).materials[tree.materials.index(leaves)].kd.data)
 
 
+@needs_blender
+def test_blender_decimates_a_flat_shaded_mesh_as_one_surface(tmp_path):
+    """Every edge of the flat-shaded sphere is a hard edge, so the glTF importer leaves every
+    triangle apart (it merges a position's vertices only where their normals agree); merged
+    again, the decimation keeps a closed surface."""
+    from lookalike.asset.normals import face_normals
+    from lookalike.blender.decimate_bake import blender_decimate_glb
+
+    sphere = icosphere(3)
+    triangles = sphere.num_triangles
+    normals = torch.nn.functional.normalize(face_normals(sphere.v_pos, sphere.t_pos_idx), dim=1)
+    flat = dataclasses.replace(sphere, v_nrm=normals.repeat_interleave(3, dim=0),
+                               t_nrm_idx=torch.arange(3 * triangles).reshape(-1, 3))
+    reference = _save(Asset(mesh=flat, materials=[Material()]), tmp_path / "flat.glb")
+    result = blender_decimate_glb(reference, tmp_path / "decimated.glb", triangles // 4)
+    faces = io.load(result.path).mesh.t_pos_idx
+    edges = torch.sort(torch.cat([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), dim=1).values
+    _, uses = torch.unique(edges, dim=0, return_counts=True)
+    assert abs(result.triangles - triangles // 4) <= 0.1 * triangles // 4 and bool((uses == 2).all())
+
+
 # --- judging a simplify run ----------------------------------------------------------------
 
 

@@ -37,6 +37,10 @@ NORMAL_STEP = 1e-4
 
 TETRAHEDRON = torch.tensor([[1.0, -1.0, -1.0], [-1.0, -1.0, 1.0], [-1.0, 1.0, -1.0], [1.0, 1.0, 1.0]])
 
+CREASE_SPREAD_DEGREES = 30.0
+"""A marching-cubes triangle whose corners' normals lie further apart than this crosses a crease
+of the field (``crease_normals``)."""
+
 CHUNK_POINTS = 1 << 18
 """Points a field is asked for at once (bounds the memory of its intermediate tensors)."""
 
@@ -157,7 +161,7 @@ def field_mesh(surface: ImplicitSurface, cells: int, block: int = 0) -> Mesh:
     """The zero level set of ``surface`` as a welded triangle mesh (marching cubes, scikit-image's
     ``measure.marching_cubes``, on a grid of about ``cells`` cubes along the bounds' longest
     side), front faces outwards, with ``material``'s base colour at the vertices (``v_color``) and
-    the field's gradient as their authored normals (``field_normals``: they shade as the field
+    the field's gradient as their authored normals (``crease_normals``: they shade as the field
     does, not as the facets' average). With ``block``, the grid is evaluated near the surface
     only (``narrow_band_values``), else everywhere.
     Raises ``ValueError`` saying what is wrong where the field has no zero crossing on the grid,
@@ -184,5 +188,24 @@ def field_mesh(surface: ImplicitSurface, cells: int, block: int = 0) -> Mesh:
     t_pos_idx = torch.from_numpy(faces.astype(np.int64))  # counter-clockwise seen from outside
     kd, _ = surface.channels(v_pos)
     colour = torch.cat([kd, torch.ones(kd.shape[0], 1)], dim=1)
-    return Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, v_color=colour, v_nrm=field_normals(surface, v_pos),
-                t_nrm_idx=t_pos_idx.clone())
+    v_nrm, t_nrm_idx = crease_normals(surface, v_pos, t_pos_idx)
+    return Mesh(v_pos=v_pos, t_pos_idx=t_pos_idx, v_color=colour, v_nrm=v_nrm, t_nrm_idx=t_nrm_idx)
+
+
+def crease_normals(surface: ImplicitSurface, v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The authored normals of ``surface``'s marching-cubes mesh (``v_pos [V, 3]``, ``t_pos_idx
+    [T, 3]``): ``(v_nrm [V + 3C, 3], t_nrm_idx [T, 3])``, the field's gradient at each vertex
+    (``field_normals``), except on the ``C`` triangles whose corners' normals spread more than
+    ``CREASE_SPREAD_DEGREES``: each takes, at all three corners, the gradient at its centroid.
+    Marching cubes rounds a crease of the field within one cube, and such a triangle has its
+    corners on both faces; interpolated, their normals sweep every direction between the faces'
+    and draw a glint along the crease that the field, sharp there, does not show. Its centroid lies
+    off the surface, where the gradient is the nearer face's normal."""
+    v_nrm = field_normals(surface, v_pos)
+    corner = v_nrm[t_pos_idx]                                                       # [T, 3, 3]
+    cosine = (corner * corner.roll(1, dims=1)).sum(-1).amin(dim=1)                   # [T]
+    crease = torch.nonzero(cosine < math.cos(math.radians(CREASE_SPREAD_DEGREES))).squeeze(1)
+    t_nrm_idx = t_pos_idx.clone()
+    t_nrm_idx[crease] = v_pos.shape[0] + torch.arange(3 * crease.numel()).reshape(-1, 3)   # a slot per corner
+    centroids = v_pos[t_pos_idx[crease]].mean(dim=1)
+    return torch.cat([v_nrm, field_normals(surface, centroids).repeat_interleave(3, dim=0)]), t_nrm_idx

@@ -14,8 +14,9 @@ Steps, as a Blender user does them:
 
 1. Import the reference (glTF importer, "Merge Vertices" on, so that UV and normal seams do not
    cut the surface into pieces the decimation would keep apart).
-2. Duplicate it (every mesh object, transforms applied, joined into one) as the low-poly; add a
-   Decimate modifier (COLLAPSE, ratio = target triangles / input triangles, triangulate) and
+2. Duplicate it (every mesh object, transforms applied, joined into one, its coincident vertices
+   merged: the importer merges a position's vertices only where their normals agree, so a hard
+   edge's would still cut it) as the low-poly; add a Decimate modifier (COLLAPSE, ratio = target triangles / input triangles, triangulate) and
    apply it; clear the custom normals and shade smooth.
 3. Unwrap with xatlas (one atlas for ``texture_size`` texels with ``padding`` texels between
    charts, as ``lookalike.init.unwrap``) and make it the only UV map.
@@ -44,6 +45,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 import xatlas
+
+MERGE_DISTANCE = 1e-7
+"""Vertices of the low-poly copy closer than this share of its bounding diagonal are one
+(``merge_coincident``): the glTF exporter's copies of one position, nothing a model means apart."""
 
 FIRST_FILL, SHRINK, ATTEMPTS = 0.75, 0.9, 12
 """xatlas texel density: first guess (times texture size, at unit area), shrink factor, tries
@@ -75,7 +80,8 @@ def triangle_count(objects: list) -> int:
 
 
 def duplicate_joined(objects: list):
-    """One new mesh object holding copies of ``objects`` with their world transforms applied."""
+    """One new mesh object holding copies of ``objects`` with their world transforms applied, its
+    coincident vertices merged (``merge_coincident``)."""
     copies = []
     for obj in objects:
         copy = obj.copy()
@@ -90,7 +96,24 @@ def duplicate_joined(objects: list):
         bpy.ops.object.join()
     low = copies[0]
     low.name = "lowpoly"
+    merge_coincident(low)
     return low
+
+
+def merge_coincident(obj) -> None:
+    """Merge the vertices of ``obj`` that lie within ``MERGE_DISTANCE`` of its bounding
+    diagonal of one another (Blender's "Merge by Distance")."""
+    import bmesh
+
+    points = np.empty(3 * len(obj.data.vertices))
+    obj.data.vertices.foreach_get("co", points)
+    points = points.reshape(-1, 3)
+    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) if len(points) else 0.0
+    work = bmesh.new()
+    work.from_mesh(obj.data)
+    bmesh.ops.remove_doubles(work, verts=work.verts, dist=MERGE_DISTANCE * diagonal)
+    work.to_mesh(obj.data)
+    work.free()
 
 
 def decimate(low, ratio: float) -> None:
