@@ -16,8 +16,9 @@ Steps, as a Blender user does them:
    cut the surface into pieces the decimation would keep apart).
 2. Duplicate it (every mesh object, transforms applied, joined into one, its coincident vertices
    merged: the importer merges a position's vertices only where their normals agree, so a hard
-   edge's would still cut it) as the low-poly; add a Decimate modifier (COLLAPSE, ratio = target triangles / input triangles, triangulate) and
-   apply it; clear the custom normals and shade smooth.
+   edge's would still cut it) as the low-poly; add a Decimate modifier (COLLAPSE, ratio = target
+   triangles / input triangles, triangulate) and apply it; clear the custom normals and shade
+   smooth.
 3. Unwrap with xatlas (one atlas for ``texture_size`` texels with ``padding`` texels between
    charts, as ``lookalike.init.unwrap``) and make it the only UV map.
 4. A new material: Principled BSDF fed by new images at the texture size (base colour sRGB,
