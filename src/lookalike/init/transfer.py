@@ -159,9 +159,11 @@ def corner_materials(source: Mesh, mesh: Mesh) -> torch.Tensor:
     material of a patch that none of its corners touches, and its corners' colours lit as another
     material draw pale or dark smears."""
     query = SurfaceQuery(source.v_pos.detach().cpu().numpy().astype(np.float64), source.t_pos_idx.cpu().numpy())
-    corners = mesh.v_pos.detach().cpu().numpy().astype(np.float64)[mesh.t_pos_idx.cpu().numpy()]     # [T, 3, 3]
-    voters = np.concatenate([corners, corners.mean(axis=1, keepdims=True)], axis=1)                    # [T, 4, 3]
-    labels = source.t_mat_idx.cpu().numpy()[query.closest(voters.reshape(-1, 3)).triangle].reshape(-1, 4)
+    material = source.t_mat_idx.cpu().numpy()
+    v_pos, t_pos_idx = mesh.v_pos.detach().cpu().numpy().astype(np.float64), mesh.t_pos_idx.cpu().numpy()
+    at_vertex = material[query.closest(v_pos).triangle]                                              # [V]
+    at_centroid = material[query.closest(v_pos[t_pos_idx].mean(axis=1)).triangle]                     # [T]
+    labels = np.concatenate([at_vertex[t_pos_idx], at_centroid[:, None]], axis=1)                     # [T, 4]
     return torch.as_tensor(_vote(labels), dtype=torch.int64, device=mesh.t_pos_idx.device)
 
 
