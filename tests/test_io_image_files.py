@@ -9,7 +9,8 @@ import pytest
 from PIL import Image
 
 from lookalike.errors import AssetError
-from lookalike.io.image_files import decode_image, encode_png, linear_to_srgb, read_image, resize, srgb_to_linear
+from lookalike.io.image_files import (bayer_offsets, decode_image, dithered, encode_png, linear_to_srgb, read_image, resize,
+                                      srgb_to_linear)
 
 
 def test_srgb_transfer_known_values_and_inverse():
@@ -50,3 +51,23 @@ def test_bad_images_raise_asset_errors(tmp_path):
 def test_resize_keeps_constant_images_constant():
     out = resize(np.full((4, 6, 2), 0.25, np.float32), 3, 5)
     assert out.shape == (3, 5, 2) and np.allclose(out, 0.25)
+
+
+def test_bayer_offsets_hold_every_threshold_once_inside_half_a_level():
+    offsets = bayer_offsets(8)
+    assert sorted(((offsets + 0.5) * 64 - 0.5).round().astype(int).ravel().tolist()) == list(range(64))
+    assert np.abs(offsets).max() < 0.5
+    assert abs(offsets[0, 0] - offsets[0, 1]) * 64 >= 16 and abs(offsets[0, 0] - offsets[1, 0]) * 64 >= 16  # neighbours far apart
+
+
+def test_dithered_keeps_levels_and_each_blocks_mean_where_rounding_bands():
+    on_level = np.full((8, 8, 4), 102 / 255, np.float32)
+    assert np.abs(dithered(on_level) - on_level).max() < 1e-6  # a value on a level stays there
+    ramp = np.broadcast_to(np.linspace(76.0, 78.0, 32, dtype=np.float32)[None, :, None] / 255, (32, 32, 4)).copy()
+    out = dithered(ramp) * 255
+    assert np.abs(out - ramp * 255).max() < 1.0  # never more than one level off
+    assert np.array_equal(out[..., 3], np.round(ramp[..., 3] * 255))  # alpha rounded, not dithered
+    block = (out[..., :3] - ramp[..., :3] * 255).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+    rounded = (np.round(ramp[..., :3] * 255) - ramp[..., :3] * 255).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+    assert np.abs(block).max() < 0.06 < np.abs(rounded).max()  # rounding moves a band by up to half a level
+    assert np.array_equal(decode_image(encode_png(dithered(ramp)), "x.png") * 255, np.round(out))  # exact in a PNG

@@ -1,5 +1,6 @@
 """Binary glTF 2.0 (``.glb``) writer: one mesh with a primitive per material, PNG textures
-embedded in the binary chunk.
+embedded in the binary chunk (8-bit colour ordered-dithered, ``io.image_files.dithered``, so that smooth
+maps do not band).
 
 Vertices are unwelded per distinct corner (position, normal slot, UVs, MikkTSpace tangent), as glTF
 needs one index buffer. NORMAL holds the shading normals lookalike renders with (``Mesh.normals``:
@@ -59,7 +60,7 @@ from ..asset import Asset, Material, Texture
 from ..asset.material import Displacement
 from ..errors import AssetError, ConfigError
 from .arrays import constant_texel, unique_rows
-from .image_files import encode_png, linear_to_srgb, resize
+from .image_files import dithered, encode_png, linear_to_srgb, resize
 from .ktx2 import ENCODER_HINT, encode_mip_chain, find_encoder
 from .mikktspace import mikktspace_tangents
 from .normal_frames import export_normal_maps
@@ -125,10 +126,12 @@ class GlbBuilder:
         chain is also written as KTX2 (``linear``: non-colour data) through
         ``KHR_texture_basisu``, the PNG staying the fallback source (with ``ktx2_only``, the KTX2
         alone, and the extension required); ``bits``: the PNG's depth
-        (``io.image_files.encode_png``)."""
+        (``io.image_files.encode_png``), an 8-bit PNG's colour ordered-dithered
+        (``io.image_files.dithered``)."""
         if key not in self.texture_cache:
             alone = bool(mips) and self.ktx2_only
-            texture = {} if alone else {"source": self.image(encode_png(pixels, bits), "image/png")}
+            texture = {} if alone else {"source": self.image(encode_png(dithered(pixels) if bits == 8 else pixels, bits),
+                                                             "image/png")}
             if mips and self.encoder is not None:
                 chain = [_rgba8(level) for level in (pixels, *mips)]
                 ktx2 = self.image(encode_mip_chain(chain, linear, self.encoder), "image/ktx2")

@@ -77,6 +77,39 @@ def encode_png(pixels: np.ndarray, bits: int = 8) -> bytes:
     return buffer.getvalue()
 
 
+DITHER_SIDE = 8
+"""Side of the ordered-dither matrix (``bayer_offsets``): 64 thresholds, so a block's mean keeps
+a value to 1/128 of a level."""
+
+
+def bayer_offsets(side: int = DITHER_SIDE) -> np.ndarray:
+    """The ``[side, side]`` Bayer matrix (``side`` a power of 2) as offsets ``(k + 1/2) / side^2 - 1/2``
+    in (-1/2, 1/2), each ``k`` in ``0 .. side^2 - 1`` once, neighbours as far apart in ``k`` as the
+    matrix allows (its error is high-frequency)."""
+    m = np.zeros((1, 1))
+    while m.shape[0] < side:
+        m = np.block([[4 * m, 4 * m + 2], [4 * m + 3, 4 * m + 1]])
+    return (m + 0.5) / m.size - 0.5
+
+
+def dithered(pixels: np.ndarray, levels: int = 255) -> np.ndarray:
+    """``pixels [H, W, C]`` in ``[0, 1]`` on the grid of ``levels`` steps: colour channels (the
+    first three; never alpha, which an alpha test cuts) ordered-dithered,
+    ``round(x L + d_c[i mod 8, j mod 8]) / L`` with ``d_c`` the ``bayer_offsets`` shifted by
+    ``(3c, 5c)`` for channel ``c``; alpha rounded. Why: rounding moves a whole smooth gradient of
+    a normal or roughness map onto a few levels, whose edges show as contours in highlights
+    (and in perceptual error); the dither keeps each 8 x 8 block's mean, and a value already on
+    a level stays exactly there (``|d| < 1/2``)."""
+    pixels = np.clip(np.asarray(pixels, dtype=np.float32), 0.0, 1.0)
+    h, w, channels = pixels.shape
+    offsets = bayer_offsets()
+    tiles = (-(-h // DITHER_SIDE), -(-w // DITHER_SIDE))
+    noise = np.zeros((h, w, channels), np.float32)
+    for c in range(min(channels, 3)):
+        noise[..., c] = np.tile(np.roll(offsets, (3 * c, 5 * c), axis=(0, 1)), tiles)[:h, :w]
+    return np.clip(np.round(pixels * levels + noise), 0, levels) / levels
+
+
 def write_png(pixels: np.ndarray, path: str | Path, bits: int = 8) -> None:
     """Write ``encode_png(pixels, bits)`` to ``path``."""
     path = Path(path)
