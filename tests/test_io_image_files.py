@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from lookalike.errors import AssetError
-from lookalike.io.image_files import (bayer_offsets, decode_image, dithered, encode_png, linear_to_srgb, read_image, resize,
+from lookalike.io.image_files import (bayer_thresholds, decode_image, dithered, encode_png, linear_to_srgb, read_image, resize,
                                       srgb_to_linear)
 
 
@@ -53,11 +53,10 @@ def test_resize_keeps_constant_images_constant():
     assert out.shape == (3, 5, 2) and np.allclose(out, 0.25)
 
 
-def test_bayer_offsets_hold_every_threshold_once_inside_half_a_level():
-    offsets = bayer_offsets(8)
-    assert sorted(((offsets + 0.5) * 64 - 0.5).round().astype(int).ravel().tolist()) == list(range(64))
-    assert np.abs(offsets).max() < 0.5
-    assert abs(offsets[0, 0] - offsets[0, 1]) * 64 >= 16 and abs(offsets[0, 0] - offsets[1, 0]) * 64 >= 16  # neighbours far apart
+def test_bayer_thresholds_hold_every_level_once_neighbours_far_apart():
+    thresholds = bayer_thresholds(3)
+    assert sorted((thresholds * 64 - 0.5).round().astype(int).ravel().tolist()) == list(range(64))
+    assert abs(thresholds[0, 0] - thresholds[0, 1]) * 64 >= 16 and abs(thresholds[0, 0] - thresholds[1, 0]) * 64 >= 16
 
 
 def test_dithered_keeps_levels_and_each_blocks_mean_where_rounding_bands():

@@ -77,33 +77,32 @@ def encode_png(pixels: np.ndarray, bits: int = 8) -> bytes:
     return buffer.getvalue()
 
 
-DITHER_SIDE = 8
-"""Side of the ordered-dither matrix (``bayer_offsets``): 64 thresholds, so a block's mean keeps
-a value to 1/128 of a level."""
+BAYER_ORDER = 3
+"""Ordered dithers use the ``2^BAYER_ORDER``-sided Bayer matrix (8 x 8: 64 levels)."""
 
 
-def bayer_offsets(side: int = DITHER_SIDE) -> np.ndarray:
-    """The ``[side, side]`` Bayer matrix (``side`` a power of 2) as offsets ``(k + 1/2) / side^2 - 1/2``
-    in (-1/2, 1/2), each ``k`` in ``0 .. side^2 - 1`` once, neighbours as far apart in ``k`` as the
-    matrix allows (its error is high-frequency)."""
-    m = np.zeros((1, 1))
-    while m.shape[0] < side:
-        m = np.block([[4 * m, 4 * m + 2], [4 * m + 3, 4 * m + 1]])
-    return (m + 0.5) / m.size - 0.5
+def bayer_thresholds(order: int = BAYER_ORDER) -> np.ndarray:
+    """``[N, N]`` (N = 2^order) thresholds ``(B + 0.5) / N^2`` of the Bayer matrix ``B``,
+    ``B_{2n} = [[4 B_n, 4 B_n + 2], [4 B_n + 3, 4 B_n + 1]]`` from ``B_1 = [[0]]``: every level
+    once, neighbours far apart in value (the dither's error is of high frequency)."""
+    matrix = np.zeros((1, 1))
+    for _ in range(order):
+        matrix = np.block([[4 * matrix, 4 * matrix + 2], [4 * matrix + 3, 4 * matrix + 1]])
+    return (matrix + 0.5) / matrix.size
 
 
 def dithered(pixels: np.ndarray, levels: int = 255) -> np.ndarray:
     """``pixels [H, W, C]`` in ``[0, 1]`` on the grid of ``levels`` steps: colour channels (the
     first three; never alpha, which an alpha test cuts) ordered-dithered,
-    ``round(x L + d_c[i mod 8, j mod 8]) / L`` with ``d_c`` the ``bayer_offsets`` shifted by
+    ``round(x L + d_c[i mod 8, j mod 8]) / L`` with ``d_c = bayer_thresholds - 1/2`` shifted by
     ``(3c, 5c)`` for channel ``c``; alpha rounded. Why: rounding moves a whole smooth gradient of
     a normal or roughness map onto a few levels, whose edges show as contours in highlights
     (and in perceptual error); the dither keeps each 8 x 8 block's mean, and a value already on
     a level stays exactly there (``|d| < 1/2``)."""
     pixels = np.clip(np.asarray(pixels, dtype=np.float32), 0.0, 1.0)
     h, w, channels = pixels.shape
-    offsets = bayer_offsets()
-    tiles = (-(-h // DITHER_SIDE), -(-w // DITHER_SIDE))
+    offsets, side = bayer_thresholds() - 0.5, 2 ** BAYER_ORDER
+    tiles = (-(-h // side), -(-w // side))
     noise = np.zeros((h, w, channels), np.float32)
     for c in range(min(channels, 3)):
         noise[..., c] = np.tile(np.roll(offsets, (3 * c, 5 * c), axis=(0, 1)), tiles)[:h, :w]

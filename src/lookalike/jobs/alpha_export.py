@@ -35,6 +35,7 @@ import torch
 from scipy.ndimage import binary_dilation, distance_transform_edt
 
 from ..asset import Asset
+from ..io.image_files import BAYER_ORDER, bayer_thresholds
 
 CUTOFFS = (0.3, 0.4, 0.5, 0.6, 0.7)
 """The alpha cutoffs tried on the validation views."""
@@ -213,20 +214,6 @@ def chosen_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None
 def finished_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | None) -> Asset:
     """``model`` as written with the alpha choice ``score`` rates best (``chosen_alpha``)."""
     return written_alpha(model, mode, chosen_alpha(model, mode, score))
-
-
-BAYER_ORDER = 3
-"""``dithered_alpha`` uses the ``2^BAYER_ORDER``-sided Bayer matrix (8 x 8: 64 levels)."""
-
-
-def bayer_thresholds(order: int = BAYER_ORDER) -> np.ndarray:
-    """``[N, N]`` (N = 2^order) thresholds ``(B + 0.5) / N^2`` of the Bayer matrix ``B``,
-    ``B_{2n} = [[4 B_n, 4 B_n + 2], [4 B_n + 3, 4 B_n + 1]]`` from ``B_1 = [[0]]``: every level
-    once, neighbours far apart in value."""
-    matrix = np.zeros((1, 1))
-    for _ in range(order):
-        matrix = np.block([[4 * matrix, 4 * matrix + 2], [4 * matrix + 3, 4 * matrix + 1]])
-    return (matrix + 0.5) / matrix.size
 
 
 def dithered_alpha(alpha: torch.Tensor) -> torch.Tensor:
