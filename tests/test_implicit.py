@@ -19,7 +19,7 @@ from lookalike.errors import AssetError, UserCodeError
 from lookalike.fit.reference import FieldReference
 from lookalike.init import decimate
 from lookalike.init.field_surface import FieldSurface
-from lookalike.io.field_asset import finer_field_mesh
+from lookalike.io.field_asset import PALETTE_LIMIT, finer_field_mesh
 from lookalike.report.metrics import psnr
 from lookalike.shading.sphere_tracing import HIT_FRACTION, primary_rays, sphere_trace
 from lookalike.shading.view_sampling import random_lights, random_views
@@ -285,13 +285,26 @@ def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_pa
                     "def material(p):\n    up = p[:, 1] > 0\n    return {'base_color': torch.ones(p.shape[0], 3) * 0.5,\n"
                     "            'roughness': torch.where(up, 0.3, 0.7), 'metallic': torch.where(up, 1.0, 0.0)}\n")
     asset = io.load(path)
-    values = sorted(tuple(round(x, 2) for x in m.ks.data.reshape(-1).tolist()) for m in asset.materials)
-    assert values == [(0.0, 0.3, 1.0), (0.0, 0.7, 0.0)]
+    values = torch.tensor(sorted(m.ks.data.reshape(-1).tolist() for m in asset.materials))
+    assert torch.equal(values, torch.tensor([[0.0, 0.3, 1.0], [0.0, 0.7, 0.0]]))  # the field's own: not 19/64
     metalness = torch.tensor([float(m.ks.data.reshape(-1)[2]) for m in asset.materials])
     for mesh in (asset.mesh, finer_field_mesh(asset, 200, 8)):          # the start's mesh shares the palette
         centroid_y = mesh.v_pos[mesh.t_pos_idx].mean(dim=1)[:, 1]
         metal = metalness[mesh.t_mat_idx]
         assert bool((metal[centroid_y > 0.05] == 1.0).all()) and bool((metal[centroid_y < -0.05] == 0.0).all())
+
+
+
+def test_a_field_of_graded_roughness_gets_a_palette_of_at_most_its_limit(tmp_path):
+    path = tmp_path / "graded.py"
+    path.write_text("import torch\nbounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 0.6\n"
+                    "def material(p):\n    return {'base_color': torch.ones(p.shape[0], 3) * 0.5,\n"
+                    "            'roughness': 0.5 + 0.4 * p[:, 0], 'metallic': 0.5 + 0.5 * p[:, 1]}\n")
+    asset = io.load(path)
+    assert 4 < len(asset.materials) <= PALETTE_LIMIT
+    _, ks = asset.field.channels(asset.mesh.v_pos[asset.mesh.t_pos_idx].mean(dim=1))
+    palette = torch.stack([m.ks.data.reshape(-1)[1:] for m in asset.materials])
+    assert (palette[asset.mesh.t_mat_idx] - ks[:, 1:]).abs().max() < 0.13  # rounded to 1/8 at the coarsest
 
 
 CONSTANT_MATERIAL_FIELD = '''
