@@ -9,8 +9,8 @@ import pytest
 from PIL import Image
 
 from lookalike.errors import AssetError
-from lookalike.io.image_files import (bayer_thresholds, decode_image, dithered, encode_png, linear_to_srgb, read_image, resize,
-                                      srgb_to_linear)
+from lookalike.io.image_files import (bayer_thresholds, decode_image, dithered, encode_png, linear_to_srgb, read_image,
+                                      resize, srgb_to_linear)
 
 
 def test_srgb_transfer_known_values_and_inverse():
