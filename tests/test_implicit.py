@@ -279,12 +279,18 @@ def test_a_lod_chain_takes_a_field(tmp_path):
     assert abs(rows[0]["triangles"] - 200) <= 2 and (tmp_path / "chain" / "lods.glb").is_file() and rows[0]["psnr"] > 10.0
 
 
-def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_path):
-    path = tmp_path / "two.py"
+def painted_sphere(folder, roughness: str, metallic: str):
+    """A sphere field of grey base colour and the ``roughness`` and ``metallic`` expressions of
+    ``p [N, 3]`` (``up``: its upper half), loaded."""
+    path = folder / "painted.py"
     path.write_text("import torch\nbounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 0.6\n"
                     "def material(p):\n    up = p[:, 1] > 0\n    return {'base_color': torch.ones(p.shape[0], 3) * 0.5,\n"
-                    "            'roughness': torch.where(up, 0.3, 0.7), 'metallic': torch.where(up, 1.0, 0.0)}\n")
-    asset = io.load(path)
+                    f"            'roughness': {roughness}, 'metallic': {metallic}}}\n")
+    return io.load(path)
+
+
+def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_path):
+    asset = painted_sphere(tmp_path, "torch.where(up, 0.3, 0.7)", "torch.where(up, 1.0, 0.0)")
     values = torch.tensor(sorted(m.ks.data.reshape(-1).tolist() for m in asset.materials))
     assert torch.equal(values, torch.tensor([[0.0, 0.3, 1.0], [0.0, 0.7, 0.0]]))  # the field's own: not 19/64
     metalness = torch.tensor([float(m.ks.data.reshape(-1)[2]) for m in asset.materials])
@@ -294,13 +300,8 @@ def test_the_fields_mesh_carries_its_roughness_and_metalness_as_a_palette(tmp_pa
         assert bool((metal[centroid_y > 0.05] == 1.0).all()) and bool((metal[centroid_y < -0.05] == 0.0).all())
 
 
-
 def test_a_field_of_graded_roughness_gets_a_palette_of_at_most_its_limit(tmp_path):
-    path = tmp_path / "graded.py"
-    path.write_text("import torch\nbounds = ((-1, -1, -1), (1, 1, 1))\ndef sdf(p):\n    return p.norm(dim=-1) - 0.6\n"
-                    "def material(p):\n    return {'base_color': torch.ones(p.shape[0], 3) * 0.5,\n"
-                    "            'roughness': 0.5 + 0.4 * p[:, 0], 'metallic': 0.5 + 0.5 * p[:, 1]}\n")
-    asset = io.load(path)
+    asset = painted_sphere(tmp_path, "0.5 + 0.4 * p[:, 0]", "0.5 + 0.5 * p[:, 1]")
     assert 4 < len(asset.materials) <= PALETTE_LIMIT
     _, ks = asset.field.channels(asset.mesh.v_pos[asset.mesh.t_pos_idx].mean(dim=1))
     palette = torch.stack([m.ks.data.reshape(-1)[1:] for m in asset.materials])
