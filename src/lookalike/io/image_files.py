@@ -91,21 +91,27 @@ def bayer_thresholds(order: int = BAYER_ORDER) -> np.ndarray:
     return (matrix + 0.5) / matrix.size
 
 
+def tiled_thresholds(height: int, width: int, shift: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """``bayer_thresholds`` rolled by ``shift`` (rows, columns) and tiled over ``[height, width]``
+    texels."""
+    side = 2 ** BAYER_ORDER
+    tile = np.roll(bayer_thresholds(), shift, axis=(0, 1))
+    return np.tile(tile, (-(-height // side), -(-width // side)))[:height, :width]
+
+
 def dithered(pixels: np.ndarray, levels: int = 255) -> np.ndarray:
     """``pixels [H, W, C]`` in ``[0, 1]`` on the grid of ``levels`` steps: colour channels (the
     first three; never alpha, which an alpha test cuts) ordered-dithered,
-    ``round(x L + d_c[i mod 8, j mod 8]) / L`` with ``d_c = bayer_thresholds - 1/2`` shifted by
+    ``round(x L + d_c[i, j]) / L`` with ``d_c = tiled_thresholds - 1/2`` shifted by
     ``(3c, 5c)`` for channel ``c``; alpha rounded. Why: rounding moves a whole smooth gradient of
     a normal or roughness map onto a few levels, whose edges show as contours in highlights
     (and in perceptual error); the dither keeps each 8 x 8 block's mean, and a value already on
     a level stays exactly there (``|d| < 1/2``)."""
     pixels = np.clip(np.asarray(pixels, dtype=np.float32), 0.0, 1.0)
     h, w, channels = pixels.shape
-    offsets, side = bayer_thresholds() - 0.5, 2 ** BAYER_ORDER
-    tiles = (-(-h // side), -(-w // side))
     noise = np.zeros((h, w, channels), np.float32)
     for c in range(min(channels, 3)):
-        noise[..., c] = np.tile(np.roll(offsets, (3 * c, 5 * c), axis=(0, 1)), tiles)[:h, :w]
+        noise[..., c] = tiled_thresholds(h, w, (3 * c, 5 * c)) - 0.5
     return np.clip(np.round(pixels * levels + noise), 0, levels) / levels
 
 

@@ -35,7 +35,7 @@ import torch
 from scipy.ndimage import binary_dilation, distance_transform_edt
 
 from ..asset import Asset
-from ..io.image_files import BAYER_ORDER, bayer_thresholds
+from ..io.image_files import tiled_thresholds
 
 CUTOFFS = (0.3, 0.4, 0.5, 0.6, 0.7)
 """The alpha cutoffs tried on the validation views."""
@@ -218,12 +218,10 @@ def finished_alpha(model: Asset, mode: str, score: Callable[[Asset], float] | No
 
 def dithered_alpha(alpha: torch.Tensor) -> torch.Tensor:
     """``alpha [H, W]`` in [0, 1] as 0 or 1 by ordered dithering: 1 where it exceeds the Bayer
-    threshold tiled over the texels (``bayer_thresholds``). Over each 8 x 8 block the share of
+    threshold tiled over the texels (``io.image_files.tiled_thresholds``). Over each 8 x 8 block the share of
     ones is the mean alpha (to 1/64): an alpha-tested texture that keeps soft coverage as a
     screen door, where thresholding at one cutoff would round it all one way."""
-    height, width = alpha.shape
-    tiles = np.tile(bayer_thresholds(), (height // 2 ** BAYER_ORDER + 1, width // 2 ** BAYER_ORDER + 1))
-    return (alpha > torch.from_numpy(tiles[:height, :width]).to(alpha)).to(alpha)
+    return (alpha > torch.from_numpy(tiled_thresholds(*alpha.shape)).to(alpha)).to(alpha)
 
 
 def _dithered(model: Asset) -> Asset:
