@@ -16,7 +16,7 @@ from .camera import Camera
 from .light import PointLight
 from .pipeline import box_downsample
 from ..asset.implicit import NORMAL_STEP
-from .sphere_tracing import HIT_FRACTION, LATE_HIT_FRACTION, MAX_STEPS
+from .sphere_tracing import HIT_FRACTION, MAX_STEPS
 
 TRACER_UNIFORMS = """uniform mat4 lk_inverse_mvp;
 uniform vec3 lk_eye;
@@ -67,14 +67,12 @@ void main() {
     float t_far = min(min(far3.x, far3.y), far3.z);
     bool hit = false;
     if (t <= t_far) {
-        bool going = true;
         for (int i = 0; i < MAX_STEPS; i++) {
             float d = map(lk_eye + t * dir);
-            if (d < HIT_FRACTION * footprint * t) { hit = true; going = false; break; }
+            if (d < HIT_FRACTION * footprint * t) { hit = true; break; }
             t += max(d, 0.0);
-            if (t > t_far) { going = false; break; }
+            if (t > t_far) break;
         }
-        if (going) hit = map(lk_eye + t * dir) < LATE_HIT_FRACTION * footprint * t;
     }
     if (!hit) { lk_colour = vec4(0.0); return; }
     vec3 p = lk_eye + t * dir;
@@ -96,7 +94,7 @@ void main() {
 def tracer_constants() -> str:
     """``#define``s of the constants ``sphere_tracing`` and ``bsdf`` use."""
     values = {"MAX_STEPS": str(MAX_STEPS), "HIT_FRACTION": repr(float(HIT_FRACTION)),
-              "LATE_HIT_FRACTION": repr(float(LATE_HIT_FRACTION)), "MIN_ROUGHNESS": repr(float(bsdf.MIN_ROUGHNESS)),
+              "MIN_ROUGHNESS": repr(float(bsdf.MIN_ROUGHNESS)),
               "COSINE_EPSILON": repr(float(bsdf.COSINE_EPSILON)), "DIELECTRIC_F0": repr(float(bsdf.DIELECTRIC_F0))}
     return "".join(f"#define {name} {value}\n" for name, value in values.items())
 

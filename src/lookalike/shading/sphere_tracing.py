@@ -4,7 +4,10 @@ be the reference).
 
 Each sample's ray steps from where it enters the field's bounds by the field's value, ``t +=
 sdf(o + t d)``, until that value falls below ``HIT_FRACTION`` of the sample's footprint at ``t``
-(a hit), or ``t`` leaves the bounds (a miss); only the rays still marching are evaluated. At a
+(a hit), or ``t`` leaves the bounds (a miss); only the rays still marching are evaluated. The
+fraction is small because a ray that passes within it of the surface counts as a hit: each
+silhouette grows outward by that much, and a fit to such pictures learns a fatter outline than the
+field's (or any fine mesh of it) has. At a
 hit, the normal is the field's gradient (``lookalike.asset.implicit.field_normals``) and the
 material is the field's; the light is unshadowed, as the rasterizer's is. Coverage (the share of
 samples that hit) is the alpha.
@@ -20,14 +23,12 @@ from .light import PointLight
 from .pipeline import box_downsample
 from .point_lighting import lit_radiance
 
-HIT_FRACTION = 0.1
+HIT_FRACTION = 0.01
 """A ray hits where the field's value is below this fraction of its sample's footprint."""
 
-MAX_STEPS = 256
-"""Steps a ray marches at most; a ray still marching then hits where its value is below
-``LATE_HIT_FRACTION`` of its footprint (a grazing ray converging slowly), else misses."""
-
-LATE_HIT_FRACTION = 2.0
+MAX_STEPS = 512
+"""Steps a ray marches at most; a ray still marching then misses (a grazing ray that has not come
+within ``HIT_FRACTION`` of the surface)."""
 
 
 def primary_rays(camera: Camera, height: int, width: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -80,10 +81,6 @@ def sphere_trace(distance, origins: torch.Tensor, directions: torch.Tensor, foot
         t[active] = ta
         going = ~close & (ta <= far[active])
         active = active[going]
-    if active.numel():
-        ta = t[active]
-        value = distance(origins[active] + ta[:, None] * directions[active])
-        hit[active[value < LATE_HIT_FRACTION * footprint[active] * ta]] = True
     return t, hit
 
 
