@@ -83,8 +83,7 @@ def test_the_tracer_finds_a_box_within_a_fraction_of_a_pixel_with_its_face_norma
     assert int(hit.sum()) > 1000
     points = origins[hit] + t[hit, None] * directions[hit]
     error = field.distance(points).abs() / (footprint[hit] * t[hit])  # in pixels
-    # a ray grazing an edge converges slowly and may stop short, still within a quarter of a pixel
-    assert float(error.max()) < 0.25 and float(error.quantile(0.99)) <= HIT_FRACTION * 1.01
+    assert float(error.max()) <= HIT_FRACTION * 1.1  # every hit within the fraction (and float rounding)
     q = points.abs() / half
     axis = q.argmax(dim=-1)
     clear = (q.topk(2, dim=-1).values[:, 0] - q.topk(2, dim=-1).values[:, 1]) > 0.02  # away from edges
