@@ -7,10 +7,9 @@ sdf(o + t d)``, until that value falls below ``HIT_FRACTION`` of the sample's fo
 (a hit), or ``t`` leaves the bounds (a miss); only the rays still marching are evaluated. The
 fraction is small because a ray that passes within it of the surface counts as a hit: each
 silhouette grows outward by that much, and a fit to such pictures learns a fatter outline than the
-field's (or any fine mesh of it) has. At a
-hit, the normal is the field's gradient (``lookalike.asset.implicit.field_normals``) and the
-material is the field's; the light is unshadowed, as the rasterizer's is. Coverage (the share of
-samples that hit) is the alpha.
+field's (or any fine mesh of it) has. At a hit, the normal is the field's gradient
+(``lookalike.asset.implicit.field_normals``) and the material is the field's; the light is
+unshadowed, as the rasterizer's is. Coverage (the share of samples that hit) is the alpha.
 """
 
 from __future__ import annotations
