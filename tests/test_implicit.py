@@ -11,7 +11,7 @@ import torch
 
 from field_factory import box_field, sphere_field, sphere_volume, write_fields
 from lookalike import io
-from lookalike.asset.implicit import axes_points, field_mesh, field_normals, grid_axes, narrow_band_values
+from lookalike.asset.implicit import ImplicitSurface, axes_points, field_mesh, field_normals, grid_axes, narrow_band_values
 from lookalike.asset.normals import crease_normal_index, split_at_both
 from lookalike.bench.implicit import FIELDS
 from lookalike.cli import main
@@ -21,7 +21,7 @@ from lookalike.init import decimate
 from lookalike.init.field_surface import FieldSurface
 from lookalike.io.field_asset import PALETTE_LIMIT, finer_field_mesh
 from lookalike.report.metrics import psnr
-from lookalike.shading.sphere_tracing import HIT_FRACTION, primary_rays, sphere_trace
+from lookalike.shading.sphere_tracing import HIT_FRACTION, cone_starts, primary_rays, sphere_trace
 from lookalike.shading.view_sampling import random_lights, random_views
 
 
@@ -74,6 +74,40 @@ def test_a_ray_that_passes_the_sphere_close_by_misses_it():
     assert int(near.sum()) > 20  # rays the old tolerance of a tenth of a footprint called hits
     assert not bool(hit[passing > 2 * HIT_FRACTION].any())
     assert bool(hit[passing < -0.05].all())
+
+
+def dust_field(count: int = 40, radius: float = 0.004) -> ImplicitSurface:
+    """``count`` spheres of ``radius`` (a pixel or two at 128 pixels) scattered in a ball: thin
+    parts a coarse tile's cone could step over."""
+    centres = torch.from_numpy(np.random.default_rng(11).uniform(-0.35, 0.35, (count, 3))).float()
+    return ImplicitSurface(sdf=lambda p: (p[:, None, :] - centres).norm(dim=-1).amin(dim=1) - radius, material=None,
+                           lo=torch.full((3,), -0.5), hi=torch.full((3,), 0.5), text="dust")
+
+
+@pytest.mark.parametrize("field", [sphere_field(0.5), box_field(), dust_field()], ids=["sphere", "box", "dust"])
+def test_the_cones_skip_empty_space_and_never_a_surface(field):
+    """Rays started past their tiles' cones find the hits the plain march finds, at the same
+    distances, and no cone carries a ray past its hit; the cones spare evaluations."""
+    camera = random_views(torch.zeros(3), 0.6, 3, np.random.default_rng(5))
+    size = 128
+    grid = [x.reshape(3, size, size, *x.shape[2:]) for x in primary_rays(camera, size, size)]
+    origins, directions, footprint = (x.reshape(-1, *x.shape[3:]) for x in grid)
+    counted = []
+
+    def distance(points):
+        counted.append(points.shape[0])
+        return field.distance(points)
+    t, hit = sphere_trace(distance, origins, directions, footprint, field.lo, field.hi)
+    plain = sum(counted)
+    counted.clear()
+    start, far = (x.flatten() for x in cone_starts(distance, *grid, field.lo, field.hi))
+    cone_t, cone_hit = sphere_trace(distance, origins, directions, footprint, field.lo, field.hi, (start, far))
+    assert int(hit.sum()) > 50
+    assert bool((start[hit] <= t[hit]).all())
+    assert int((hit != cone_hit).sum()) <= 2  # a ray grazing a surface at the hit fraction may go either way
+    both = hit & cone_hit
+    assert float(((cone_t - t)[both].abs() / (footprint * t)[both]).max()) <= 2 * HIT_FRACTION
+    assert sum(counted) < 0.6 * plain
 
 
 def test_the_tracer_finds_a_box_within_a_fraction_of_a_pixel_with_its_face_normals():

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from mesh_factory import icosphere
 
-from lookalike.init.quadric_collapse import (_placement, mesh_edges, quadric_collapse, quadric_collapse_python,
-                                             vertex_quadrics)
+from lookalike.init.quadric_collapse import (BORDER_WEIGHT, _placement, mesh_edges, quadric_collapse,
+                                             quadric_collapse_python, vertex_quadrics)
 
 
 def _bumpy_sphere(subdivisions: int = 3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -125,6 +125,37 @@ def test_edges_are_each_listed_once():
     v, f = _bumpy_sphere(2)
     edges = mesh_edges(f)
     assert len(edges) == 3 * len(f) // 2 and np.all(edges[:, 0] < edges[:, 1])
+
+
+def test_quadrics_and_edges_match_a_loop_over_the_faces():
+    """The quadrics summed at once (``np.bincount``) and the edges found by key equal those of a
+    plain loop over the faces of a sheet with a border: each face's plane at its corners, weighted
+    by area, and each border edge's side plane at its ends, weighted by ``BORDER_WEIGHT`` times its
+    length squared."""
+    v, f = _bumpy_sphere(seed=1)
+    keep = v[f].mean(1)[:, 2] < 0.4
+    used, f = np.unique(f[keep], return_inverse=True)
+    v, f = v[used], f.reshape(-1, 3)
+    expected = np.zeros((len(v), 10))
+    upper = np.triu_indices(4)
+    faces_of = {}
+    for k, (a, b, c) in enumerate(f):
+        cross = np.cross(v[b] - v[a], v[c] - v[a])
+        n = cross / np.linalg.norm(cross)
+        plane = np.append(n, -n @ v[a])
+        for w in (a, b, c):
+            expected[w] += 0.5 * np.linalg.norm(cross) * np.outer(plane, plane)[upper]
+        for e in ((a, b), (b, c), (c, a)):
+            faces_of.setdefault(tuple(sorted(e)), []).append((k, e, n))
+    for (k, (a, b), n) in (items[0] for items in faces_of.values() if len(items) == 1):
+        side = np.cross(v[b] - v[a], n)
+        side /= np.linalg.norm(side)
+        plane = np.append(side, -side @ v[a])
+        for w in (a, b):
+            expected[w] += BORDER_WEIGHT * np.sum((v[b] - v[a]) ** 2) * np.outer(plane, plane)[upper]
+    assert sum(len(items) == 1 for items in faces_of.values()) > 10
+    np.testing.assert_allclose(vertex_quadrics(v, f), expected, rtol=1e-9, atol=1e-15)
+    assert mesh_edges(f).tolist() == sorted(list(e) for e in faces_of)
 
 
 def test_a_closed_surface_stays_closed_and_keeps_its_volume():

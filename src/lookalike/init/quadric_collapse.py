@@ -58,8 +58,8 @@ def vertex_quadrics(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> np.ndarray:
     quadrics = np.zeros((len(v_pos), 10))
     _add_planes(quadrics, t_pos_idx, normal, corners[:, 0], 0.5 * double_area)
     edges = np.concatenate([t_pos_idx[:, [0, 1]], t_pos_idx[:, [1, 2]], t_pos_idx[:, [2, 0]]])
-    _, inverse, counts = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True, return_counts=True)
-    border = counts[inverse.reshape(-1)] == 1
+    _, inverse, counts = np.unique(edge_keys(edges, len(v_pos)), return_inverse=True, return_counts=True)
+    border = counts[inverse] == 1
     if border.any():
         face = np.tile(np.arange(len(t_pos_idx)), 3)[border]
         ends = edges[border]
@@ -77,15 +77,25 @@ def _add_planes(quadrics: np.ndarray, owners: np.ndarray, normal: np.ndarray, po
     plane = np.concatenate([normal, -(normal * point).sum(1, keepdims=True)], axis=1)
     upper = np.triu_indices(4)
     outer = (plane[:, :, None] * plane[:, None, :])[:, upper[0], upper[1]] * weight[:, None]
-    for k in range(owners.shape[1]):
-        np.add.at(quadrics, owners[:, k], outer)
+    owner = owners.T.reshape(-1)  # the owners of column 0, then of column 1, ...
+    for j in range(quadrics.shape[1]):
+        quadrics[:, j] += np.bincount(owner, np.tile(outer[:, j], owners.shape[1]), len(quadrics))
+
+
+def edge_keys(edges: np.ndarray, n_vertices: int) -> np.ndarray:
+    """``[E]`` int64 ``lo * n_vertices + hi`` of ``edges [E, 2]`` (either order): one key per
+    undirected edge, sorting as the pairs ``(lo, hi)`` do."""
+    lo, hi = np.minimum(edges[:, 0], edges[:, 1]), np.maximum(edges[:, 0], edges[:, 1])
+    return lo.astype(np.int64) * n_vertices + hi
 
 
 def mesh_edges(t_pos_idx: np.ndarray) -> np.ndarray:
     """``[E, 2]`` int64: each undirected edge of ``t_pos_idx [T, 3]`` once, smaller index first,
     in sorted order."""
     edges = np.concatenate([t_pos_idx[:, [0, 1]], t_pos_idx[:, [1, 2]], t_pos_idx[:, [2, 0]]])
-    return np.unique(np.sort(edges, axis=1), axis=0)
+    n = int(edges.max()) + 1 if len(edges) else 1
+    keys = np.unique(edge_keys(edges, n))
+    return np.stack([keys // n, keys % n], axis=1)
 
 
 @njit(cache=CACHE)
@@ -130,11 +140,12 @@ def _error(q, x, y, z):
 
 
 @njit(cache=CACHE)
-def _before(cost, lo, hi, a, b):
-    """Whether entry ``a`` is popped before entry ``b``: by cost, then by the edge's ends (the
-    order of equal costs does not depend on the order of pushes), then by age."""
-    if cost[a] != cost[b]:
-        return cost[a] < cost[b]
+def _before(cost_a, cost_b, lo, hi, a, b):
+    """Whether entry ``a`` (of cost ``cost_a``) is popped before entry ``b``: by cost, then by
+    the edge's ends (the order of equal costs does not depend on the order of pushes), then by
+    age."""
+    if cost_a != cost_b:
+        return cost_a < cost_b
     if lo[a] != lo[b]:
         return lo[a] < lo[b]
     if hi[a] != hi[b]:
@@ -143,31 +154,33 @@ def _before(cost, lo, hi, a, b):
 
 
 @njit(cache=CACHE)
-def _sift_up(heap, cost, lo, hi, i):
-    entry = heap[i]
+def _sift_up(heap, keys, lo, hi, i):
+    """Move ``heap[i]`` (entries, their costs ``keys`` beside them: a sift reads the costs in
+    heap order, not scattered over the entries) up to its place."""
+    entry, key = heap[i], keys[i]
     while i > 0:
         parent = (i - 1) // 2
-        if _before(cost, lo, hi, heap[parent], entry):
+        if _before(keys[parent], key, lo, hi, heap[parent], entry):
             break
-        heap[i] = heap[parent]
+        heap[i], keys[i] = heap[parent], keys[parent]
         i = parent
-    heap[i] = entry
+    heap[i], keys[i] = entry, key
 
 
 @njit(cache=CACHE)
-def _sift_down(heap, cost, lo, hi, size, i):
-    entry = heap[i]
+def _sift_down(heap, keys, lo, hi, size, i):
+    entry, key = heap[i], keys[i]
     while True:
         child = 2 * i + 1
         if child >= size:
             break
-        if child + 1 < size and _before(cost, lo, hi, heap[child + 1], heap[child]):
+        if child + 1 < size and _before(keys[child + 1], keys[child], lo, hi, heap[child + 1], heap[child]):
             child += 1
-        if _before(cost, lo, hi, entry, heap[child]):
+        if _before(key, keys[child], lo, hi, entry, heap[child]):
             break
-        heap[i] = heap[child]
+        heap[i], keys[i] = heap[child], keys[child]
         i = child
-    heap[i] = entry
+    heap[i], keys[i] = entry, key
 
 
 @njit(cache=CACHE)
@@ -252,7 +265,7 @@ def _collapse(pos, faces, quadrics, edges, target, min_double_area):
         nxt[c] = head[v]
         head[v] = c
     capacity = max(16, 4 * edges.shape[0])
-    cost = np.empty(capacity)
+    keys = np.empty(capacity)
     lo = np.empty(capacity, np.int64)
     hi = np.empty(capacity, np.int64)
     stamp_lo = np.empty(capacity, np.int64)
@@ -262,11 +275,10 @@ def _collapse(pos, faces, quadrics, edges, target, min_double_area):
     size = 0
     for e in range(edges.shape[0]):
         u, w = edges[e, 0], edges[e, 1]
-        cost[entries] = _edge_cost(quadrics[u] + quadrics[w], pos[u], pos[w])
         lo[entries], hi[entries] = u, w
         stamp_lo[entries], stamp_hi[entries] = 0, 0
-        heap[size] = entries
-        _sift_up(heap, cost, lo, hi, size)
+        heap[size], keys[size] = entries, _edge_cost(quadrics[u] + quadrics[w], pos[u], pos[w])
+        _sift_up(heap, keys, lo, hi, size)
         entries += 1
         size += 1
     mark_u = np.full(n_vertices, -1, np.int64)
@@ -280,9 +292,9 @@ def _collapse(pos, faces, quadrics, edges, target, min_double_area):
     while live > target and size > 0:
         e = heap[0]
         size -= 1
-        heap[0] = heap[size]
+        heap[0], keys[0] = heap[size], keys[size]
         if size > 0:
-            _sift_down(heap, cost, lo, hi, size, 0)
+            _sift_down(heap, keys, lo, hi, size, 0)
         u, v = lo[e], hi[e]
         if not (vertex_alive[u] and vertex_alive[v]) or stamp[u] != stamp_lo[e] or stamp[v] != stamp_hi[e]:
             continue
@@ -346,15 +358,14 @@ def _collapse(pos, faces, quadrics, edges, target, min_double_area):
             w = ring_u[i]
             if entries == capacity:
                 capacity *= 2
-                cost, lo, hi = _grown(cost, capacity), _grown(lo, capacity), _grown(hi, capacity)
+                keys, lo, hi = _grown(keys, capacity), _grown(lo, capacity), _grown(hi, capacity)
                 stamp_lo, stamp_hi = _grown(stamp_lo, capacity), _grown(stamp_hi, capacity)
                 heap = _grown(heap, capacity)
             a, b = min(u, w), max(u, w)
-            cost[entries] = _edge_cost(quadrics[a] + quadrics[b], pos[a], pos[b])
             lo[entries], hi[entries] = a, b
             stamp_lo[entries], stamp_hi[entries] = stamp[a], stamp[b]
-            heap[size] = entries
-            _sift_up(heap, cost, lo, hi, size)
+            heap[size], keys[size] = entries, _edge_cost(quadrics[a] + quadrics[b], pos[a], pos[b])
+            _sift_up(heap, keys, lo, hi, size)
             entries += 1
             size += 1
     return face_alive

@@ -88,7 +88,8 @@ void main() {
 }
 """
 """One sample per fragment: ``sphere_tracing.primary_rays``, ``box_span``, ``sphere_trace``,
-``asset.implicit.field_normals`` and ``point_lighting.lit_radiance_python`` (``bsdf.shade``) in GLSL."""
+``asset.implicit.field_normals`` and ``point_lighting.lit_radiance_python`` (``bsdf.shade``) in GLSL;
+no cones (``sphere_tracing.cone_starts``): a fragment cannot share a march with its tile."""
 
 
 def tracer_constants() -> str:
