@@ -15,6 +15,7 @@ from lookalike.asset import Asset, Material, Mesh, Texture
 from lookalike.asset.displacement import (corner_heights, displaced, seam_gaps, stitched_displacement,
                                           tessellated, tessellation)
 from lookalike.asset.material import Displacement
+from lookalike.asset.subdivide import EdgeMidpointTopology
 from lookalike.asset.normals import angle_weighted_normals, angle_weighted_normals_python, split_normals_python
 from lookalike.blender.process import judge_available
 from lookalike.cli import main
@@ -156,19 +157,64 @@ def test_displacement_matches_blender_for_the_first_vertices():
     assert torch.allclose(heights, torch.tensor([0.3 / 7, 6.7 / 7, 5.5 / 7]), atol=1e-6)
 
 
-@pytest.mark.parametrize("shading", ["engine", "recomputed"])
-def test_gradients_through_subdivision_displacement_and_normals_match_finite_differences(shading):
+@pytest.mark.parametrize("shading, level, detail", [("engine", 2, None), ("recomputed", 2, None), ("engine", 0, 2)])
+def test_gradients_through_subdivision_displacement_and_normals_match_finite_differences(shading, level, detail):
     mesh = seamed_quad()
     mesh.v_pos, mesh.uv = mesh.v_pos.double(), [(mesh.v_tex.double(), mesh.t_tex_idx)]
     heights = random_heights(8).double()
 
     def surface(v_pos, image):
         moved = dataclasses.replace(mesh, v_pos=v_pos)
-        fine, _ = displaced(moved, Displacement(Texture(image), 0.2, 0.5, level=2, shading=shading))
+        fine, _ = displaced(moved, Displacement(Texture(image), 0.2, 0.5, level=level, shading=shading,
+                                                detail_level=detail))
         return fine.normals()[0].sum(dim=1) + fine.v_pos.sum(dim=1)
 
     assert torch.autograd.gradcheck(surface, (mesh.v_pos.clone().requires_grad_(), heights.requires_grad_()),
                                     eps=1e-6, atol=1e-5)
+
+
+def test_the_tent_filter_is_the_row_normalised_adjoint_of_subdivision():
+    topology = EdgeMidpointTopology(icosphere(1).t_pos_idx, icosphere(1).num_vertices)
+    spread = topology(torch.eye(topology.num_vertices, dtype=torch.float64))  # [V + E, V]: S
+    adjoint = spread.T / spread.sum(dim=0)[:, None]
+    fine = torch.rand(spread.shape[0], dtype=torch.float64, generator=torch.Generator().manual_seed(1))
+    assert torch.allclose(topology.restrict(fine), adjoint @ fine, atol=1e-12)
+    assert torch.allclose(topology.restrict(torch.ones_like(fine)), torch.ones(topology.num_vertices, dtype=torch.float64))
+
+
+def relief_levels(heights: torch.Tensor, level: int, detail: int | None) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(coarse, fine)`` heights above a 5 x 5 plane at the vertices of level 3: the surface
+    drawn at ``level`` (its flat triangles subdivided linearly to level 3) and at level 3. Its
+    UVs span the map's inner [0.1, 0.9]², away from the clamped edge texels."""
+    mesh = plane(5)
+    mesh.uv = [(0.1 + 0.8 * mesh.v_tex, mesh.t_tex_idx)]
+    drawn = [displaced(mesh, Displacement(Texture(heights, wrap="clamp"), 1.0, 0.5, level=k, detail_level=detail))[0]
+             for k in (level, 3)]
+    coarse = drawn[0].v_pos[:, 2:]
+    for step in tessellation(mesh, 3).steps[level:3]:
+        coarse = step.positions(coarse)
+    return coarse[:, 0], drawn[1].v_pos[:, 2]
+
+
+def test_a_coarse_level_straddles_the_relief_its_triangles_cannot_follow():
+    """Read at its vertices alone, a coarse level cuts under a dome; with
+    ``detail_level`` it rises by the mean rise of the finest level above its chords, so that it
+    lies nearer the finest level, above it as much as below."""
+    u = (torch.arange(64.0) + 0.5) / 64
+    dome = 0.5 + 0.3 * torch.sin(torch.pi * u)[None, :] * torch.sin(torch.pi * u)[:, None]
+    for level in (0, 1):
+        sampled, fine = relief_levels(dome[..., None], level, None)
+        risen, fine_too = relief_levels(dome[..., None], level, 3)
+        assert torch.equal(fine, fine_too)  # the detail level itself reads the map as before
+        assert (fine - risen).pow(2).mean() < 0.6 * (fine - sampled).pow(2).mean()
+        assert abs((fine - risen).mean()) < 0.3 * abs((fine - sampled).mean())
+
+
+def test_a_linear_relief_rises_above_no_chord():
+    u = (torch.arange(32.0) + 0.5) / 32
+    ramp = (0.2 + 0.5 * u[None, :] + 0.2 * u[:, None])[..., None]
+    for level in (0, 1, 2):
+        assert torch.allclose(relief_levels(ramp, level, 3)[0], relief_levels(ramp, level, None)[0], atol=1e-5)
 
 
 def test_stitching_makes_both_sides_of_a_seam_read_the_vertex_height():
@@ -197,11 +243,11 @@ def test_a_displaced_model_never_cracks_along_its_seams_as_written(tmp_path):
 
 
 def test_the_displacement_map_survives_the_gltf_round_trip(tmp_path):
-    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.25, 0.5, level=3)
+    displacement = Displacement(Texture(random_heights(), wrap="clamp"), 0.25, 0.5, level=3, detail_level=3)
     model = Asset(mesh=seamed_quad(), materials=[Material(displacement=displacement)])
     io.save(model, tmp_path / "base.glb")
     read = io.load(tmp_path / "base.glb").materials[0].displacement
-    assert (read.scale, read.offset, read.level) == (0.25, 0.5, 3)
+    assert (read.scale, read.offset, read.level, read.detail_level) == (0.25, 0.5, 3, 3)
     assert (read.heights.data - displacement.heights.data).abs().max() < 1 / 65535  # 16-bit
     gltf = json.loads((tmp_path / "base.glb").read_bytes()[20:20 + int.from_bytes(
         (tmp_path / "base.glb").read_bytes()[12:16], "little")])
@@ -270,6 +316,13 @@ def levels_latent(levels: tuple[int, ...]) -> DisplacedMesh:
     surface = TexturedMesh.from_asset(Asset(mesh=plane(3), materials=[material]), torch.tensor([0.5, 0.5, 0.0]), 0.8,
                                       limits=config_from_dict({}).clamp, msaa=1, train_alpha=False)
     return DisplacedMesh(surface, start, levels)
+
+
+def test_the_fit_draws_its_coarse_levels_risen_over_the_finest_only_with_engine_shading():
+    latent = levels_latent((0, 2))
+    assert [latent.displacement(level).detail_level for level in (0, 2)] == [2, 2]
+    latent.shading = "recomputed"  # Blender's Displace modifier reads the map at every vertex
+    assert latent.displacement(0).detail_level is None
 
 
 def test_the_level_that_gains_least_gets_the_largest_share_of_the_image_loss():
@@ -446,13 +499,14 @@ def test_each_written_level_shades_as_the_engine_draws_it_on_its_own_normals(dis
 
 def recomputed_outputs(outdir, folder):
     """``outdir``'s ``base.glb``, ``displacement.png`` and ``lodK.glb`` in ``folder``, the
-    displacement's shading switched to ``"recomputed"`` (Blender's Displace modifier's)."""
+    displacement's shading and reading switched to Blender's Displace modifier's (``"recomputed"``,
+    every level read at its vertices), as a run with recomputed shading writes them."""
     import shutil
 
     base = io.load(outdir / "base.glb")
     material = base.materials[0]
-    base = dataclasses.replace(base, materials=[dataclasses.replace(
-        material, displacement=dataclasses.replace(material.displacement, shading="recomputed"))])
+    base = dataclasses.replace(base, materials=[dataclasses.replace(material, displacement=dataclasses.replace(
+        material.displacement, shading="recomputed", detail_level=None))])
     io.save(base, folder / "base.glb")
     shutil.copy(outdir / "displacement.png", folder / "displacement.png")
     for level in (0, 1, 2):

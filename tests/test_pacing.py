@@ -22,8 +22,8 @@ def test_the_total_is_set_after_the_calibration_from_the_pace_and_the_time_left(
     totals = [pacing.plan(i + 1, None, d, scoring_seconds=2.0) for i, d in enumerate(durations[:-1])]
     assert totals == [None] * CALIBRATION_STEPS
     clock.now += 12.0
-    # pace = mean(0.5, ...) + 2 / 4 = 1.0 s per step; 60 - 12 = 48 s left
-    assert pacing.plan(len(durations), None, durations[-1], scoring_seconds=2.0) == len(durations) + 48
+    # pace = mean(0.5, ...) + 2 / 4 = 1.0 s per step; 60 - 12 = 48 s left, 2 of them for the last scoring
+    assert pacing.plan(len(durations), None, durations[-1], scoring_seconds=2.0) == len(durations) + 46
 
 
 def test_the_total_is_replanned_every_few_steps_from_the_recent_pace_only():

@@ -12,7 +12,16 @@ domain shader); ``"recomputed"``, the angle-weighted normal of the undisplaced f
 displaced geometry. Either is the same at a point whatever the level. Every level reads the
 map itself: a vertex of a coarse level is a vertex of every finer one, at the same point and
 with the same normal, so the levels are nested (mips would mix neighbouring charts of the atlas,
-4 texels apart, from mip 2 on, and blur the finest level's heights).
+4 texels apart, from mip 2 on, and blur the finest level's heights). Where the displacement
+names a ``detail_level`` D, a coarser level k adds to what it reads the rise of the level-D
+surface above its own chords, filtered over each vertex's star (``chord_rise``),
+
+    h_k' = h_k + R_{D->k} (h_D - S_{k->D} h_k),
+
+``S`` the subdivision of the level-k heights to level D and ``R`` its adjoint's tent filter
+(``EdgeMidpointTopology.restrict``) level by level back to k: a coarse level then straddles the
+relief that its flat triangles cannot follow, where read at its vertices alone it cuts under
+every bump (a linear relief rises above no chord, and is read as before).
 A vertex on a UV seam has one UV per side: it takes the mean of its samples, so that the
 surface never cracks; ``stitched_displacement`` then changes the map as little as possible so
 that every side reads that mean, for readers that sample one side per vertex. The topology of
@@ -110,14 +119,31 @@ def corner_heights(image: torch.Tensor, uv: torch.Tensor) -> torch.Tensor:
                          align_corners=False).reshape(-1)
 
 
-def vertex_heights(fine: Mesh, pairs: tuple[torch.Tensor, torch.Tensor], counts: torch.Tensor,
-                   image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(heights [V], sides [P])``: each position's mean height over its distinct UVs
-    ``pairs``, and each pair's own sample (they differ only on UV seams)."""
-    position, uv = pairs
-    sides = corner_heights(image, fine.v_tex[uv])
-    heights = torch.zeros(fine.num_vertices, dtype=sides.dtype).index_add(0, position, sides)
+def level_heights(topology: Tessellation, v_tex: torch.Tensor, level: int,
+                  image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(heights [V_level], sides [P_level])`` at ``level`` from the base's UVs ``v_tex``
+    alone: each position's mean height over its distinct UVs, and each (position, UV) pair's
+    own sample (they differ only on UV seams)."""
+    position, uv = topology.pairs[level]
+    sides = corner_heights(image, topology.fine_uvs(v_tex, level)[uv])
+    counts = topology.counts[level]
+    heights = torch.zeros(counts.shape[0], dtype=sides.dtype).index_add(0, position, sides)
     return heights / counts.clamp(min=1.0), sides
+
+
+def chord_rise(topology: Tessellation, v_tex: torch.Tensor, heights: torch.Tensor, level: int, detail: int,
+               image: torch.Tensor) -> torch.Tensor:
+    """``[V_level]`` ``R_{D->k} (h_D - S_{k->D} h_k)`` (module docstring): how far the level-``detail``
+    surface rises above the chords of ``level``'s ``heights``, in map units, each vertex's
+    mean over its star; differentiable."""
+    rise = level_heights(topology, v_tex, detail, image)[0]
+    chords = heights[:, None]
+    for step in topology.steps[level:detail]:
+        chords = step.positions(chords)
+    rise = rise - chords[:, 0]
+    for step in reversed(topology.steps[level:detail]):
+        rise = step.positions.restrict(rise)
+    return rise
 
 
 def position_normals(mesh: Mesh) -> torch.Tensor:
@@ -152,12 +178,16 @@ def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) 
     each (position, UV) pair's height minus its position's mean (zero off UV seams).
     Differentiable in positions, UVs and heights."""
     level = displacement.level if level is None else level
-    topology = tessellation(mesh, level)
+    detail = displacement.detail_level
+    topology = tessellation(mesh, level if detail is None else max(level, detail))
     fine = topology.subdivided(mesh, level)
     normals = displacement_directions(mesh, fine, topology, level, displacement.shading)
-    heights, sides = vertex_heights(fine, topology.pairs[level], topology.counts[level], displacement.heights.data)
-    v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
+    image = displacement.heights.data
+    heights, sides = level_heights(topology, mesh.v_tex, level, image)
     gaps = sides - heights[topology.pairs[level][0]]
+    if detail is not None and level < detail:
+        heights = heights + chord_rise(topology, mesh.v_tex, heights, level, detail, image)
+    v_pos = fine.v_pos + (displacement.scale * (heights - displacement.offset))[:, None] * normals
     if displacement.shading == "recomputed":
         return dataclasses.replace(fine, v_pos=v_pos, v_nrm=None), gaps
     return dataclasses.replace(fine, v_pos=v_pos, v_nrm=normals, t_nrm_idx=fine.t_pos_idx), gaps
@@ -169,11 +199,8 @@ def seam_gaps(mesh: Mesh, displacement: Displacement) -> torch.Tensor:
     seam that opens, without subdividing positions or computing normals."""
     level = displacement.level
     topology = tessellation(mesh, level)
-    fine_uv = topology.fine_uvs(mesh.v_tex, level)
-    position, uv = topology.pairs[level]
-    sides = corner_heights(displacement.heights.data, fine_uv[uv])
-    sums = torch.zeros(topology.counts[level].shape[0], dtype=sides.dtype).index_add(0, position, sides)
-    return sides - (sums / topology.counts[level].clamp(min=1.0))[position]
+    heights, sides = level_heights(topology, mesh.v_tex, level, displacement.heights.data)
+    return sides - heights[topology.pairs[level][0]]
 
 
 def tessellated(asset: Asset, level: int | None = None) -> Asset:
@@ -232,10 +259,8 @@ def stitched_displacement(mesh: Mesh, displacement: Displacement, level: int) ->
     that samples one side per vertex (Blender's Displace modifier, an engine's tessellator)
     builds the surface we draw, with no crack, at that level and every coarser one."""
     topology = tessellation(mesh, level)
-    base = dataclasses.replace(mesh, v_pos=mesh.v_pos.detach(), uv=[(mesh.v_tex.detach(), mesh.t_tex_idx)])
-    fine = topology.subdivided(base, level)
-    image = displacement.heights.data.detach()
-    heights, _ = vertex_heights(fine, topology.pairs[level], topology.counts[level], image)
+    v_tex, image = mesh.v_tex.detach(), displacement.heights.data.detach()
+    heights, _ = level_heights(topology, v_tex, level, image)
     position, uv = topology.pairs[level]
-    matched = matched_heights(image, fine.v_tex[uv], heights[position].double().numpy())
+    matched = matched_heights(image, topology.fine_uvs(v_tex, level)[uv], heights[position].double().numpy())
     return dataclasses.replace(displacement, heights=dataclasses.replace(displacement.heights, data=matched))

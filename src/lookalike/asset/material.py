@@ -79,6 +79,10 @@ class Displacement:
             subdivided mesh's own vertex normal and shading follows the displaced geometry,
             as Blender's Displace modifier and Cycles' true displacement draw it
             (``lookalike.settings.SHADING_CONVENTIONS``).
+        detail_level: ``None``: every level reads the map at its vertices alone (a
+            tessellator's domain shader, Blender's Displace modifier); a level ``D``: each coarser
+            level also rises by the mean of what the level-``D`` surface rises above its chords
+            (``lookalike.asset.displacement.chord_rise``), so that it straddles the relief.
     """
 
     heights: Texture
@@ -86,6 +90,7 @@ class Displacement:
     offset: float = 0.5
     level: int = 0
     shading: str = "engine"
+    detail_level: int | None = None
 
 
 @dataclass

@@ -49,6 +49,18 @@ class EdgeMidpointTopology:
         midpoints = 0.5 * (v_attr[self.edges[:, 0]] + v_attr[self.edges[:, 1]])
         return torch.cat([v_attr, midpoints], dim=0)
 
+    def restrict(self, fine: torch.Tensor) -> torch.Tensor:
+        """Coarse values ``[V]`` from fine ones ``[V + E]``: each coarse vertex's mean over the
+        fine vertices it spreads to, weighted as it spreads, ``(f_v + sum_{e at v} f_e / 2) /
+        (1 + deg(v) / 2)`` (the adjoint of ``__call__``, rows normalised): a tent filter of the
+        fine level's values over the vertex's star. Differentiable."""
+        coarse, weights = fine[:self.num_vertices], torch.ones(self.num_vertices, dtype=fine.dtype)
+        halves = 0.5 * fine[self.num_vertices:]
+        for end in (0, 1):
+            coarse = coarse.index_add(0, self.edges[:, end], halves)
+            weights = weights.index_add(0, self.edges[:, end], torch.full_like(halves, 0.5))
+        return coarse / weights
+
 
 class MeshSubdivision:
     """One level of edge-midpoint subdivision for meshes with ``coarse``'s topology.

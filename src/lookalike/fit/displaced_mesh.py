@@ -133,9 +133,14 @@ class DisplacedMesh(torch.nn.Module):
         self.surface.clamp_()
 
     def displacement(self, level: int | None = None) -> Displacement:
-        """The ``Displacement`` drawn at ``level`` (default the current one); differentiable."""
+        """The ``Displacement`` drawn at ``level`` (default the current one); differentiable.
+        With engine shading its coarse levels straddle the finest level's relief
+        (``Displacement.detail_level``), which is where the coarse levels' compromise with the
+        finest lies; with recomputed shading every level reads the map at its vertices, as
+        Blender's Displace modifier does."""
         return Displacement(Texture(self.heights(), wrap="clamp"), self.displacement_scale, 0.5,
-                            level=self.level if level is None else level, shading=self.shading)
+                            level=self.level if level is None else level, shading=self.shading,
+                            detail_level=self.levels[-1] if self.shading == "engine" else None)
 
     def base_mesh(self) -> Mesh:
         """The base mesh in world coordinates with its atlas and normal slots; differentiable."""

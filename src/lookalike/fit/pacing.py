@@ -19,9 +19,10 @@ class Pacing:
     """Plans the total step count N of a session that has ``seconds_available`` from its start.
 
     N = i + max(0, floor(left / pace)), where i is the steps taken, left = seconds_available -
-    elapsed, and pace = mean(d[1:][-REPLAN_EVERY:]) + v / validate_every: d are this session's
-    step durations (the first is left out: it pays one-off compilation) and v / validate_every
-    is each step's share of the mean scoring time v. N is first set once 1 + ``CALIBRATION_STEPS``
+    elapsed - v, and pace = mean(d[1:][-REPLAN_EVERY:]) + v / validate_every: d are this
+    session's step durations (the first is left out: it pays one-off compilation), v / validate_every
+    is each step's share of the mean scoring time v, and the v held back is the scoring after
+    the last step, which the loop also owes. N is first set once 1 + ``CALIBRATION_STEPS``
     steps are timed, then re-planned every ``REPLAN_EVERY`` steps, so it follows the pace.
 
     Args:
@@ -45,7 +46,7 @@ class Pacing:
         if not self._due(total):
             return total
         pace = float(np.mean(self.durations[1:][-REPLAN_EVERY:])) + scoring_seconds / self.validate_every
-        left = self.seconds_available - (self.clock() - self.start)
+        left = self.seconds_available - (self.clock() - self.start) - scoring_seconds
         return iteration + max(0, int(left / pace))
 
     def _due(self, total: int | None) -> bool:

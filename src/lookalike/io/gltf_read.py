@@ -449,8 +449,9 @@ class _MaterialReader:
             shading = entry.get("shading", "recomputed")  # files from before the engine convention
             if shading not in SHADING_CONVENTIONS:
                 raise ValueError(f"shading {shading!r} is not one of {', '.join(SHADING_CONVENTIONS)}")
+            detail = entry.get("detail_level")
             return Displacement(heights, float(entry["scale"]), float(entry.get("offset", 0.5)),
-                                int(entry.get("level", 0)), shading)
+                                int(entry.get("level", 0)), shading, None if detail is None else int(detail))
         except (KeyError, TypeError, ValueError) as e:
             raise AssetError(self.data.path, f"material extras.displacement is malformed: {e}") from None
 

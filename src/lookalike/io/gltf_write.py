@@ -327,11 +327,14 @@ def _material(builder: GlbBuilder, material: Material, has_uv: bool) -> dict:
 def _displacement(builder: GlbBuilder, displacement: Displacement) -> dict:
     """The material's ``extras.displacement``: its 16-bit height texture (UV set 0), ``scale``
     and ``offset`` (a vertex moves by ``scale * (h - offset)`` along its normal) and the
-    ``level`` the file's model is drawn at."""
+    ``level`` the file's model is drawn at, and its ``detail_level`` where it has one."""
     data = displacement.heights.data
     index = builder.texture(np.clip(data.detach().numpy()[..., :1], 0, 1), "clamp", (data, "displacement"), bits=16)
-    return {"texture": {"index": index}, "scale": float(displacement.scale), "offset": float(displacement.offset),
-            "level": int(displacement.level), "shading": displacement.shading}
+    entry = {"texture": {"index": index}, "scale": float(displacement.scale), "offset": float(displacement.offset),
+             "level": int(displacement.level), "shading": displacement.shading}
+    if displacement.detail_level is not None:
+        entry["detail_level"] = int(displacement.detail_level)
+    return entry
 
 
 def _unit(x: np.ndarray) -> np.ndarray:

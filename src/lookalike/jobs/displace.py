@@ -10,7 +10,10 @@ subdivided base to the input along each vertex's displacement direction
 ``latent.displacement_shading`` ``"engine"`` (the default) shading reads the normal map in the
 base's interpolated frame at every level, so the maps are baked at the finest level, nearest the
 input; with ``"recomputed"`` each level shades its own relief and a normal map baked at one level
-suits the levels near it best, so they are baked at the middle one (``docs/benchmarks.md``). The
+suits the levels near it best, so they are baked at the middle one (``docs/benchmarks.md``). With
+engine shading the fitted model's coarse levels straddle the finest level's relief
+(``Displacement.detail_level``) where the classic bake's read the map at their vertices alone
+and cut under it. The
 latent (``lookalike.fit.displaced_mesh``) fits the heights (by default; the base positions and
 maps too where their learning rates are set), each step at the next of
 ``latent.tessellation_levels``, the levels' losses balanced and the steps shared towards the
@@ -98,7 +101,8 @@ def displace_guess(asset: Asset, cfg: Config, count: int | None) -> InitialGuess
                                comparisons=classic_bakes(asset, cfg, guess, levels) + starts)
 
 
-SHADING_NOTES = {"engine": "normals interpolated from the base, as tessellating engines draw it",
+SHADING_NOTES = {"engine": "normals interpolated from the base, as tessellating engines draw it; the coarser levels "
+                            "straddle the finest level's relief",
                  "recomputed": "normals of the displaced geometry, as Blender's Displace modifier draws it"}
 """The report's words for each ``latent.displacement_shading``."""
 
