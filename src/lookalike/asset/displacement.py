@@ -127,7 +127,7 @@ def level_heights(topology: Tessellation, v_tex: torch.Tensor, level: int,
     position, uv = topology.pairs[level]
     sides = corner_heights(image, topology.fine_uvs(v_tex, level)[uv])
     counts = topology.counts[level]
-    heights = torch.zeros(counts.shape[0], dtype=sides.dtype).index_add(0, position, sides)
+    heights = torch.zeros(counts.shape[0], dtype=sides.dtype, device=sides.device).index_add(0, position, sides)
     return heights / counts.clamp(min=1.0), sides
 
 

@@ -54,7 +54,7 @@ class EdgeMidpointTopology:
         fine vertices it spreads to, weighted as it spreads, ``(f_v + sum_{e at v} f_e / 2) /
         (1 + deg(v) / 2)`` (the adjoint of ``__call__``, rows normalised): a tent filter of the
         fine level's values over the vertex's star. Differentiable."""
-        coarse, weights = fine[:self.num_vertices], torch.ones(self.num_vertices, dtype=fine.dtype)
+        coarse, weights = fine[:self.num_vertices], torch.ones(self.num_vertices, dtype=fine.dtype, device=fine.device)
         halves = 0.5 * fine[self.num_vertices:]
         for end in (0, 1):
             coarse = coarse.index_add(0, self.edges[:, end], halves)
