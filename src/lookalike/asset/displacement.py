@@ -119,13 +119,13 @@ def corner_heights(image: torch.Tensor, uv: torch.Tensor) -> torch.Tensor:
                          align_corners=False).reshape(-1)
 
 
-def level_heights(topology: Tessellation, v_tex: torch.Tensor, level: int,
+def level_heights(topology: Tessellation, fine_uv: torch.Tensor, level: int,
                   image: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(heights [V_level], sides [P_level])`` at ``level`` from the base's UVs ``v_tex``
-    alone: each position's mean height over its distinct UVs, and each (position, UV) pair's
-    own sample (they differ only on UV seams)."""
+    """``(heights [V_level], sides [P_level])`` at ``level`` from its UVs ``fine_uv``
+    (``Tessellation.fine_uvs``) alone: each position's mean height over its distinct UVs, and
+    each (position, UV) pair's own sample (they differ only on UV seams)."""
     position, uv = topology.pairs[level]
-    sides = corner_heights(image, topology.fine_uvs(v_tex, level)[uv])
+    sides = corner_heights(image, fine_uv[uv])
     counts = topology.counts[level]
     heights = torch.zeros(counts.shape[0], dtype=sides.dtype, device=sides.device).index_add(0, position, sides)
     return heights / counts.clamp(min=1.0), sides
@@ -136,7 +136,7 @@ def chord_rise(topology: Tessellation, v_tex: torch.Tensor, heights: torch.Tenso
     """``[V_level]`` ``R_{D->k} (h_D - S_{k->D} h_k)`` (module docstring): how far the level-``detail``
     surface rises above the chords of ``level``'s ``heights``, in map units, each vertex's
     mean over its star; differentiable."""
-    rise = level_heights(topology, v_tex, detail, image)[0]
+    rise = level_heights(topology, topology.fine_uvs(v_tex, detail), detail, image)[0]
     chords = heights[:, None]
     for step in topology.steps[level:detail]:
         chords = step.positions(chords)
@@ -183,7 +183,7 @@ def displaced(mesh: Mesh, displacement: Displacement, level: int | None = None) 
     fine = topology.subdivided(mesh, level)
     normals = displacement_directions(mesh, fine, topology, level, displacement.shading)
     image = displacement.heights.data
-    heights, sides = level_heights(topology, mesh.v_tex, level, image)
+    heights, sides = level_heights(topology, fine.v_tex, level, image)
     gaps = sides - heights[topology.pairs[level][0]]
     if detail is not None and level < detail:
         heights = heights + chord_rise(topology, mesh.v_tex, heights, level, detail, image)
@@ -199,7 +199,7 @@ def seam_gaps(mesh: Mesh, displacement: Displacement) -> torch.Tensor:
     seam that opens, without subdividing positions or computing normals."""
     level = displacement.level
     topology = tessellation(mesh, level)
-    heights, sides = level_heights(topology, mesh.v_tex, level, displacement.heights.data)
+    heights, sides = level_heights(topology, topology.fine_uvs(mesh.v_tex, level), level, displacement.heights.data)
     return sides - heights[topology.pairs[level][0]]
 
 
@@ -259,8 +259,8 @@ def stitched_displacement(mesh: Mesh, displacement: Displacement, level: int) ->
     that samples one side per vertex (Blender's Displace modifier, an engine's tessellator)
     builds the surface we draw, with no crack, at that level and every coarser one."""
     topology = tessellation(mesh, level)
-    v_tex, image = mesh.v_tex.detach(), displacement.heights.data.detach()
-    heights, _ = level_heights(topology, v_tex, level, image)
+    fine_uv, image = topology.fine_uvs(mesh.v_tex.detach(), level), displacement.heights.data.detach()
+    heights, _ = level_heights(topology, fine_uv, level, image)
     position, uv = topology.pairs[level]
-    matched = matched_heights(image, topology.fine_uvs(v_tex, level)[uv], heights[position].double().numpy())
+    matched = matched_heights(image, fine_uv[uv], heights[position].double().numpy())
     return dataclasses.replace(displacement, heights=dataclasses.replace(displacement.heights, data=matched))
