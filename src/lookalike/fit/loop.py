@@ -33,7 +33,7 @@ from .best_state import BestState, Validator
 from .checkpoint import Checkpointer
 from .latent import Latent
 from .objective import Objective
-from .pacing import Pacing
+from .pacing import Pacing, closing
 from .progress_bar import ProgressBar
 from .schedule import learning_rate, learning_rate_decay
 from .training_views import BatchSource
@@ -282,7 +282,8 @@ class Fitter:
 
     def _loop(self, bar: ProgressBar, pacing: Pacing | None, stops: BetweenSteps) -> None:
         """Step until the total is reached or too many steps in a row were rolled back; between
-        steps, re-plan, show, checkpoint, share cores and deliver held signals."""
+        steps, re-plan, show, checkpoint (not among the plan's last steps: ``pacing.closing``),
+        share cores and deliver held signals."""
         p = self.progress
         while p.total is None or p.iteration < p.total:
             started = time.monotonic()
@@ -295,7 +296,8 @@ class Fitter:
             if p.rollbacks_in_a_row >= self.settings.max_rollbacks:
                 bar.write(f"stopping: {p.rollbacks_in_a_row} non-finite steps in a row")
                 return
-            self._checkpoint(always=False)
+            if not closing(p.iteration, p.total):
+                self._checkpoint(always=False)
             if self.cores is not None:
                 self.cores.update()
             stops.deliver()
