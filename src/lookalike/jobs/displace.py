@@ -13,9 +13,8 @@ input; with ``"recomputed"`` each level shades its own relief and a normal map b
 suits the levels near it best, so they are baked at the middle one (``docs/benchmarks.md``). With
 engine shading the fitted model's coarse levels straddle the finest level's relief
 (``Displacement.detail_level``) where the classic bake's read the map at their vertices alone
-and cut under it. The
-latent (``lookalike.fit.displaced_mesh``) fits the heights (by default; the base positions and
-maps too where their learning rates are set), each step at the next of
+and cut under it. The latent (``lookalike.fit.displaced_mesh``) fits the heights (by default;
+the base positions and maps too where their learning rates are set), each step at the next of
 ``latent.tessellation_levels``, the levels' losses balanced and the steps shared towards the
 level that gains least, its states chosen on the least gain over the start among the levels (so
 that every level gains). The report scores every level beside the start at that level and the
