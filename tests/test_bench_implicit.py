@@ -66,8 +66,11 @@ def test_the_benchs_blender_baseline_runs_on_a_small_field(tmp_path):
     case = BenchAsset("field-200", python.name, 200, False)
     judged = implicit.judged_field(case, tmp_path, run_dir, result.baselines, cells=48, resolution=32, views=1)
     assert abs(judged["blender_bake"]["triangles"] - 200) <= 10 and (run_dir / "judge" / "blender.glb").is_file()
+    kept = judged["blender_bake"]["chosen"]                                    # smooth, or smooth by angle
     for renderer in ("cycles", "cycles_no_shadows", "ours"):
-        assert {"baked", "blender", "ours"} <= set(judged["scores"][renderer])
+        assert {"baked", "blender", "blender_by_angle", "ours"} <= set(judged["scores"][renderer])
+    assert judged["gain_over_blender_db"] == pytest.approx(judged["scores"]["cycles"]["ours"]["psnr"]
+                                                           - judged["scores"]["cycles"][kept]["psnr"])
     field = judged["field"]
     assert set(field) == {"blender", "ours"}
     assert all(10 < s["psnr"] < 60 and 0 < s["flip"] < 0.5 for s in field.values())

@@ -163,6 +163,22 @@ def test_judge_bar_counts_in_the_runs_bar(stub_simplify, tmp_path, monkeypatch):
     assert "MISSED" not in first and "MISSED" in judged and "judge bar" in judged and "NOT met" in judged
 
 
+def test_ours_is_held_against_the_model_of_blenders_pipeline_its_user_keeps():
+    from lookalike.jobs.judge import blender_baseline, users_blender
+
+    judged = _judged(30.0, 28.5, 31.0, 29.5)
+    assert blender_baseline(judged) == "blender"                               # a judging with one model of Blender's
+    for renderer, psnr in (("cycles", 29.0), ("cycles_no_shadows", 29.0), ("ours", 25.0)):
+        judged["scores"][renderer] = {**judged["scores"][renderer], "blender_by_angle": {"psnr": psnr, "flip": 0.025}}
+    judged["blender_bake"]["chosen"] = users_blender(judged["scores"]["cycles"])
+    assert blender_baseline(judged) == "blender_by_angle"                      # the better in Cycles with shadows
+    assert users_blender(judged["scores"]["ours"]) == "blender"                # ours would have picked the other
+    table = "\n".join(quality.judge_table({"runs": [{"asset": "gear", "judge": judged}], "bar": {}}))
+    cycles_row = next(line for line in table.splitlines() if "Cycles, shadows" in line)
+    assert " 29.00 " in cycles_row and "+1.00" in cycles_row and "+1.50" not in cycles_row
+    assert "gear: Blender's decimate + bake, smooth by angle" in table
+
+
 def test_judge_options_are_checked(tmp_path, monkeypatch):
     assets = tmp_path / "assets"
     assets.mkdir()

@@ -212,3 +212,24 @@ def test_where_every_form_must_gain_the_state_that_lifts_each_form_is_kept_over_
     start, mean = Picture("start").export(), Picture("mean").export()
     assert written.kept(mean, start) == (start, True)
     assert written.score(Picture("each").export()) == pytest.approx(0.2)
+
+
+def test_an_alternative_to_the_fit_is_written_where_it_gains_most_on_the_start():
+    """``WrittenModel.kept`` with the models the reference offers instead of the fit (a field
+    baked again onto the fitted mesh): the one of the largest gain over the start is written,
+    the fit where it gains most, the start where nothing gains."""
+    from lookalike.jobs.written_model import WrittenModel
+
+    class Views:  # PSNR alone (FLIP's share 0)
+        table: dict = {}
+
+        def validation_score(self, asset, draw, flip_share):
+            return self.table[str(asset.source)]
+
+    written = WrittenModel("auto", Views(), draw=None)
+    start, ours, rebaked = (Picture(name).export() for name in ("start", "ours", "rebaked"))
+    for scores, kept in (((30.0, 30.5, 31.2), "rebaked"), ((30.0, 30.5, 30.2), "ours"), ((30.0, 29.8, 29.9), "start")):
+        Views.table = dict(zip(("start.glb", "ours.glb", "rebaked.glb"), scores))
+        model, is_start = written.kept(ours, start, {"rebaked": rebaked})
+        assert written.kept_label == kept and is_start == (kept == "start") and model.source.stem == kept, scores
+    assert written.scores == {"start": 30.0, "ours": 29.8, "rebaked": 29.9}

@@ -476,3 +476,47 @@ def test_a_python_fields_pool_is_refreshed_as_its_tracing_costs(tmp_path):
     cfg = Config()
     assert [refresh_interval(cfg, run_reference(asset, cfg, False).drawn_triangles(asset))
             for asset in (field, mesh)] == [16, 2]
+
+
+def test_the_fields_bake_onto_a_fitted_mesh_fits_its_frames_where_the_fitted_maps_do_not(tmp_path):
+    """A fit's steps turn the vertices' shading frames under a normal map made for the old ones;
+    the field baked again onto the moved mesh (``FieldInput.alternatives``) keeps the moved
+    geometry and shades it as the field does. Bound: its PSNR above the old maps' by a quarter of
+    the loss the step costs them (it recovers 42 %; the rest is the step's geometry), and its
+    FLIP lower."""
+    import dataclasses
+
+    from lookalike.asset.material import Displacement, Texture
+    from lookalike.fit.training_views import view_sampler
+    from lookalike.init.initial_guess import Ranges, initial_guess
+    from lookalike.jobs.reference_kinds import REBAKED, run_reference
+    from lookalike.jobs.run import scoring_draw
+    from lookalike.report.heldout import HeldoutViews
+    from lookalike.report.metrics import flip
+    from lookalike.settings import config_from_dict
+
+    python, _ = write_fields(tmp_path)
+    asset = io.load(python)
+    cfg = config_from_dict({"latent": {"texture_size": 128}, "render": {"resolution": 96}})
+    field = run_reference(asset, cfg, moving=False)
+    start = initial_guess(asset, decimate(asset.mesh, 400), "bake", 128, Ranges(),
+                          np.random.default_rng(0)).start
+    p = start.mesh.v_pos                        # a step of every vertex of 0.5 % of the size, its slope 9°
+    step = torch.stack([torch.sin(40 * p[:, 1]), torch.sin(40 * p[:, 2]), torch.sin(40 * p[:, 0])], dim=1)
+    moved = dataclasses.replace(start, mesh=dataclasses.replace(start.mesh, v_pos=p + 0.004 * step))
+    offered = field.alternatives(moved)
+    rebaked = offered[REBAKED]
+    assert torch.equal(rebaked.mesh.v_pos, moved.mesh.v_pos) and torch.equal(rebaked.mesh.t_pos_idx, moved.mesh.t_pos_idx)
+    assert torch.equal(rebaked.mesh.uv[0][0], moved.mesh.uv[0][0])
+    views = HeldoutViews(field.renderer, view_sampler(*field.renderer.bounding_sphere()), 6, 3, 96, 2)
+    draw = scoring_draw(cfg)
+    scores = {}
+    for name, model in (("start", start), ("moved", moved), ("rebaked", rebaked)):
+        images = views.images(model, draw)
+        scores[name] = (psnr(views.reference, images), flip(views.reference, images))
+    assert scores["moved"][0] < scores["start"][0] - 1.0, scores         # the step costs the old maps
+    assert scores["rebaked"][0] > scores["moved"][0] + 0.25 * (scores["start"][0] - scores["moved"][0]), scores
+    assert scores["rebaked"][1] < scores["moved"][1], scores
+    displaced = dataclasses.replace(moved, materials=[dataclasses.replace(
+        moved.materials[0], displacement=Displacement(Texture(torch.zeros(8, 8, 1)), 0.01))])
+    assert field.alternatives(displaced) == {}                           # a bake makes no displacement

@@ -22,8 +22,8 @@ import tempfile
 from pathlib import Path
 
 from ._table import aligned_table, judged_table, runs_table
-from .quality import (BAR_GAIN_OVER_BAKED_DB, BAR_JUDGE_GAIN_DB, BAR_MINUTES, TIME_BUDGET_S, BenchAsset, case_rows,
-                      check_judge, output_root, table_row)
+from .quality import (BAR_GAIN_OVER_BAKED_DB, BAR_JUDGE_GAIN_DB, BAR_MINUTES, TIME_BUDGET_S, BenchAsset, blender_kept,
+                      case_rows, check_judge, output_root, table_row)
 
 HELP = "simplify signed distance fields and compare with marching cubes + decimation/bake (and Blender's)"
 
@@ -60,11 +60,13 @@ def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: d
     score Blender's model and ours on the run's held-out views of the field (``field_scores``,
     as ``"field"``). With the gains of ours over our bake and over Blender's in Cycles with
     shadows and over Blender's against the field, and whether it meets the bar: ours at least
-    ``BAR_JUDGE_GAIN_DB`` above Blender's with a lower FLIP, in both."""
+    ``BAR_JUDGE_GAIN_DB`` above Blender's with a lower FLIP, in both. Blender's model is the one
+    its user keeps (``jobs.judge.blender_baseline``: of the shaded-smooth model and the one smooth
+    by angle, the better in Cycles with shadows); the field's scores call it ``"blender"``."""
     from .. import io
     from ..init.initial_guess import target_triangle_count
     from ..io.field_asset import field_asset
-    from ..jobs.judge import JUDGE_FOLDER, judge_run
+    from ..jobs.judge import JUDGE_FOLDER, blender_baseline, judge_run
     from ..jobs.outputs import MODEL_NAME
     from ..jobs.simplify import build_initial_guess
     from ..settings import load_config
@@ -77,9 +79,10 @@ def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: d
         guess = build_initial_guess(asset, cfg, count)
         baselines = {"decimated": guess.baseline, "baked": guess.baked}
     judged = judge_run(run_dir, field_asset(asset.field, path, cells=cells, block=JUDGE_BLOCK), baselines, **judging)
-    judged["field"] = field_scores(run_dir, asset, {"blender": run_dir / JUDGE_FOLDER / "blender.glb",
+    blender = blender_baseline(judged)
+    judged["field"] = field_scores(run_dir, asset, {"blender": run_dir / JUDGE_FOLDER / f"{blender}.glb",
                                                     "ours": run_dir / MODEL_NAME})
-    cycles, field = judged["scores"]["cycles"], judged["field"]
+    cycles, field = {**judged["scores"]["cycles"], "blender": judged["scores"]["cycles"][blender]}, judged["field"]
     judged["gain_over_baked_db"] = cycles["ours"]["psnr"] - cycles["baked"]["psnr"]
     judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]
     judged["field_gain_over_blender_db"] = field["ours"]["psnr"] - field["blender"]["psnr"]
@@ -140,13 +143,18 @@ COLUMNS = (("field", "asset", "{}"), ("triangles", "triangles", "{:,}"), ("minut
            ("FLIP MC+dec", "flip_decimated", "{:.4f}"), ("FLIP MC+bake", "flip_baked", "{:.4f}"),
            ("FLIP ours", "flip_ours", "{:.4f}"))
 JUDGED = (("MC+dec", "decimated"), ("MC+bake", "baked"), ("Blender", "blender"), ("ours", "ours"))
+"""(column name, method key) of the judged methods; ``"blender"`` stands for the model of
+Blender's pipeline its user keeps (``jobs.judge.blender_baseline``)."""
 
 
 def judge_lines(rows: list[dict]) -> list[str]:
     """The judge's tables (each renderer's PSNR and FLIP of every method against the fine mesh;
     Blender's decimate + bake beside ours and our bake against the field) and its bar."""
+    from ..jobs.judge import blender_baseline
+
     judged = [r for r in rows if "judge" in r]
-    flat = [{"asset": r["asset"], "judge": r["judge"]["scores"]} for r in judged]
+    flat = [{"asset": r["asset"], "judge": {renderer: {**scores, "blender": scores[blender_baseline(r["judge"])]}
+                                            for renderer, scores in r["judge"]["scores"].items()}} for r in judged]
     lines = judged_table(flat, "field", JUDGED, "ours", (("ours-bake dB", "baked"), ("ours-Blender dB", "blender")),
                          f"judge: against the field's marching-cubes mesh at {JUDGE_CELLS} cubes across")
     cells = [[r["asset"], f"{r['psnr_baked']:.2f}", f"{r['judge']['field']['blender']['psnr']:.2f}",
@@ -161,7 +169,7 @@ def judge_lines(rows: list[dict]) -> list[str]:
     lines.append(f"judge bar: ours >= marching cubes + Blender's decimate + bake + {BAR_JUDGE_GAIN_DB:g} dB with lower "
                  f"FLIP, in Cycles with shadows (against the {JUDGE_CELLS}-cube mesh) and in our renderer (against the "
                  f"field): {'met' if met else 'NOT met'}")
-    return lines
+    return lines + [blender_kept(judged)]
 
 
 def format_table(result: dict) -> str:

@@ -210,19 +210,20 @@ def check_judge(judge: str, accepted: tuple[str, ...] = ("blender",)) -> None:
 
 def judged_row(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: dict | None) -> dict:
     """Judge the run of ``case`` in ``run_dir`` in Blender (``lookalike.jobs.judge.judge_run``,
-    which writes ``run_dir/judge/``); its result plus the gains of ours over Blender's bake
-    (Cycles, shadows) and over our bake (our renderer), in dB, and whether they meet the bar."""
-    from ..jobs.judge import judge_run
+    which writes ``run_dir/judge/``); its result plus the gains of ours over Blender's bake (the
+    one its user keeps, ``jobs.judge.blender_baseline``; Cycles, shadows) and over our bake (our
+    renderer), in dB, and whether they meet the bar."""
+    from ..jobs.judge import blender_baseline, judge_run
     from ..jobs.input_asset import prepare_input
 
     loaded = io_load(assets_dir / case.path)
     reference, _ = prepare_input(loaded, scan_material() if case.scan else None)
     judged = judge_run(run_dir, reference, baselines)
-    cycles, ours = judged["scores"]["cycles"], judged["scores"]["ours"]
-    judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]
+    cycles, ours, blender = judged["scores"]["cycles"], judged["scores"]["ours"], blender_baseline(judged)
+    judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles[blender]["psnr"]
     judged["gain_over_baked_db"] = ours["ours"]["psnr"] - ours["baked"]["psnr"] if "baked" in ours else None
     judged["meets_bar"] = (judged["gain_over_blender_db"] >= BAR_JUDGE_GAIN_DB
-                           and cycles["ours"]["flip"] < cycles["blender"]["flip"]
+                           and cycles["ours"]["flip"] < cycles[blender]["flip"]
                            and (judged["gain_over_baked_db"] is None or judged["gain_over_baked_db"] >= BAR_JUDGE_GAIN_DB))
     return judged
 
@@ -285,12 +286,14 @@ def format_table(result: dict) -> str:
 
 
 JUDGED_METHODS = (("dec", "decimated"), ("bake", "baked"), ("Blender", "blender"), ("ours", "ours"))
-"""(column name, method key) of the judged methods, in table order."""
+"""(column name, method key) of the judged methods, in table order; ``"blender"`` stands for the
+model of Blender's pipeline its user keeps (``jobs.judge.blender_baseline``)."""
 
 
 def judge_table(result: dict) -> list[str]:
     """Lines of the judge's table: per asset, one row per renderer (ours; Cycles with and without
     shadows) with PSNR and FLIP of each method and the gains of ours, then the bar."""
+    from ..jobs.judge import blender_baseline
     from ..jobs.judge_scores import RENDERERS
 
     rows = [r for r in result["runs"] if "judge" in r]
@@ -300,7 +303,8 @@ def judge_table(result: dict) -> list[str]:
     for row in rows:
         judged = row["judge"]
         for i, (renderer, label) in enumerate(RENDERERS.items()):
-            scores = judged["scores"][renderer]
+            scores = dict(judged["scores"][renderer])
+            scores["blender"] = scores[blender_baseline(judged)]
 
             def figure(key: str, metric: str, fmt: str) -> str:
                 return fmt.format(scores[key][metric]) if key in scores else "-"
@@ -331,7 +335,22 @@ def judge_table(result: dict) -> list[str]:
             figures = ", ".join(f"{name} {' / '.join(f'{v:.4f}' for v in noise[key].values())}"
                                 for name, key in JUDGED_METHODS if key in noise)
             lines.append(f"{row['asset']}: map noise (base colour / specular / normal, as written): {figures}")
-    timings = ", ".join(f"{r['asset']} {r['judge']['blender_bake']['seconds']['total']:.0f} s" for r in rows)
+    timings = ", ".join(f"{r['asset']} {blender_seconds(r['judge']['blender_bake']):.0f} s" for r in rows)
     per_view = sum(r["judge"]["seconds"]["cycles_per_view"] for r in rows) / len(rows)
     lines.append(f"Blender's decimate + bake: {timings}; Cycles {per_view:.2f} s per view")
-    return lines
+    return lines + [blender_kept(rows)]
+
+
+def blender_seconds(bake: dict) -> float:
+    """Seconds Blender's pipeline took in a judging (``judge.json``'s ``"blender_bake"``): every
+    shading's run."""
+    return bake["seconds"]["total"] + bake.get("by_angle", {}).get("seconds", {}).get("total", 0.0)
+
+
+def blender_kept(rows: list[dict]) -> str:
+    """A line naming, for each judged row, the model of Blender's pipeline held against ours
+    (``jobs.judge.blender_baseline``: the better in Cycles with shadows)."""
+    from ..jobs.judge import LABELS, blender_baseline
+
+    kept = ", ".join(f"{r['asset']}: {LABELS[blender_baseline(r['judge'])]}" for r in rows if "judge" in r)
+    return f"Blender's model held against ours (the better in Cycles with shadows): {kept}"

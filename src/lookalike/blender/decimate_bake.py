@@ -33,6 +33,10 @@ SECONDS_PER_TEXEL_SAMPLE = 1.5e-5
 """Seconds the worker may take per texel and sample of its maps (all its bakes together): about
 ten times what Blender takes (``docs/judge.md``)."""
 
+SHARP_ANGLE = 30.0
+"""Degrees between faces above which Blender's Smooth by Angle (Shade Auto Smooth) makes an edge
+sharp: its default, what a user shades a hard-surface model with."""
+
 BASE_COLOUR_PASS = "DIFFUSE"
 """How the base colour is baked: ``"DIFFUSE"`` (the DIFFUSE bake's COLOR pass, what users do,
 with the sources' metalness and specular level at 0 meanwhile, else it comes out darker) or
@@ -59,9 +63,11 @@ class BlenderBake:
 def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, triangles: int, texture_size: int,
                          samples: int = SAMPLES, cage_fraction: float = CAGE_FRACTION, margin: int = MARGIN,
                          padding: int = PADDING, base_colour_pass: str = BASE_COLOUR_PASS,
-                         threads: int | None = None) -> BlenderBake:
+                         threads: int | None = None, sharp_angle: float | None = None) -> BlenderBake:
     """Run Blender's decimate + xatlas + selected-to-active bake on ``reference_glb`` down to
     about ``triangles`` triangles with ``texture_size``-texel square maps; write ``output_glb``.
+    The decimated mesh is shaded smooth, or with ``sharp_angle`` smooth by angle (edges whose
+    faces meet at more than ``sharp_angle`` degrees sharp; ``SHARP_ANGLE`` is Blender's default).
 
     Raises:
         ConfigError: ``bpy`` is not installed; JudgeError: Blender failed; ExternalToolTimeout:
@@ -70,7 +76,7 @@ def blender_classic_bake(reference_glb: str | Path, output_glb: str | Path, tria
     """
     job = {"texture_size": int(texture_size), "padding": int(padding), "samples": int(samples),
            "threads": threads or thread_count(), "cage_fraction": float(cage_fraction), "margin": int(margin),
-           "base_colour_pass": base_colour_pass}
+           "base_colour_pass": base_colour_pass, "sharp_angle": sharp_angle}
     return _run_pipeline(reference_glb, output_glb, triangles, job, SECONDS_PER_TEXEL_SAMPLE * texture_size ** 2 * samples)
 
 

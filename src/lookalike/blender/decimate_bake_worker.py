@@ -4,7 +4,8 @@ Run as ``python -m lookalike.blender.decimate_bake_worker JOB.json``; imports on
 ``xatlas``, NumPy and the standard library. The job (JSON) holds ``reference`` (a glb),
 ``output`` (the glb to write), ``stats`` (a JSON file for timings), ``scratch`` (a folder for
 the baked PNGs), ``triangles``, ``texture_size``, ``padding``, ``samples``, ``threads``,
-``cage_fraction``, ``margin`` and ``base_colour_pass`` (``"DIFFUSE"`` or ``"EMIT"``); with
+``cage_fraction``, ``margin``, ``base_colour_pass`` (``"DIFFUSE"`` or ``"EMIT"``) and
+``sharp_angle`` (degrees, or null: shade smooth everywhere); with
 ``positions`` (a path), it stops after step 2 and writes the decimation there (``write_positions``:
 ``lookalike bench decimate`` measures Blender's Decimate alone); with ``keep_materials`` true, it
 stops after step 2 and exports the decimated mesh with the input's own materials and UVs
@@ -18,7 +19,8 @@ Steps, as a Blender user does them:
    merged: the importer merges a position's vertices only where their normals agree, so a hard
    edge's would still cut it) as the low-poly; add a Decimate modifier (COLLAPSE, ratio = target
    triangles / input triangles, triangulate) and apply it; clear the custom normals and shade
-   smooth.
+   smooth, or smooth by angle (edges whose faces meet at more than ``sharp_angle`` sharp, as
+   Blender's Shade Auto Smooth does for hard-surface models).
 3. Unwrap with xatlas (one atlas for ``texture_size`` texels with ``padding`` texels between
    charts, as ``lookalike.init.unwrap``) and make it the only UV map.
 4. A new material: Principled BSDF fed by new images at the texture size (base colour sRGB,
@@ -39,6 +41,7 @@ Steps, as a Blender user does them:
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -117,9 +120,10 @@ def merge_coincident(obj) -> None:
     work.free()
 
 
-def decimate(low, ratio: float) -> None:
+def decimate(low, ratio: float, sharp_angle: float | None = None) -> None:
     """Decimate modifier (COLLAPSE, triangulate) applied; then every face a triangle, custom
-    normals cleared, smooth shading."""
+    normals cleared, smooth shading (with ``sharp_angle``, smooth by angle: edges whose faces
+    meet at more than that many degrees sharp)."""
     import bmesh
 
     modifier = low.modifiers.new("decimate", "DECIMATE")
@@ -137,6 +141,8 @@ def decimate(low, ratio: float) -> None:
     if mesh.has_custom_normals:
         bpy.ops.mesh.customdata_custom_splitnormals_clear()
     mesh.shade_smooth()
+    if sharp_angle is not None:
+        mesh.set_sharp_from_angle(angle=math.radians(sharp_angle))
 
 
 def write_positions(mesh, path: str, seconds: float) -> None:
@@ -425,7 +431,7 @@ def main(job_path: str) -> None:
 
     started = time.monotonic()
     low = duplicate_joined(high)
-    decimate(low, float(job["triangles"]) / max(input_triangles, 1))
+    decimate(low, float(job["triangles"]) / max(input_triangles, 1), job.get("sharp_angle"))
     timings["decimate"] = time.monotonic() - started
     if job.get("positions"):
         write_positions(low.data, job["positions"], timings["decimate"])

@@ -356,7 +356,13 @@ def smooth_shaded(asset: Asset, start: Asset, size: int) -> Asset:
     decimate + bake writes a model), with the classic bake of ``asset`` onto it: at a hard edge
     the normal map, not the slots, turns the normal, so the turn lies where the surface's own
     edge does, not on the low-poly edge (which decimation places a little beside it)."""
-    mesh = dataclasses.replace(start.mesh, t_nrm_idx=start.mesh.t_pos_idx.clone())
+    return baked_onto(asset, dataclasses.replace(start.mesh, t_nrm_idx=start.mesh.t_pos_idx.clone()), size)
+
+
+def baked_onto(asset: Asset, mesh: Mesh, size: int) -> Asset:
+    """The classic bake of ``asset`` onto ``mesh`` as it is (its positions, triangles, atlas in
+    UV set 0 and normal slots, ``start_mesh``) with ``size``-texel maps: maps made for the
+    mesh's own shading frames."""
     return initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=True).start
 
 

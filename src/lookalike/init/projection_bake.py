@@ -39,6 +39,7 @@ costs one pass per texel of depth, seconds at 1024^2.)
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,6 +223,7 @@ class BakeResult:
         hit_fraction: fraction of those whose rays hit the reference (the rest took the
             closest point).
         mean_offset: mean absolute distance from the low-poly surface to the baked point.
+        seconds: wall seconds the bake took.
     """
 
     material: Material
@@ -229,6 +231,7 @@ class BakeResult:
     texels: int
     hit_fraction: float
     mean_offset: float
+    seconds: float
 
 
 @dataclass
@@ -354,6 +357,7 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
     cage = default_cage(reference.mesh) if cage is None else float(cage)
     if not cage > 0:
         raise ConfigError(f"the bake cage distance must be positive, got {cage!r}")
+    started = time.monotonic()
     texels = atlas_texels(low, texture_size * samples)
     if len(texels.rows) == 0:
         raise ConfigError(f"the low-poly mesh's UV atlas covers no texel of a {texture_size}^2 texture")
@@ -374,4 +378,4 @@ def bake(reference: Asset, low: Mesh, texture_size: int = 1024, cage: float | No
                         emissive=textures.get("emissive"), occlusion=textures.get("occlusion"),
                         **merged_modes(reference.materials))
     return BakeResult(material=material, cage=cage, texels=len(rows), hit_fraction=float(points.hit.mean()),
-                      mean_offset=float(np.abs(points.offset).mean()))
+                      mean_offset=float(np.abs(points.offset).mean()), seconds=time.monotonic() - started)

@@ -8,8 +8,13 @@ writes into ``RUN/judge/``:
 - ``decimated.glb`` and ``baked.glb``: the run's plain decimation and our classic bake (taken
   from the simplify result where given, else read back from an earlier judging, else built
   again from the run's settings and seed with the current code);
-- ``blender.glb``: Blender's own pipeline (``lookalike.blender.decimate_bake``) with the run's
-  triangle target and texture size (not in an animated run, below);
+- ``blender.glb`` and ``blender_by_angle.glb``: Blender's own pipeline
+  (``lookalike.blender.decimate_bake``) with the run's triangle target and texture size, its
+  decimated mesh shaded smooth and smooth by angle (not in an animated run, below). A Blender
+  user keeps the one that looks better: the one Cycles with shadows scores higher is the
+  ``"chosen"`` one in ``judge.json``'s ``"blender_bake"`` (``users_blender``), the one the
+  benchmarks hold ours against. Why both: shaded smooth across a hard edge, the baked normal map
+  turns each face's normals by up to 45°, which Cycles draws dark;
 - ``judge.json``: the scores (``lookalike.jobs.judge_scores.judge_models``), the noise of each
   textured model's maps as written (``lookalike.report.map_noise``) and timings;
 - ``views.png``: the first views of every model in every renderer;
@@ -43,7 +48,7 @@ from ..init.initial_guess import target_triangle_count
 from ..init.skin_weights import transfer_skin
 from ..io.atomic import write_text_atomic
 from ..blender import require_judge
-from ..blender.decimate_bake import blender_classic_bake
+from ..blender.decimate_bake import SHARP_ANGLE, blender_classic_bake
 from ..report.html import add_judge_section, judge_section
 from .judge_scores import (
     JUDGE_RESOLUTION,
@@ -62,9 +67,13 @@ from .simplify import build_initial_guess
 
 JUDGE_FOLDER = "judge"
 RESULT_NAME = "judge.json"
-LABELS = {"decimated": "Plain decimation", "baked": "Our classic bake", "blender": "Blender's decimate + bake",
-          "bind_pose": "Bind-pose fit", "ours": "Ours"}
+LABELS = {"decimated": "Plain decimation", "baked": "Our classic bake",
+          "blender": "Blender's decimate + bake, shaded smooth",
+          "blender_by_angle": "Blender's decimate + bake, smooth by angle", "bind_pose": "Bind-pose fit", "ours": "Ours"}
 """The judged methods, in table order."""
+BLENDER_SHADINGS = {"blender": None, "blender_by_angle": SHARP_ANGLE}
+"""Blender's pipeline's models by key, and the angle above which each makes an edge sharp
+(``None``: shaded smooth everywhere, as Blender's Shade Smooth)."""
 
 BLENDER_BAKE_SKIPPED = ("not run: an animated run's models keep the input's skeleton and clips, and Blender's bake "
                         "makes a still model")
@@ -119,6 +128,8 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
     result = judge_models(reference, reference_glb, models, heldout, resolution, cfg.render.target_spp,
                           cfg.render.latent_msaa, contact_sheet_path=folder / "views.png", layers=cfg.render.layers)
     seconds["judging"] = time.monotonic() - started
+    if not moving:
+        blender_bake["chosen"] = users_blender(result["scores"]["cycles"])
     result["blender_bake"] = blender_bake
     if moving:
         result["poses"] = animated.pose_labels(input_asset, heldout.pose)
@@ -133,13 +144,32 @@ def judge_run(run_dir: str | Path, input_asset: Asset, baselines: dict[str, Asse
 
 def blenders_bake(reference_glb: Path, folder: Path, count: int, texture_size: int, paths: dict[str, Path],
                   seconds: dict[str, float]) -> dict:
-    """Blender's own decimate + bake of ``reference_glb`` into ``folder/blender.glb`` (added to
-    ``paths``, its seconds to ``seconds``); ``judge.json``'s ``"blender_bake"``."""
-    bake = blender_classic_bake(reference_glb, folder / "blender.glb", count, texture_size)
-    seconds["blender_bake"] = bake.seconds["total"]
-    paths["blender"] = bake.path
-    return {"input_triangles": bake.input_triangles, "triangles": bake.triangles, "texture_size": texture_size,
-            "seconds": bake.seconds}
+    """Blender's own decimate + bake of ``reference_glb`` in each of ``BLENDER_SHADINGS`` into
+    ``folder/KEY.glb`` (added to ``paths``, their seconds to ``seconds``); ``judge.json``'s
+    ``"blender_bake"``: the shaded-smooth model's triangles and seconds per step, and
+    ``"by_angle"``'s."""
+    bakes = {}
+    for key, angle in BLENDER_SHADINGS.items():
+        bakes[key] = blender_classic_bake(reference_glb, folder / f"{key}.glb", count, texture_size, sharp_angle=angle)
+        paths[key] = bakes[key].path
+    seconds["blender_bake"] = sum(bake.seconds["total"] for bake in bakes.values())
+    smooth, by_angle = bakes["blender"], bakes["blender_by_angle"]
+    return {"input_triangles": smooth.input_triangles, "triangles": smooth.triangles, "texture_size": texture_size,
+            "seconds": smooth.seconds, "by_angle": {"sharp_angle": SHARP_ANGLE, "triangles": by_angle.triangles,
+                                                    "seconds": by_angle.seconds}}
+
+
+def users_blender(scores: dict[str, dict]) -> str:
+    """The key of the model of Blender's pipeline a user keeps: of ``BLENDER_SHADINGS`` those
+    in ``scores`` (``{key: {"psnr", "flip"}}``, Cycles with shadows), the one of the highest
+    PSNR."""
+    return max((key for key in BLENDER_SHADINGS if key in scores), key=lambda key: scores[key]["psnr"])
+
+
+def blender_baseline(judged: dict) -> str:
+    """The key of Blender's model a judged run (``judge_run``'s result) is held against: the
+    ``"chosen"`` one, or ``"blender"`` where the judging had one model of Blender's."""
+    return judged.get("blender_bake", {}).get("chosen", "blender")
 
 
 def write_baselines(folder: Path, input_asset: Asset, cfg: Config, count: int, moving: bool,

@@ -7,7 +7,8 @@ report says of it. ``run_reference`` picks the kind; the run itself has no branc
 
 - ``RunReference``: a mesh drawn by our pipeline (posed per view where it moves): its views
   are the input as our rasterizer draws it.
-- ``FieldInput``: an implicit surface, sphere traced in a sphere around its mesh.
+- ``FieldInput``: an implicit surface, sphere traced in a sphere around its mesh; the field's
+  bake onto the fitted mesh is offered as an alternative to the fitted maps.
 - ``PathTracedInput``: an asset path traced under fixed lighting (``jobs.path_traced``).
 """
 
@@ -20,6 +21,7 @@ from ..asset.pose import Poses
 from ..errors import ConfigError
 from ..fit.from_settings import shadow_mapping
 from ..fit.reference import FieldReference, MeshReference, PathTracedReference, Reference, SkinnedReference
+from ..init.initial_guess import InitialGuess, baked_onto
 from ..io.normal_frames import on_crease_normals
 from ..report.heldout import AssetRenderer
 from ..report.record import RunRecord
@@ -31,6 +33,9 @@ from .path_traced import CACHE_FOLDER, lit_as_fitted, path_traced_reference, wit
 FIELD_MARGIN = 1.0 / 64
 """An implicit surface's bounding sphere reaches this share of its bounds beyond its mesh's
 (which marching cubes places within a cube of the surface)."""
+
+REBAKED = "ours with the field baked again onto it"
+"""The label of a field's classic bake onto the fitted mesh (``FieldInput.alternatives``)."""
 
 TRACED_FIELD_TRIANGLES = 2_000_000
 """Triangles whose rasterization costs about what sphere tracing a view of a Python field does
@@ -79,6 +84,15 @@ class RunReference:
         """What is written of the fitted ``model``."""
         return model
 
+    def alternatives(self, model: Asset) -> dict[str, Asset]:
+        """Models the run may write instead of the fitted ``model`` (as written), by the label
+        the report gives them; the validation views choose (``jobs.written_model``). None here."""
+        return {}
+
+    def alternatives_seconds(self, guess: InitialGuess) -> float:
+        """Seconds ``alternatives`` is expected to take, left out of the loop's share."""
+        return 0.0
+
     def annotate(self, record: RunRecord, pool_bytes: int) -> None:
         """Add what the report says of this reference to ``record`` (its coverage already
         there; the training views' pool holds ``pool_bytes``)."""
@@ -96,6 +110,10 @@ class FieldInput(RunReference):
 
     draws_input = False
 
+    def __init__(self, renderer: FieldReference, asset: Asset, texture_size: int):
+        super().__init__(renderer)
+        self.asset, self.texture_size = asset, texture_size
+
     def drawn_triangles(self, asset: Asset) -> int:
         """A Python field is sphere traced in torch, on the CPU, at the cost of rasterizing
         ``TRACED_FIELD_TRIANGLES``; a GLSL field in OpenGL, about as fast as its marching-cubes
@@ -104,6 +122,20 @@ class FieldInput(RunReference):
 
     def written(self, model: Asset) -> Asset:
         return on_crease_normals(model)
+
+    def alternatives(self, model: Asset) -> dict[str, Asset]:
+        """The field's classic bake onto the fitted mesh (``init.initial_guess.baked_onto``): a
+        vertex's step turns its shading frame, and the fitted normal map, made under the old
+        frame, turns with it, so that perceptual error rises inside the surface where the
+        outline gains; the bake keeps the fitted geometry and makes the maps for its frames.
+        None for a model the bake cannot make: displaced, or with fitted mips."""
+        if not model.mesh.uv or any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
+            return {}
+        return {REBAKED: baked_onto(self.asset, model.mesh, self.texture_size)}
+
+    def alternatives_seconds(self, guess: InitialGuess) -> float:
+        """About the start's bake's time."""
+        return 0.0 if guess.bake is None else guess.bake.seconds
 
 
 class PathTracedInput(RunReference):
@@ -177,7 +209,8 @@ def run_reference(asset: Asset, cfg: Config, moving: bool) -> RunReference:
             raise ConfigError("render.shadows: an implicit surface's sphere-traced reference casts no shadows")
         centre, radius = asset.mesh.bounding_sphere()
         extent = float((asset.field.hi - asset.field.lo).max())
-        return FieldInput(FieldReference(asset.field, (centre, radius + FIELD_MARGIN * extent)))
+        return FieldInput(FieldReference(asset.field, (centre, radius + FIELD_MARGIN * extent)), asset,
+                          cfg.latent.texture_size)
     shadows = shadow_mapping(cfg)
     return RunReference(SkinnedReference(asset, shadows) if moving
                         else MeshReference(asset, cfg.render.reference_layers, shadows))

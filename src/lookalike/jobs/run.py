@@ -356,8 +356,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
     if s.saved is not None and "latent" in s.saved:
         fitter.load_state_dict(s.saved)
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None,
-                          len(s.app.variants(start_written, cfg)))
-    fit, export = optimise(s, fitter, seconds, written, start_written, notes)
+                          len(s.app.variants(start_written, cfg)), reference.alternatives_seconds(guess))
+    fit, export = optimise(s, fitter, seconds, written, start_written, notes, reference.alternatives)
     export = reference.written(export)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
@@ -556,12 +556,13 @@ def score_baselines(s: _Session, cfg: Config, heldout: HeldoutViews, draw, guess
 
 
 def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_alpha: bool,
-                variants: int = 0) -> float | None:
+                variants: int = 0, alternatives: float = 0.0) -> float | None:
     """The loop's share of this session's ``budget``: what is left after the set-up, less the
     outputs' estimated time (``OUTPUT_TIME_FACTOR`` times the slowest scoring so far, plus the
     validation scorings that choose what is written, one for each of ``variants`` of the
-    result, and the compressed model's, ``compress_seconds``); ``None`` where
-    ``optim.iterations`` fixes the steps."""
+    result, ``alternatives`` seconds of the models the reference offers instead of the fit,
+    and the compressed model's, ``compress_seconds``); ``None`` where ``optim.iterations``
+    fixes the steps."""
     if cfg.optim.iterations is not None:
         return None
     scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static) + variants
@@ -569,21 +570,24 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
         scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
     scorings += 2 * (1 + variants) * cfg.views.validation / cfg.views.heldout  # ours and the start as written
     scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
-    output_time = scorings * scoring + OUTPUT_TIME_MARGIN + compress_seconds(cfg)
+    output_time = scorings * scoring + OUTPUT_TIME_MARGIN + compress_seconds(cfg) + alternatives
     return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
 
 
 def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: WrittenModel, start: Asset,
-             notes: list[str]) -> tuple[FitResult, Asset]:
-    """The loop, and what the run writes (``jobs.written_model``): its best model as written, or
-    the start where that scores better on the validation views (said in ``notes``)."""
+             notes: list[str], alternatives: Callable[[Asset], dict[str, Asset]]) -> tuple[FitResult, Asset]:
+    """The loop, and what the run writes (``jobs.written_model``): its best model as written,
+    one of the ``alternatives`` to it, or the start, whichever scores best on the validation
+    views (said in ``notes``)."""
     with s.stage("optimisation"):
         fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
     if fit.backoffs:
         notes.append(f"the position learning rate was halved {fit.backoffs} time(s), each time the validation "
                      f"fell {fitter.settings.position_backoff:g} dB below the best state, which the fit returned to")
-    with s.stage("alpha cutoff"):
-        export, is_start = written.kept(written.finished(moved(fit.best.export(), CPU)), start)
+    with s.stage("the written model"):
+        best = written.finished(moved(fit.best.export(), CPU))
+        offered = alternatives(best) if written.validation is not None else {}
+        export, is_start = written.kept(best, start, offered)
     if is_start:
         engine = ("" if written.engine_draw is None else f"; in an engine's draw {written.scores['ours, engine']:.2f} "
                   f"against {written.scores['start, engine']:.2f}")
@@ -596,6 +600,10 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
                      f"draw and an engine's (validation {written.scores[mix]:.2f} and {written.scores[mix + ', engine']:.2f} "
                      f"dB, the fit's {written.scores['ours']:.2f} and {written.scores['ours, engine']:.2f}, the "
                      f"start's {written.scores['start']:.2f} and {written.scores['start, engine']:.2f})")
+    if (label := written.kept_label) in offered:
+        notes.append(f"model.glb: {label}, which scored higher on the validation views ({written.metric} "
+                     f"{written.scores[label]:.2f} dB; the fit's {written.scores['ours']:.2f}, the start's "
+                     f"{written.scores['start']:.2f})")
     if written.alpha.get("written"):
         notes.append(f"model.glb's alpha: {written.alpha['written']} (chosen on the validation views)")
     return fit, export

@@ -162,17 +162,19 @@ class WrittenModel:
         self.alpha["ours"] = alpha_label(best, self.mode, choice)
         return written_alpha(best, self.mode, choice)
 
-    def kept(self, ours: Asset, start: Asset) -> tuple[Asset, bool]:
+    def kept(self, ours: Asset, start: Asset, alternatives: dict[str, Asset] | None = None) -> tuple[Asset, bool]:
         """``(model, is_start)``: ``ours``, or ``start`` where ``ours`` does not score above it on
         the validation views (both as written): a fit that did not improve returns its start.
-        With ``engine_draw``, of ``ours`` and its two mixes with the start's base colour
-        (``MIXES``), the one whose least gain over the start in the run's draw and the engine's
-        is the largest, where that gain is positive (module docstring)."""
+        ``alternatives`` (by label; e.g. a field baked again onto the fitted mesh,
+        ``jobs.reference_kinds``) compete with ``ours``: the one of the largest gain over the
+        start is written. With ``engine_draw``, ``ours`` and its two mixes with the start's base
+        colour (``MIXES``) compete too, each by its least gain over the start in the run's draw
+        and the engine's, where that gain is positive (module docstring)."""
         self.kept_label = "ours"
         if self.validation is None:
             self.alpha["written"] = self.alpha.get("ours")
             return ours, False
-        models = {"start": start, "ours": ours}
+        models = {"start": start, "ours": ours, **(alternatives or {})}
         for label, alpha in ((BASE_COLOUR_OF_START, True), (RGB_OF_START, False)):
             if self.engine_draw is not None and (mixed := with_base_colour_of(ours, start, alpha)) is not None:
                 models[label] = mixed
