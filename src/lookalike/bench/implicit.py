@@ -66,7 +66,7 @@ def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: d
     from .. import io
     from ..init.initial_guess import target_triangle_count
     from ..io.field_asset import field_asset
-    from ..jobs.judge import JUDGE_FOLDER, blender_baseline, judge_run
+    from ..jobs.judge import JUDGE_FOLDER, blender_baseline, held_against, judge_run
     from ..jobs.outputs import MODEL_NAME
     from ..jobs.simplify import build_initial_guess
     from ..settings import load_config
@@ -79,10 +79,9 @@ def judged_field(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: d
         guess = build_initial_guess(asset, cfg, count)
         baselines = {"decimated": guess.baseline, "baked": guess.baked}
     judged = judge_run(run_dir, field_asset(asset.field, path, cells=cells, block=JUDGE_BLOCK), baselines, **judging)
-    blender = blender_baseline(judged)
-    judged["field"] = field_scores(run_dir, asset, {"blender": run_dir / JUDGE_FOLDER / f"{blender}.glb",
-                                                    "ours": run_dir / MODEL_NAME})
-    cycles, field = {**judged["scores"]["cycles"], "blender": judged["scores"]["cycles"][blender]}, judged["field"]
+    kept = run_dir / JUDGE_FOLDER / f"{blender_baseline(judged)}.glb"
+    judged["field"] = field_scores(run_dir, asset, {"blender": kept, "ours": run_dir / MODEL_NAME})
+    cycles, field = held_against(judged, judged["scores"]["cycles"]), judged["field"]
     judged["gain_over_baked_db"] = cycles["ours"]["psnr"] - cycles["baked"]["psnr"]
     judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]
     judged["field_gain_over_blender_db"] = field["ours"]["psnr"] - field["blender"]["psnr"]
@@ -150,10 +149,10 @@ Blender's pipeline its user keeps (``jobs.judge.blender_baseline``)."""
 def judge_lines(rows: list[dict]) -> list[str]:
     """The judge's tables (each renderer's PSNR and FLIP of every method against the fine mesh;
     Blender's decimate + bake beside ours and our bake against the field) and its bar."""
-    from ..jobs.judge import blender_baseline
+    from ..jobs.judge import held_against
 
     judged = [r for r in rows if "judge" in r]
-    flat = [{"asset": r["asset"], "judge": {renderer: {**scores, "blender": scores[blender_baseline(r["judge"])]}
+    flat = [{"asset": r["asset"], "judge": {renderer: held_against(r["judge"], scores)
                                             for renderer, scores in r["judge"]["scores"].items()}} for r in judged]
     lines = judged_table(flat, "field", JUDGED, "ours", (("ours-bake dB", "baked"), ("ours-Blender dB", "blender")),
                          f"judge: against the field's marching-cubes mesh at {JUDGE_CELLS} cubes across")

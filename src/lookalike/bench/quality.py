@@ -213,17 +213,17 @@ def judged_row(case: BenchAsset, assets_dir: Path, run_dir: Path, baselines: dic
     which writes ``run_dir/judge/``); its result plus the gains of ours over Blender's bake (the
     one its user keeps, ``jobs.judge.blender_baseline``; Cycles, shadows) and over our bake (our
     renderer), in dB, and whether they meet the bar."""
-    from ..jobs.judge import blender_baseline, judge_run
+    from ..jobs.judge import held_against, judge_run
     from ..jobs.input_asset import prepare_input
 
     loaded = io_load(assets_dir / case.path)
     reference, _ = prepare_input(loaded, scan_material() if case.scan else None)
     judged = judge_run(run_dir, reference, baselines)
-    cycles, ours, blender = judged["scores"]["cycles"], judged["scores"]["ours"], blender_baseline(judged)
-    judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles[blender]["psnr"]
+    cycles, ours = held_against(judged, judged["scores"]["cycles"]), judged["scores"]["ours"]
+    judged["gain_over_blender_db"] = cycles["ours"]["psnr"] - cycles["blender"]["psnr"]
     judged["gain_over_baked_db"] = ours["ours"]["psnr"] - ours["baked"]["psnr"] if "baked" in ours else None
     judged["meets_bar"] = (judged["gain_over_blender_db"] >= BAR_JUDGE_GAIN_DB
-                           and cycles["ours"]["flip"] < cycles[blender]["flip"]
+                           and cycles["ours"]["flip"] < cycles["blender"]["flip"]
                            and (judged["gain_over_baked_db"] is None or judged["gain_over_baked_db"] >= BAR_JUDGE_GAIN_DB))
     return judged
 
@@ -293,7 +293,7 @@ model of Blender's pipeline its user keeps (``jobs.judge.blender_baseline``)."""
 def judge_table(result: dict) -> list[str]:
     """Lines of the judge's table: per asset, one row per renderer (ours; Cycles with and without
     shadows) with PSNR and FLIP of each method and the gains of ours, then the bar."""
-    from ..jobs.judge import blender_baseline
+    from ..jobs.judge import held_against
     from ..jobs.judge_scores import RENDERERS
 
     rows = [r for r in result["runs"] if "judge" in r]
@@ -303,8 +303,7 @@ def judge_table(result: dict) -> list[str]:
     for row in rows:
         judged = row["judge"]
         for i, (renderer, label) in enumerate(RENDERERS.items()):
-            scores = dict(judged["scores"][renderer])
-            scores["blender"] = scores[blender_baseline(judged)]
+            scores = held_against(judged, judged["scores"][renderer])
 
             def figure(key: str, metric: str, fmt: str) -> str:
                 return fmt.format(scores[key][metric]) if key in scores else "-"

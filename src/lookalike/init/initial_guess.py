@@ -333,14 +333,7 @@ def initial_guess(asset: Asset, low_poly: Mesh, init: str, size: int, ranges: Ra
     elif init == "bake":
         with phase("unwrap"):
             atlas = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
-        mesh = start_mesh(atlas)
-        with phase("bake"):
-            baked = bake(asset, mesh, texture_size=size, cage=cage)
-        made = baked.material
-        material = _material(made.kd.data, made.ks.data, made.normal.data, asset,
-                             emissive=None if made.emissive is None else made.emissive.data,
-                             occlusion=None if made.occlusion is None else made.occlusion.data)
-        start = Asset(mesh=mesh, materials=[material], source=asset.source)
+        start, baked = baked_onto(asset, atlas, size, cage)
     else:
         mesh = low_poly if keep_uvs else unwrap(low_poly, texture_size=size)
         mesh = start_mesh(mesh)
@@ -356,14 +349,21 @@ def smooth_shaded(asset: Asset, start: Asset, size: int) -> Asset:
     decimate + bake writes a model), with the classic bake of ``asset`` onto it: at a hard edge
     the normal map, not the slots, turns the normal, so the turn lies where the surface's own
     edge does, not on the low-poly edge (which decimation places a little beside it)."""
-    return baked_onto(asset, dataclasses.replace(start.mesh, t_nrm_idx=start.mesh.t_pos_idx.clone()), size)
+    return baked_onto(asset, dataclasses.replace(start.mesh, t_nrm_idx=start.mesh.t_pos_idx.clone()), size)[0]
 
 
-def baked_onto(asset: Asset, mesh: Mesh, size: int) -> Asset:
-    """The classic bake of ``asset`` onto ``mesh`` as it is (its positions, triangles, atlas in
-    UV set 0 and normal slots, ``start_mesh``) with ``size``-texel maps: maps made for the
-    mesh's own shading frames."""
-    return initial_guess(asset, mesh, "bake", size, Ranges(), np.random.default_rng(0), keep_uvs=True).start
+def baked_onto(asset: Asset, atlas: Mesh, size: int, cage: float | None = None) -> tuple[Asset, BakeResult]:
+    """The classic bake of ``asset`` onto ``atlas`` as it is (its positions, triangles, UV set 0
+    and normal slots, ``start_mesh``) with ``size``-texel maps, made for the mesh's own shading
+    frames, and the bake's result."""
+    mesh = start_mesh(atlas)
+    with phase("bake"):
+        baked = bake(asset, mesh, texture_size=size, cage=cage)
+    made = baked.material
+    material = _material(made.kd.data, made.ks.data, made.normal.data, asset,
+                         emissive=None if made.emissive is None else made.emissive.data,
+                         occlusion=None if made.occlusion is None else made.occlusion.data)
+    return Asset(mesh=mesh, materials=[material], source=asset.source), baked
 
 
 def initial_guess_from_mesh(asset: Asset, lod: Asset, lod_name: str, size: int,

@@ -172,6 +172,13 @@ def blender_baseline(judged: dict) -> str:
     return judged.get("blender_bake", {}).get("chosen", "blender")
 
 
+def held_against(judged: dict, scores: dict[str, dict]) -> dict[str, dict]:
+    """``scores`` (one renderer's ``{key: {"psnr", "flip"}}`` of the judged run ``judged``) with
+    ``"blender"`` standing for the model of Blender's pipeline ours is held against
+    (``blender_baseline``)."""
+    return {**scores, "blender": scores[blender_baseline(judged)]}
+
+
 def write_baselines(folder: Path, input_asset: Asset, cfg: Config, count: int, moving: bool,
                     baselines: dict[str, Asset]) -> dict[str, Path]:
     """Write the run's plain decimation and classic bake into ``folder`` (``decimated.glb``,

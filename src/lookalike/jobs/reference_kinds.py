@@ -131,7 +131,7 @@ class FieldInput(RunReference):
         None for a model the bake cannot make: displaced, or with fitted mips."""
         if not model.mesh.uv or any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
             return {}
-        return {REBAKED: baked_onto(self.asset, model.mesh, self.texture_size)}
+        return {REBAKED: baked_onto(self.asset, model.mesh, self.texture_size)[0]}
 
     def alternatives_seconds(self, guess: InitialGuess) -> float:
         """About the start's bake's time."""
