@@ -110,6 +110,33 @@ def test_seam_duplicates_are_welded_so_no_crack_opens():
     assert _is_watertight_and_oriented(out.t_pos_idx.numpy())
 
 
+def test_a_closed_input_with_sides_closer_than_the_weld_stays_closed():
+    """Squashed to a lip 1e-6 of its size thick where x > 0.5, a sphere's two sides there lie
+    within the weld's tolerance of each other (as the sheets of a field's fine marching cubes do
+    where they pass close): welded and cleaned, its edges there turn non-manifold; decimated as
+    indexed (``welded_input``), it stays closed."""
+    import sys
+
+    from io_factory import uv_sphere
+
+    decimation = sys.modules["lookalike.init.decimate"]          # the package's ``decimate`` is the function
+    sphere = uv_sphere(24, 48)                                        # 2208 triangles, closed, mirrored in z
+    v = sphere.v_pos.clone()
+    lip = v[:, 0] > 0.5
+    v[lip, 2] *= 1e-6
+    pinched = Mesh(v, sphere.t_pos_idx)
+    src, idx = v.double().numpy(), sphere.t_pos_idx.numpy()
+    welded, (w_pos, w_idx) = decimation.welded_input(src, idx)
+    assert decimation.closed_manifold(idx) and welded is idx and w_pos is src    # taken as it is
+    opened = decimation.clean_triangles(*weld_vertices(src, idx, decimation.weld_tolerance(src))[:2])[1]
+    assert not decimation.closed_manifold(opened)                       # what the weld alone would give
+    out = decimate(pinched, 600)
+    assert out.num_triangles == 600 and _is_watertight_and_oriented(out.t_pos_idx.numpy())
+    seamed = _unweld(icosphere(3), np.arange(40))                       # open as indexed: welded as before
+    assert decimation.welded_input(seamed.v_pos.double().numpy(), seamed.t_pos_idx.numpy())[0] is not None
+    assert not decimation.closed_manifold(seamed.t_pos_idx.numpy())
+
+
 def test_planar_uvs_are_preserved():
     v, f = _grid(20, size=2.0)
     v[:, 2] = 0.3 * v[:, 0] - 0.2 * v[:, 1]                              # a tilted plane

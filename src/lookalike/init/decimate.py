@@ -187,6 +187,33 @@ def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarra
     return v_pos[used], new_index[kept]
 
 
+def closed_manifold(t_pos_idx: np.ndarray) -> bool:
+    """Whether every edge of the triangles ``t_pos_idx [T, 3]`` is shared by exactly two of
+    them: a closed surface, no edge non-manifold."""
+    if len(t_pos_idx) == 0:
+        return False
+    ends = np.stack([t_pos_idx.reshape(-1), t_pos_idx[:, [1, 2, 0]].reshape(-1)]).astype(np.int64)
+    keys = ends.min(axis=0) * (int(ends.max()) + 1) + ends.max(axis=0)
+    return bool((np.unique(keys, return_counts=True)[1] == 2).all())
+
+
+def welded_input(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The input as the decimations take it: ``(welded [T, 3], (v_pos' [V', 3], t_pos_idx'
+    [T', 3]))``, its triangles' corners welded (``weld_vertices`` at ``weld_tolerance``, indices
+    into ``v_pos``'s welded positions) and the welded mesh cleaned (``clean_triangles``). An
+    input closed as indexed (``closed_manifold``) that this would open is taken as it is: welding
+    also merges vertices that face each other across a gap thinner than its tolerance (the two
+    sides of a thin part, the sheets of a field's fine marching cubes where they pass within a
+    hair of one another), and cleaning the fins and non-manifold edges this makes tears holes;
+    the collapses take the input's zero-length edges first and keep it closed."""
+    t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
+    w_pos, welded, _ = weld_vertices(v_pos, t_pos_idx, weld_tolerance(v_pos))
+    cleaned = clean_triangles(w_pos, welded)
+    if closed_manifold(t_pos_idx) and not closed_manifold(cleaned[1]):
+        return t_pos_idx, (v_pos, t_pos_idx)
+    return welded, cleaned
+
+
 def clean_triangles_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Twin of :func:`clean_triangles` by sorting rows (``np.unique``), the tests' oracle."""
     keep = _large_enough(v_pos, t_pos_idx, triangle_areas_python)
@@ -490,8 +517,8 @@ def _decimate(mesh: Mesh, triangles: int, crease_angle: float, whole_input: bool
     started = time.monotonic()
     triangles = check_triangle_target(triangles, mesh.num_triangles)
     src_pos = mesh.v_pos.detach().cpu().numpy().astype(np.float64)
-    w_pos, welded_idx, _ = weld_vertices(src_pos, mesh.t_pos_idx.cpu().numpy(), weld_tolerance(src_pos))
-    whole = w_pos, w_idx = clean_triangles(w_pos, welded_idx)
+    welded_idx, whole = welded_input(src_pos, mesh.t_pos_idx.cpu().numpy())
+    w_pos, w_idx = whole
     coarse = max(COARSE_TRIANGLES, 20 * triangles)
     coarsened = len(w_idx) > max(COARSE_ABOVE, 2 * coarse)
     if coarsened:
