@@ -1,7 +1,8 @@
 """Quadric-error decimation to a triangle budget, the paper's initial guess, chosen by how far
 it strays from the input.
 
-Positions are welded first (so that UV-seam duplicates do not open cracks). Then each setting of
+Positions are welded first (so that UV-seam duplicates do not open cracks), unless the input is
+closed as indexed and the weld would open it (``welded_input``). Then each setting of
 ``CANDIDATES`` brings the mesh to the count: the maintained ``fast-simplification`` library
 (edge collapses by quadric error, Garland and Heckbert 1997, in rounds under a growing
 threshold, each vertex placed where its error is least) with and without frozen borders (with
@@ -187,33 +188,6 @@ def clean_triangles(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarra
     return v_pos[used], new_index[kept]
 
 
-def closed_manifold(t_pos_idx: np.ndarray) -> bool:
-    """Whether every edge of the triangles ``t_pos_idx [T, 3]`` is shared by exactly two of
-    them: a closed surface, no edge non-manifold."""
-    if len(t_pos_idx) == 0:
-        return False
-    ends = np.stack([t_pos_idx.reshape(-1), t_pos_idx[:, [1, 2, 0]].reshape(-1)]).astype(np.int64)
-    keys = ends.min(axis=0) * (int(ends.max()) + 1) + ends.max(axis=0)
-    return bool((np.unique(keys, return_counts=True)[1] == 2).all())
-
-
-def welded_input(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
-    """The input as the decimations take it: ``(welded [T, 3], (v_pos' [V', 3], t_pos_idx'
-    [T', 3]))``, its triangles' corners welded (``weld_vertices`` at ``weld_tolerance``, indices
-    into ``v_pos``'s welded positions) and the welded mesh cleaned (``clean_triangles``). An
-    input closed as indexed (``closed_manifold``) that this would open is taken as it is: welding
-    also merges vertices that face each other across a gap thinner than its tolerance (the two
-    sides of a thin part, the sheets of a field's fine marching cubes where they pass within a
-    hair of one another), and cleaning the fins and non-manifold edges this makes tears holes;
-    the collapses take the input's zero-length edges first and keep it closed."""
-    t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
-    w_pos, welded, _ = weld_vertices(v_pos, t_pos_idx, weld_tolerance(v_pos))
-    cleaned = clean_triangles(w_pos, welded)
-    if closed_manifold(t_pos_idx) and not closed_manifold(cleaned[1]):
-        return t_pos_idx, (v_pos, t_pos_idx)
-    return welded, cleaned
-
-
 def clean_triangles_python(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Twin of :func:`clean_triangles` by sorting rows (``np.unique``), the tests' oracle."""
     keep = _large_enough(v_pos, t_pos_idx, triangle_areas_python)
@@ -243,6 +217,35 @@ def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray, areas=triangle_areas
     return area > _ZERO_AREA * diagonal ** 2
 
 
+def edge_uses(t_pos_idx: np.ndarray) -> np.ndarray:
+    """``[E]``: how many of the triangles ``t_pos_idx [T, 3]`` use each undirected edge."""
+    edges = np.sort(t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
+    return np.unique(edges[:, 0] * (int(t_pos_idx.max()) + 1) + edges[:, 1], return_counts=True)[1]
+
+
+def closed_manifold(t_pos_idx: np.ndarray) -> bool:
+    """Whether every edge of the triangles ``t_pos_idx [T, 3]`` is shared by exactly two of
+    them: a closed surface, no edge non-manifold."""
+    return len(t_pos_idx) > 0 and bool((edge_uses(t_pos_idx) == 2).all())
+
+
+def welded_input(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The input as the decimations take it: ``(welded [T, 3], (v_pos' [V', 3], t_pos_idx'
+    [T', 3]))``, its triangles' corners welded (``weld_vertices`` at ``weld_tolerance``, indices
+    into ``v_pos``'s welded positions) and the welded mesh cleaned (``clean_triangles``). An
+    input closed as indexed (``closed_manifold``) that this would open is taken as it is: welding
+    also merges vertices that face each other across a gap thinner than its tolerance (the two
+    sides of a thin part, the sheets of a field's fine marching cubes where they pass within a
+    hair of one another), and cleaning the fins and non-manifold edges this makes tears holes;
+    the collapses take the input's zero-length edges first and keep it closed."""
+    t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
+    w_pos, welded, _ = weld_vertices(v_pos, t_pos_idx, weld_tolerance(v_pos))
+    cleaned = clean_triangles(w_pos, welded)
+    if closed_manifold(t_pos_idx) and not closed_manifold(cleaned[1]):
+        return t_pos_idx, (v_pos, t_pos_idx)
+    return welded, cleaned
+
+
 def unit_frame(v_pos: np.ndarray) -> tuple[np.ndarray, float]:
     """``(centre [3], scale)`` that map ``v_pos [V, 3]`` to a unit bounding-box diagonal."""
     lo, hi = v_pos.min(axis=0), v_pos.max(axis=0)
@@ -251,11 +254,7 @@ def unit_frame(v_pos: np.ndarray) -> tuple[np.ndarray, float]:
 
 def has_open_border(t_pos_idx: np.ndarray) -> bool:
     """Whether an edge of the triangles ``t_pos_idx [T, 3]`` belongs to one triangle only."""
-    if len(t_pos_idx) == 0:
-        return False
-    edges = np.sort(t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, uses = np.unique(edges[:, 0] * (int(t_pos_idx.max()) + 1) + edges[:, 1], return_counts=True)
-    return bool((uses == 1).any())
+    return len(t_pos_idx) > 0 and bool((edge_uses(t_pos_idx) == 1).any())
 
 
 def feature_size(area: float, triangles: int) -> float:
