@@ -237,11 +237,14 @@ def welded_input(v_pos: np.ndarray, t_pos_idx: np.ndarray) -> tuple[np.ndarray, 
     also merges vertices that face each other across a gap thinner than its tolerance (the two
     sides of a thin part, the sheets of a field's fine marching cubes where they pass within a
     hair of one another), and cleaning the fins and non-manifold edges this makes tears holes;
-    the collapses take the input's zero-length edges first and keep it closed."""
+    the collapses take the input's zero-length edges first and keep it closed. Where the weld
+    and the clean change nothing, nothing is checked (each check sorts every edge: seconds at
+    millions of triangles)."""
     t_pos_idx = np.asarray(t_pos_idx, dtype=np.int64)
     w_pos, welded, _ = weld_vertices(v_pos, t_pos_idx, weld_tolerance(v_pos))
     cleaned = clean_triangles(w_pos, welded)
-    if closed_manifold(t_pos_idx) and not closed_manifold(cleaned[1]):
+    changed = len(w_pos) < len(v_pos) or len(cleaned[1]) < len(t_pos_idx)
+    if changed and closed_manifold(t_pos_idx) and not closed_manifold(cleaned[1]):
         return t_pos_idx, (v_pos, t_pos_idx)
     return welded, cleaned
 
