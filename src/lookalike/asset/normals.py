@@ -142,14 +142,37 @@ def _next_corner(side: np.ndarray) -> np.ndarray:
     return side - side % 3 + (side % 3 + 1) % 3
 
 
+def smooth_sides(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
+                 crease_angle: float = DEFAULT_CREASE_ANGLE) -> tuple[np.ndarray, np.ndarray]:
+    """The smooth edges of a mesh as pairs of triangle sides ``(s1 [S], s2 [S])`` int64 (side
+    ``3 t + k`` runs from corner ``k`` to ``(k + 1) % 3`` of triangle ``t``; ``s1`` runs a -> b and
+    ``s2`` b -> a). An edge is smooth when exactly two triangles share it, with opposite winding
+    (a manifold, consistently oriented edge), both have non-zero area, and the angle between their
+    face normals is at most ``crease_angle`` degrees; every other edge is hard.
+
+    Args:
+        v_pos: ``[V, 3]`` float positions (not differentiated).
+        t_pos_idx: ``[T, 3]`` int64 counter-clockwise triangles.
+    """
+    tri = t_pos_idx.cpu()
+    unit = safe_normalize(face_normals(v_pos.detach().double().cpu(), tri)).numpy()
+    usable = np.abs(unit).sum(-1) > 0
+    side_edge = edge_index(tri)[1].reshape(-1).numpy()
+    tail = tri.reshape(-1).numpy()
+    order = np.argsort(side_edge, kind="stable")
+    count = np.bincount(side_edge)
+    start = (np.cumsum(count) - count)[count == 2]
+    s1, s2 = order[start], order[start + 1]
+    t1, t2 = s1 // 3, s2 // 3
+    cosine = (unit[t1] * unit[t2]).sum(-1)
+    smooth = (tail[s1] != tail[s2]) & usable[t1] & usable[t2] & (cosine >= math.cos(math.radians(crease_angle)))
+    return s1[smooth], s2[smooth]
+
+
 def crease_normal_index(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
                         crease_angle: float = DEFAULT_CREASE_ANGLE) -> torch.Tensor:
     """Normal slots split at creases: the corners at one position share a slot when they are
-    joined through smooth edges around it.
-
-    An edge is smooth when exactly two triangles share it, with opposite winding (a manifold,
-    consistently oriented edge), both have non-zero area, and the angle between their face
-    normals is at most ``crease_angle``; every other edge is hard. Slots are numbered in the order
+    joined through smooth edges (``smooth_sides``) around it. Slots are numbered in the order
     their first corner occurs (row-major over ``[T, 3]``), so equal partitions give equal indices.
 
     Args:
@@ -159,26 +182,31 @@ def crease_normal_index(v_pos: torch.Tensor, t_pos_idx: torch.Tensor,
     Returns:
         ``t_nrm_idx [T, 3]`` int64 on the device of ``t_pos_idx``.
     """
-    tri = t_pos_idx.cpu()
-    unit = safe_normalize(face_normals(v_pos.detach().double().cpu(), tri)).numpy()
-    usable = np.abs(unit).sum(-1) > 0
-    side_edge = edge_index(tri)[1].reshape(-1).numpy()                  # side 3t + k runs corner k -> k + 1
-    tail = tri.reshape(-1).numpy()
-    order = np.argsort(side_edge, kind="stable")
-    count = np.bincount(side_edge)
-    start = (np.cumsum(count) - count)[count == 2]
-    s1, s2 = order[start], order[start + 1]
-    t1, t2 = s1 // 3, s2 // 3
-    cosine = (unit[t1] * unit[t2]).sum(-1)
-    smooth = (tail[s1] != tail[s2]) & usable[t1] & usable[t2] & (cosine >= math.cos(math.radians(crease_angle)))
-    s1, s2 = s1[smooth], s2[smooth]
+    s1, s2 = smooth_sides(v_pos, t_pos_idx, crease_angle)
     # s1 runs a -> b and s2 runs b -> a: corner s1 (at a) joins the corner after s2, and the corner
     # after s1 (at b) joins corner s2.
     links_from = np.concatenate([s1, _next_corner(s1)])
     links_to = np.concatenate([_next_corner(s2), s2])
-    graph = scipy.sparse.coo_matrix((np.ones(len(links_from)), (links_from, links_to)), shape=(tail.size,) * 2)
+    corners = 3 * t_pos_idx.shape[0]
+    graph = scipy.sparse.coo_matrix((np.ones(len(links_from)), (links_from, links_to)), shape=(corners,) * 2)
     _, group = scipy.sparse.csgraph.connected_components(graph, directed=False)
     return torch.from_numpy(_first_occurrence_labels(group).reshape(-1, 3)).to(t_pos_idx.device)
+
+
+def hard_sides(v_pos: torch.Tensor, t_pos_idx: torch.Tensor, t_nrm_idx: torch.Tensor | None = None,
+               crease_angle: float = DEFAULT_CREASE_ANGLE) -> torch.Tensor:
+    """``[T, 3]`` bool on the CPU: side ``k`` of triangle ``t`` (corners ``k``, ``(k + 1) % 3``)
+    lies on a hard edge: not smooth (``smooth_sides``: a border, a non-manifold or flipped edge,
+    or a crease sharper than ``crease_angle``, where a model written on crease normals splits
+    them), or its two triangles' normal slots ``t_nrm_idx [T, 3]`` (``None``: one per position)
+    differ at either end."""
+    s1, s2 = smooth_sides(v_pos, t_pos_idx, crease_angle)
+    slots = (t_pos_idx if t_nrm_idx is None else t_nrm_idx).cpu().reshape(-1).numpy()
+    shared = (slots[s1] == slots[_next_corner(s2)]) & (slots[_next_corner(s1)] == slots[s2])
+    hard = np.ones(slots.size, bool)
+    hard[s1[shared]] = False
+    hard[s2[shared]] = False
+    return torch.from_numpy(hard.reshape(-1, 3))
 
 
 def split_at_both(t_nrm_idx: torch.Tensor, other: torch.Tensor) -> torch.Tensor:

@@ -72,7 +72,7 @@ from .reference_coverage import check_reference_coverage
 from .reference_kinds import RunReference, run_reference
 from .resume import CHECKPOINT_APPLICATION, check_same_command, check_same_input, resumed_config
 from .run_result import RunResult
-from .written_model import MIXES, WrittenModel
+from .written_model import MIXES, WrittenModel, with_edge_texels_taken
 
 log = logging.getLogger(__name__)
 
@@ -568,7 +568,7 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
     scorings = OUTPUT_TIME_FACTOR + moving + (moving and s.options.compare_static) + variants
     if choose_alpha:
         scorings += ALPHA_CANDIDATES * cfg.views.validation / cfg.views.heldout
-    scorings += 2 * (1 + variants) * cfg.views.validation / cfg.views.heldout  # ours and the start as written
+    scorings += 3 * (1 + variants) * cfg.views.validation / cfg.views.heldout  # ours, with its edge texels taken, and the start
     scoring = max(seconds for stage, seconds in s.timings.items() if stage.startswith("scoring"))
     output_time = scorings * scoring + OUTPUT_TIME_MARGIN + compress_seconds(cfg) + alternatives
     return max(budget - (time.monotonic() - s.started) - output_time, 0.0)
@@ -577,8 +577,9 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
 def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: WrittenModel, start: Asset,
              notes: list[str], alternatives: Callable[[Asset], dict[str, Asset]]) -> tuple[FitResult, Asset]:
     """The loop, and what the run writes (``jobs.written_model``): its best model as written,
-    one of the ``alternatives`` to it, or the start, whichever scores best on the validation
-    views (said in ``notes``)."""
+    one of the ``alternatives`` to it, either with its texels beside hard edges taken from
+    further in (``with_edge_texels_taken``), or the start, whichever scores best on the
+    validation views (said in ``notes``)."""
     with s.stage("optimisation"):
         fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
     if fit.backoffs:
@@ -587,6 +588,8 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
     with s.stage("the written model"):
         best = written.finished(moved(fit.best.export(), CPU))
         offered = alternatives(best) if written.validation is not None else {}
+        if written.validation is not None:
+            offered |= with_edge_texels_taken({"ours": best, **offered})
         export, is_start = written.kept(best, start, offered)
     if is_start:
         engine = ("" if written.engine_draw is None else f"; in an engine's draw {written.scores['ours, engine']:.2f} "

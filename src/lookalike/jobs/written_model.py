@@ -26,6 +26,7 @@ from collections.abc import Callable
 import torch
 
 from ..asset import Asset, Texture
+from ..asset.edge_texels import with_texels_from_inside
 from ..fit.latent import Latent
 from ..report.heldout import AssetRenderer, HeldoutViews
 from .alpha_export import AlphaChoice, alpha_label, chosen_alpha, written_alpha
@@ -36,6 +37,21 @@ RGB_OF_START = "ours with the start's RGB"
 """The label of the fit with the start's RGB under its own alpha (``with_base_colour_of``)."""
 MIXES = {BASE_COLOUR_OF_START: "the start's base colour and alpha", RGB_OF_START: "the start's RGB under its own alpha"}
 """What each mix of the fit with its start takes from the start, for the report's notes."""
+EDGE_TEXELS_TAKEN = "its texels beside hard edges taken from further in"
+"""Added to the label of a model offered with ``asset.edge_texels.with_texels_from_inside``."""
+
+
+def with_edge_texels_taken(models: dict[str, Asset]) -> dict[str, Asset]:
+    """Each of ``models`` (by label) with its texels beside hard edges taken from further in
+    (``asset.edge_texels.with_texels_from_inside``), by its label and ``EDGE_TEXELS_TAKEN``,
+    where that changes it: offered beside them, because a fit pulls those texels towards the
+    other side of the edge, a rim in every other draw, while at a seam of a finely curved chart
+    they hold detail; the validation views choose."""
+    offered = {}
+    for label, model in models.items():
+        if (taken := with_texels_from_inside(model)) is not None:
+            offered[f"{label}, {EDGE_TEXELS_TAKEN}"] = taken
+    return offered
 
 
 def with_base_colour_of(model: Asset, start: Asset, alpha: bool = True) -> Asset | None:
