@@ -53,7 +53,9 @@ from dataclasses import dataclass, field, replace
 import fast_simplification
 import meshoptimizer
 import numpy as np
+import torch
 
+from ..asset.edges import edge_index
 from ..asset.index_tables import triple_copies
 from ..asset.mesh import Mesh
 from ..asset.parts import triangle_parts
@@ -218,9 +220,9 @@ def _large_enough(v_pos: np.ndarray, t_pos_idx: np.ndarray, areas=triangle_areas
 
 
 def edge_uses(t_pos_idx: np.ndarray) -> np.ndarray:
-    """``[E]``: how many of the triangles ``t_pos_idx [T, 3]`` use each undirected edge."""
-    edges = np.sort(t_pos_idx[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
-    return np.unique(edges[:, 0] * (int(t_pos_idx.max()) + 1) + edges[:, 1], return_counts=True)[1]
+    """``[E]``: how many of the triangles ``t_pos_idx [T, 3]`` use each undirected edge
+    (``asset.edges.edge_index``)."""
+    return np.bincount(edge_index(torch.from_numpy(np.asarray(t_pos_idx, dtype=np.int64)))[1].reshape(-1).numpy())
 
 
 def closed_manifold(t_pos_idx: np.ndarray) -> bool:
