@@ -489,7 +489,7 @@ def test_the_fields_bake_onto_a_fitted_mesh_fits_its_frames_where_the_fitted_map
     from lookalike.asset.material import Displacement, Texture
     from lookalike.fit.training_views import view_sampler
     from lookalike.init.initial_guess import Ranges, initial_guess
-    from lookalike.jobs.reference_kinds import REBAKED, run_reference
+    from lookalike.jobs.reference_kinds import REBAKED, WITHOUT_NORMAL_MAP, run_reference
     from lookalike.jobs.run import scoring_draw
     from lookalike.report.heldout import HeldoutViews
     from lookalike.report.metrics import flip
@@ -505,7 +505,8 @@ def test_the_fields_bake_onto_a_fitted_mesh_fits_its_frames_where_the_fitted_map
     step = torch.stack([torch.sin(40 * p[:, 1]), torch.sin(40 * p[:, 2]), torch.sin(40 * p[:, 0])], dim=1)
     moved = dataclasses.replace(start, mesh=dataclasses.replace(start.mesh, v_pos=p + 0.004 * step))
     offered = field.alternatives(moved)
-    rebaked = offered[REBAKED]
+    rebaked, bare = offered[REBAKED], offered[WITHOUT_NORMAL_MAP]
+    assert all(m.normal is None for m in bare.materials) and torch.equal(bare.mesh.v_pos, moved.mesh.v_pos)
     assert torch.equal(rebaked.mesh.v_pos, moved.mesh.v_pos) and torch.equal(rebaked.mesh.t_pos_idx, moved.mesh.t_pos_idx)
     assert torch.equal(rebaked.mesh.uv[0][0], moved.mesh.uv[0][0])
     views = HeldoutViews(field.renderer, view_sampler(*field.renderer.bounding_sphere()), 6, 3, 96, 2)
@@ -519,4 +520,4 @@ def test_the_fields_bake_onto_a_fitted_mesh_fits_its_frames_where_the_fitted_map
     assert scores["rebaked"][1] < scores["moved"][1], scores
     displaced = dataclasses.replace(moved, materials=[dataclasses.replace(
         moved.materials[0], displacement=Displacement(Texture(torch.zeros(8, 8, 1)), 0.01))])
-    assert field.alternatives(displaced) == {}                           # a bake makes no displacement
+    assert REBAKED not in field.alternatives(displaced)                  # a bake makes no displacement

@@ -148,6 +148,10 @@ class LatentConfig:
             interpolated frame: one normal map serves every level, as tessellating engines
             draw it) or ``"recomputed"`` (along the subdivided mesh's own normal, shading
             following the displaced geometry, as Blender's Displace modifier does).
+        hold_planes: for an implicit surface, the corners of every face of the start that lies
+            on a plane of the field stay on that plane through the fit (on the line or point
+            where two or more such planes meet: ``lookalike.asset.field_planes``), so that its
+            flat faces stay as flat as the field's.
     """
 
     triangles: int | None = None
@@ -163,6 +167,7 @@ class LatentConfig:
     fitted_mips: bool = False
     tessellation_levels: tuple[int, ...] = (0, 1, 2, 3)
     displacement_shading: str = "engine"
+    hold_planes: bool = True
 
 
 @dataclass

@@ -18,6 +18,7 @@ import math
 import torch
 
 from ..asset import Asset, Material, Mesh, Texture
+from ..asset.field_planes import PlaneHold
 from ..asset.laplacian import UniformLaplacian
 from ..asset.pose import Poses
 from ..asset.skinning import posed
@@ -68,6 +69,8 @@ class TexturedMesh(torch.nn.Module):
     with ``absolute_laplacian``: the paper's regulariser for a start that is not the shape, a
     sphere, which penalises the positions' roughness itself),
     ``position_steps [V, 1]`` float32 or ``None`` (every vertex steps alike).
+    ``plane_hold`` (not part of the state: made again from the start) holds vertices on planes
+    of the input after every step (``hold_on_planes``), or is ``None``.
 
     Args:
         mesh: the initial mesh in world coordinates, with its UV atlas in UV set 0 and its
@@ -124,6 +127,7 @@ class TexturedMesh(torch.nn.Module):
         self.laplacian = UniformLaplacian(self.t_pos_idx, self.v_pos.shape[0])
         rest = self.laplacian.differentials(unit)
         self.register_buffer("rest_delta", torch.zeros_like(rest) if absolute_laplacian else rest)
+        self.absolute_laplacian = absolute_laplacian
         self.laplacian_scale = float((rest ** 2).sum(dim=-1).mean())
         self.limits = limits
         self.msaa = msaa
@@ -141,6 +145,7 @@ class TexturedMesh(torch.nn.Module):
         self.emissive = None if emissive is None else TexturePyramid(emissive.float() / self.emissive_scale,
                                                                        texture_scales)
         self.register_buffer("occlusion", None if occlusion is None else occlusion.float().clone())
+        self.plane_hold: PlaneHold | None = None
         self._bound_textures()
 
     def _bound_textures(self) -> None:
@@ -324,10 +329,23 @@ class TexturedMesh(torch.nn.Module):
         mesh (the relative term itself is zero at the start)."""
         return {"laplacian": self.laplacian_scale}
 
+    def hold_on_planes(self, hold: PlaneHold) -> None:
+        """Keep the vertices ``hold`` names (in the input's frame) on their planes from now on,
+        after every step (``clamp_``), and move them there now."""
+        self.plane_hold = hold.to(self.v_pos.device).in_frame(self.centre, self.radius)
+        self.clamp_()
+        if not self.absolute_laplacian:   # the relative Laplacian keeps the held start's shape
+            self.rest_delta.copy_(self.laplacian.differentials(self.unit_positions().detach()))
+
     def clamp_(self) -> None:
-        """Nothing to do: the texture pyramids project themselves onto ``limits`` whenever they
-        are read (``_bound_textures``), so the loop's call after every update costs nothing and
-        each pyramid is summed once per step, by the render."""
+        """Move the held vertices back onto their planes (``hold_on_planes``), where there are.
+        Nothing else: the texture pyramids project themselves onto ``limits`` whenever they are
+        read (``_bound_textures``), so each pyramid is summed once per step, by the render."""
+        if self.plane_hold is None:
+            return
+        with torch.no_grad():
+            held = self.plane_hold.apply(self.unit_positions())
+            self.v_pos.copy_(held if self.position_steps is None else held / self.position_steps)
 
 
 def _mips(mips: FittedMips | None, texture: torch.Tensor) -> list[torch.Tensor]:

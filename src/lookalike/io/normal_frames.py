@@ -184,10 +184,12 @@ def on_own_normals(asset: Asset) -> Asset:
     return _reframed(asset, replace(mesh, v_nrm=None))
 
 
-def on_crease_normals(asset: Asset, crease_angle: float = DEFAULT_CREASE_ANGLE) -> Asset:
+def on_crease_normals(asset: Asset, crease_angle: float = DEFAULT_CREASE_ANGLE,
+                      apart: torch.Tensor | None = None) -> Asset:
     """``asset`` shading as it does, on normals split at its geometry's creases: its normal
     slots split further wherever two triangles meet at more than ``crease_angle`` degrees
-    (``crease_normal_index``, ``split_at_both``), the authored normals dropped, and every normal
+    (``crease_normal_index``, ``split_at_both``), and wherever the slots ``apart [T, 3]`` split
+    (where given), the authored normals dropped, and every normal
     map re-expressed onto the new frames as ``on_own_normals`` does. A model fitted on smooth
     normals (Blender's pipeline shades its decimation so) leans its normals up to 45 degrees
     from the facets at a hard edge; renderers that test the light against the facets (Cycles'
@@ -197,6 +199,8 @@ def on_crease_normals(asset: Asset, crease_angle: float = DEFAULT_CREASE_ANGLE) 
     mesh = asset.mesh
     slots = mesh.t_pos_idx if mesh.t_nrm_idx is None else mesh.t_nrm_idx
     split = split_at_both(slots, crease_normal_index(mesh.v_pos, mesh.t_pos_idx, crease_angle))
+    if apart is not None:
+        split = split_at_both(split, apart)
     if mesh.v_nrm is None and int(split.max()) + 1 == len(torch.unique(slots)):
         return asset
     return _reframed(asset, replace(mesh, v_nrm=None, t_nrm_idx=split))

@@ -14,9 +14,12 @@ report says of it. ``run_reference`` picks the kind; the run itself has no branc
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import torch
 
 from ..asset import Asset
+from ..asset.field_planes import PlaneHold, plane_hold, plane_slots
 from ..asset.pose import Poses
 from ..errors import ConfigError
 from ..fit.from_settings import shadow_mapping
@@ -36,6 +39,9 @@ FIELD_MARGIN = 1.0 / 64
 
 REBAKED = "ours with the field baked again onto it"
 """The label of a field's classic bake onto the fitted mesh (``FieldInput.alternatives``)."""
+
+WITHOUT_NORMAL_MAP = "ours on the field's creases and planes, without its normal map"
+"""The label of a field's fitted model written without its normal maps (``FieldInput.alternatives``)."""
 
 TRACED_FIELD_TRIANGLES = 2_000_000
 """Triangles whose rasterization costs about what sphere tracing a view of a Python field does
@@ -80,6 +86,11 @@ class RunReference:
         ``asset`` and the ``latent_start``."""
         return []
 
+    def plane_hold(self, start: Asset) -> PlaneHold | None:
+        """The vertices of ``start`` the fit holds on planes of the input
+        (``fit.textured_mesh.TexturedMesh.hold_on_planes``), or ``None``: none here."""
+        return None
+
     def written(self, model: Asset) -> Asset:
         """What is written of the fitted ``model``."""
         return model
@@ -104,15 +115,18 @@ class RunReference:
 
 class FieldInput(RunReference):
     """An implicit surface sphere-traced (``FieldReference``): its outline is the field's, not
-    its marching-cubes mesh's. Its model is written on normals split at its creases, the normal
-    map re-expressed onto them (``io.normal_frames.on_crease_normals``): a fit that started on
-    smooth normals (``jobs.simplify``) shades as fitted, in a rasterizer and in Cycles alike."""
+    its marching-cubes mesh's. The fit holds the start's faces that lie on the field's planes on
+    them (``plane_hold``). Its model is written on normals split at its creases and where the
+    field's planes meet, the normal map re-expressed onto them
+    (``io.normal_frames.on_crease_normals``): a fit that started on smooth normals
+    (``jobs.simplify``) shades as fitted, in a rasterizer and in Cycles alike."""
 
     draws_input = False
 
     def __init__(self, renderer: FieldReference, asset: Asset, texture_size: int):
         super().__init__(renderer)
         self.asset, self.texture_size = asset, texture_size
+        self.held: PlaneHold | None = None
 
     def drawn_triangles(self, asset: Asset) -> int:
         """A Python field is sphere traced in torch, on the CPU, at the cost of rasterizing
@@ -120,22 +134,44 @@ class FieldInput(RunReference):
         mesh draws."""
         return TRACED_FIELD_TRIANGLES if asset.field.kind == "python" else asset.mesh.num_triangles
 
+    def plane_hold(self, start: Asset) -> PlaneHold | None:
+        """Every vertex of a face that lies on a plane of the field, on that plane
+        (``asset.field_planes``): a face the fit tilts off its plane is drawn black by a
+        renderer that tests the geometric horizon where the light grazes it."""
+        self.held = plane_hold(self.asset.field, start.mesh.v_pos, start.mesh.t_pos_idx)
+        return self.held
+
     def written(self, model: Asset) -> Asset:
-        return on_crease_normals(model)
+        """On crease normals, parted also where the field's planes meet (``plane_slots``)."""
+        return on_crease_normals(model, apart=plane_slots(self.asset.field, model.mesh.v_pos, model.mesh.t_pos_idx))
 
     def alternatives(self, model: Asset) -> dict[str, Asset]:
-        """The field's classic bake onto the fitted mesh (``init.initial_guess.baked_onto``): a
+        """The model as written without its normal maps (``WITHOUT_NORMAL_MAP``): where the
+        field is planes and smooth blends, normals split at its creases and planes shade it as
+        the field does, and the map's grain only adds error, in every renderer. And the field's
+        classic bake onto the fitted mesh (``init.initial_guess.baked_onto``): a
         vertex's step turns its shading frame, and the fitted normal map, made under the old
         frame, turns with it, so that perceptual error rises inside the surface where the
         outline gains; the bake keeps the fitted geometry and makes the maps for its frames.
-        None for a model the bake cannot make: displaced, or with fitted mips."""
-        if not model.mesh.uv or any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
-            return {}
-        return {REBAKED: baked_onto(self.asset, model.mesh, self.texture_size)[0]}
+        No bake for a model the bake cannot make: displaced, or with fitted mips."""
+        offered = {}
+        if any(m.normal is not None for m in model.materials):
+            written = self.written(model)
+            offered[WITHOUT_NORMAL_MAP] = replace(written, materials=[replace(m, normal=None) for m in written.materials])
+        if model.mesh.uv and not any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
+            offered[REBAKED] = baked_onto(self.asset, model.mesh, self.texture_size)[0]
+        return offered
 
     def alternatives_seconds(self, guess: InitialGuess) -> float:
         """About the start's bake's time."""
         return 0.0 if guess.bake is None else guess.bake.seconds
+
+    def annotate(self, record: RunRecord, pool_bytes: int) -> None:
+        super().annotate(record, pool_bytes)
+        if self.held is not None and self.held.faces:
+            record.notes.append(f"{self.held.faces} faces of the start lie on planes of the field: their "
+                                f"{self.held.index.numel()} corners were held on those planes through the fit "
+                                "(on their line or point where planes meet), so that they stay as flat as the field")
 
 
 class PathTracedInput(RunReference):

@@ -346,6 +346,9 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         take_best_start(guess, start_as_written(written, prepared), s.app.start_label)
         start = prepared(guess.start)
         latent = s.app.latent(asset, moved(start, device), cfg, moving)
+        hold = reference.plane_hold(start) if cfg.latent.hold_planes and isinstance(latent, TexturedMesh) else None
+        if hold is not None:
+            latent.hold_on_planes(hold)
     written.annealed = annealed_alpha(start)
     with s.stage("alpha of the start"):
         start_written = written.start(start)
