@@ -48,6 +48,14 @@ def test_a_box_has_its_sides_flat_and_its_rounded_edges_not(box):
     assert not bool(flat_faces(sphere, sphere_mesh.v_pos, sphere_mesh.t_pos_idx)[0].any())
 
 
+def test_a_plate_thinner_than_a_few_pixels_is_left_free():
+    plate = box_field((0.4, 0.01, 0.3))                                          # 0.02 thick: 1 % of a radius
+    mesh = box_mesh(3, flat_normals=False)
+    mesh.v_pos = mesh.v_pos * torch.tensor([0.4, 0.01, 0.3])
+    assert not bool(flat_faces(plate, mesh.v_pos, mesh.t_pos_idx)[0].any())
+    assert plane_hold(plate, mesh.v_pos, mesh.t_pos_idx).index.numel() == 0
+
+
 def test_held_vertices_land_on_their_planes_and_the_others_stay(box):
     surface, mesh = box
     hold = plane_hold(surface, mesh.v_pos, mesh.t_pos_idx)

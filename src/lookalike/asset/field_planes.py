@@ -41,6 +41,11 @@ TILT_DEGREES = 10.0
 """... and where its own normal lies within this of the field's there (a face that straddles
 a crease does not)."""
 
+THIN = 0.02
+"""... and where the solid behind it, at this many bounds radii below its centroid, lies at least
+half as deep again: a plate thinner than 1.5 of them (a fin a few pixels across) is left free,
+for the fit to widen what the views see of it."""
+
 SAME_PLANE_DEGREES = 1.0
 """Two faces' planes at a vertex are one plane where their normals lie within this."""
 
@@ -88,7 +93,7 @@ class PlaneHold:
 
 def flat_faces(surface: ImplicitSurface, v_pos: torch.Tensor, t_pos_idx: torch.Tensor) -> tuple[torch.Tensor, ...]:
     """``(flat [T] bool, normal [T, 3], offset [T])``: which faces of the mesh ``v_pos [V, 3]``,
-    ``t_pos_idx [T, 3]`` lie on a plane of ``surface`` (``FLAT_DEGREES``, ``TILT_DEGREES``), and
+    ``t_pos_idx [T, 3]`` lie on a plane of ``surface`` (``FLAT_DEGREES``, ``TILT_DEGREES``, ``THIN``), and
     that plane, ``normal . x = offset``: the mean unit gradient at the eight samples, the offset the
     mean of ``n . p - f(p) / |grad f(p)|`` over them (the field's distance, however it is scaled)."""
     corners = v_pos.double()[t_pos_idx]                                            # [T, 3, 3]
@@ -106,8 +111,10 @@ def flat_faces(surface: ImplicitSurface, v_pos: torch.Tensor, t_pos_idx: torch.T
     normal = unit.sum(dim=1)
     normal = normal / normal.norm(dim=-1, keepdim=True).clamp(min=1e-20)
     spread = (unit * normal[:, None]).sum(-1).amin(dim=1)
+    probe = centroid[:, 0] - THIN * radius * normal
+    depth = -surface.distance(probe.float()).double() / length.reshape(samples.shape[:2])[:, 0]
     flat = (spread >= math.cos(math.radians(FLAT_DEGREES))) & \
-        ((face * normal).sum(-1) >= math.cos(math.radians(TILT_DEGREES)))
+        ((face * normal).sum(-1) >= math.cos(math.radians(TILT_DEGREES))) & (depth >= 0.5 * THIN * radius)
     distance = (value.double() / length).reshape(samples.shape[:2])
     offset = ((samples * normal[:, None]).sum(-1) - distance).mean(dim=1)
     return flat, normal, offset
