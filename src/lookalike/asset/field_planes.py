@@ -42,9 +42,9 @@ TILT_DEGREES = 10.0
 a crease does not)."""
 
 THIN = 0.02
-"""... and where the solid behind it, at this many bounds radii below its centroid, lies at least
-half as deep again: a plate thinner than 1.5 of them (a fin a few pixels across) is left free,
-for the fit to widen what the views see of it."""
+"""... and where the point this many bounds radii below its centroid lies at least half that deep
+inside the solid: a plate thinner than 1.5 of them (a fin a few pixels across) is left free, for
+the fit to widen what the views see of it."""
 
 SAME_PLANE_DEGREES = 1.0
 """Two faces' planes at a vertex are one plane where their normals lie within this."""
