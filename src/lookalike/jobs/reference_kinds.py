@@ -136,8 +136,8 @@ class FieldInput(RunReference):
 
     def plane_hold(self, start: Asset) -> PlaneHold | None:
         """Every vertex of a face that lies on a plane of the field, on that plane
-        (``asset.field_planes``): a face the fit tilts off its plane is drawn black by a
-        renderer that tests the geometric horizon where the light grazes it."""
+        (``asset.field_planes``): a face the fit tilts off its plane, its normal map turning the
+        shading back, is lit otherwise by a renderer that tests the light against the facets."""
         self.held = plane_hold(self.asset.field, start.mesh.v_pos, start.mesh.t_pos_idx)
         return self.held
 
@@ -156,8 +156,8 @@ class FieldInput(RunReference):
         No bake for a model the bake cannot make: displaced, or with fitted mips."""
         offered = {}
         if any(m.normal is not None for m in model.materials):
-            written = self.written(model)
-            offered[WITHOUT_NORMAL_MAP] = replace(written, materials=[replace(m, normal=None) for m in written.materials])
+            bare = replace(model, materials=[replace(m, normal=None) for m in model.materials])
+            offered[WITHOUT_NORMAL_MAP] = self.written(bare)   # no map to re-express onto the new slots
         if model.mesh.uv and not any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
             offered[REBAKED] = baked_onto(self.asset, model.mesh, self.texture_size)[0]
         return offered
