@@ -4,7 +4,8 @@ conifer drawn as real-time foliage is, alpha-textured cards on bark, and a game'
 triangles, leaf clusters on quads over low-poly bark), each at two budgets, 0.5 % and 2 % of its
 triangles.
 
-Per case, with default settings: ``cards`` as a user runs it (alpha-tested); on the shrub also
+Per case, with default settings: ``cards`` as a user runs it (alpha-tested, or as the case
+says blended); on the shrub also
 ``simplify`` at the same triangle count (its renders peeled as deep as ``cards``', so that both
 see through the leaves' cut-outs alike). Beside them plain decimation (ours, and where judged
 Blender's Decimate with the input's materials kept, ``blender.decimate_bake.blender_decimate_glb``:
@@ -53,13 +54,15 @@ NOT_RUN = float("nan")
 @dataclass(frozen=True)
 class CardsCase:
     """One benchmark case: the foliage ``kind`` (``samples.foliage.FOLIAGE``, generated with
-    ``sizes``) kept at ``share`` of its triangles; ``simplify``: run ``simplify`` beside it."""
+    ``sizes``) kept at ``share`` of its triangles; ``simplify``: run ``simplify`` beside it;
+    ``alpha``: the ``cards`` run's ``--alpha`` (``None``: its default, alpha-tested)."""
 
     name: str
     kind: str
     share: float
     simplify: bool = False
     sizes: dict = field(default_factory=dict, hash=False)
+    alpha: str | None = None
 
 
 BENCH_SIZES = {"shrub": {}, "broadleaf-tree": {}, "game-tree": {}, "grass-tuft": {"blades": 3000},
@@ -69,9 +72,13 @@ BENCH_SIZES = {"shrub": {}, "broadleaf-tree": {}, "game-tree": {}, "grass-tuft":
 
 ASSETS = tuple(CardsCase(f"{kind}-{label}", kind, share, simplify=kind == "shrub", sizes=sizes)
                for kind, sizes in BENCH_SIZES.items() for share, label in ((0.005, "0.5pct"), (0.02, "2pct"))
-               ) + (CardsCase("game-tree-9pct", "game-tree", 0.09),)
+               ) + (CardsCase("game-tree-9pct", "game-tree", 0.09),
+                    CardsCase("grass-tuft-2pct-blend", "grass-tuft", 0.02, sizes=BENCH_SIZES["grass-tuft"],
+                              alpha="blend"))
 """Every kind at 0.5 % and 2 % of its triangles; the game's tree also at 9 % (504 triangles),
-the gentle budget of a game's far LOD, at which plain decimation still keeps leaves."""
+the gentle budget of a game's far LOD, at which plain decimation still keeps leaves; the grass
+tuft at 2 % also blended (``--alpha blend``), where the alpha test cannot draw the partial
+coverage of blades a pixel thin."""
 
 METHODS = (("decimated", "Plain decimation"), ("blender_decimated", "Blender's Decimate"),
            ("stochastic", "Stochastic simplification"), ("simplify", "simplify"), ("start", "Billboard cloud"),
@@ -148,7 +155,7 @@ def _case(case: CardsCase, source: Path, folder: Path, time_budget: float, reuse
 
     asset = io.load(source)
     count = max(2, round(case.share * asset.mesh.num_triangles))
-    runs = [("cards", cards, {})]
+    runs = [("cards", cards, {} if case.alpha is None else {"alpha_mode": case.alpha})]
     if case.simplify:
         runs.append(("simplify", simplify, {"config": _peeled_like_cards()}))
     metrics = {}
