@@ -96,8 +96,9 @@ class RunReference:
         return model
 
     def alternatives(self, model: Asset) -> dict[str, Asset]:
-        """Models the run may write instead of the fitted ``model`` (as written), by the label
-        the report gives them; the validation views choose (``jobs.written_model``). None here."""
+        """Models the run may write instead of the fitted ``model``, by the label the report
+        gives them, each before ``written`` (the run writes each, and the fit, before the
+        validation views choose: ``jobs.run.optimise``). None here."""
         return {}
 
     def alternatives_seconds(self, guess: InitialGuess) -> float:
@@ -146,7 +147,7 @@ class FieldInput(RunReference):
         return on_crease_normals(model, apart=plane_slots(self.asset.field, model.mesh.v_pos, model.mesh.t_pos_idx))
 
     def alternatives(self, model: Asset) -> dict[str, Asset]:
-        """The model as written without its normal maps (``WITHOUT_NORMAL_MAP``): where the
+        """The model without its normal maps (``WITHOUT_NORMAL_MAP``): where the
         field is planes and smooth blends, normals split at its creases and planes shade it as
         the field does, and the map's grain only adds error, in every renderer. And the field's
         classic bake onto the fitted mesh (``init.initial_guess.baked_onto``): a
@@ -156,8 +157,7 @@ class FieldInput(RunReference):
         No bake for a model the bake cannot make: displaced, or with fitted mips."""
         offered = {}
         if any(m.normal is not None for m in model.materials):
-            bare = replace(model, materials=[replace(m, normal=None) for m in model.materials])
-            offered[WITHOUT_NORMAL_MAP] = self.written(bare)   # no map to re-express onto the new slots
+            offered[WITHOUT_NORMAL_MAP] = replace(model, materials=[replace(m, normal=None) for m in model.materials])
         if model.mesh.uv and not any(m.displacement is not None or m.kd.mips is not None for m in model.materials):
             offered[REBAKED] = baked_onto(self.asset, model.mesh, self.texture_size)[0]
         return offered

@@ -360,8 +360,8 @@ def _run(s: _Session, config, settings: dict) -> RunResult:
         fitter.load_state_dict(s.saved)
     seconds = fit_seconds(s, cfg, budget, moving, uses_alpha(start) and validation is not None,
                           len(s.app.variants(start_written, cfg)), reference.alternatives_seconds(guess))
-    fit, export = optimise(s, fitter, seconds, written, start_written, notes, reference.alternatives)
-    export = reference.written(export)
+    fit, export = optimise(s, fitter, seconds, written, start_written, notes, reference.alternatives,
+                           reference.written)
     if cfg.render.layers > 1 and latent.layers_used.renders:
         notes.append(peeling_note(latent.layers_used, cfg.render.layers))
     interrupted = fit.interrupted
@@ -578,11 +578,13 @@ def fit_seconds(s: _Session, cfg: Config, budget: float, moving: bool, choose_al
 
 
 def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: WrittenModel, start: Asset,
-             notes: list[str], alternatives: Callable[[Asset], dict[str, Asset]]) -> tuple[FitResult, Asset]:
-    """The loop, and what the run writes (``jobs.written_model``): its best model as written,
-    one of the ``alternatives`` to it, either with its texels beside hard edges taken from
-    further in (``with_edge_texels_taken``), or the start, whichever scores best on the
-    validation views (said in ``notes``)."""
+             notes: list[str], alternatives: Callable[[Asset], dict[str, Asset]],
+             form: Callable[[Asset], Asset]) -> tuple[FitResult, Asset]:
+    """The loop, and what the run writes (``jobs.written_model``): its best model, one of the
+    ``alternatives`` to it, either with its texels beside hard edges taken from further in
+    (``with_edge_texels_taken``), or the start, whichever scores best on the validation views
+    (said in ``notes``). Each is scored in the ``form`` the file will hold it in (the
+    reference's ``written``), so that no candidate is judged in another drawing than the others."""
     with s.stage("optimisation"):
         fit = fitter.run(seconds_available=seconds, progress=s.options.progress)
     if fit.backoffs:
@@ -590,10 +592,12 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
                      f"fell {fitter.settings.position_backoff:g} dB below the best state, which the fit returned to")
     with s.stage("the written model"):
         best = written.finished(moved(fit.best.export(), CPU))
-        offered = alternatives(best) if written.validation is not None else {}
+        offered = {label: form(model) for label, model in
+                   (alternatives(best) if written.validation is not None else {}).items()}
+        best = form(best)
         if written.validation is not None:
             offered |= with_edge_texels_taken({"ours": best, **offered})
-        export, is_start = written.kept(best, start, offered)
+        export, is_start = written.kept(best, form(start), offered)
     if is_start:
         engine = ("" if written.engine_draw is None else f"; in an engine's draw {written.scores['ours, engine']:.2f} "
                   f"against {written.scores['start, engine']:.2f}")
