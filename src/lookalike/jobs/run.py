@@ -592,12 +592,13 @@ def optimise(s: _Session, fitter: Fitter, seconds: float | None, written: Writte
                      f"fell {fitter.settings.position_backoff:g} dB below the best state, which the fit returned to")
     with s.stage("the written model"):
         best = written.finished(moved(fit.best.export(), CPU))
-        offered = {label: form(model) for label, model in
-                   (alternatives(best) if written.validation is not None else {}).items()}
-        best = form(best)
-        if written.validation is not None:
+        if written.validation is None:  # nothing to choose: the fit is written
+            offered, best = {}, form(best)
+        else:
+            offered = {label: form(model) for label, model in alternatives(best).items()}
+            best, start = form(best), form(start)
             offered |= with_edge_texels_taken({"ours": best, **offered})
-        export, is_start = written.kept(best, form(start), offered)
+        export, is_start = written.kept(best, start, offered)
     if is_start:
         engine = ("" if written.engine_draw is None else f"; in an engine's draw {written.scores['ours, engine']:.2f} "
                   f"against {written.scores['start, engine']:.2f}")
