@@ -36,8 +36,11 @@ smooth blend with thin branches, and fine periodic relief under glazes that meet
 TRIANGLES = (1000, 2000)
 """The triangle counts each field is simplified to."""
 ASSETS = tuple(BenchAsset(f"{name}-{count}", file, count, False) for name, file in FIELDS for count in TRIANGLES)
-JUDGE_CELLS = 960
-"""Marching-cubes cubes across the field for the mesh Cycles judges against..."""
+JUDGE_CELLS = 1440
+"""Marching-cubes cubes across the field for the mesh Cycles judges against, and Blender's
+pipeline bakes from: fine enough that the mesh's own departures from the field (each crease
+rounded within a cube) stay below those of the models judged, so that the judge does not favour
+the model baked from the mesh itself..."""
 JUDGE_BLOCK = 8
 """... evaluated near the surface only, in blocks of this many cubes (``asset.implicit.narrow_band_values``)."""
 
